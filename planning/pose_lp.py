@@ -1,0 +1,270 @@
+"""The pose-vector LP of Akella & Mason, section 4.2, and its closed form.
+
+After the reorient sequence is fixed and the Peshkin lower bounds are moved to
+the right-hand side (``b_i = m_i + e_i``, the appendix's substitution), the LP
+reads::
+
+    minimise   sum_k x_k
+    subject to sum_k x_k u_k = T''     (two equality rows)
+               x_k >= 0
+
+where every column ``u_k`` is a unit push direction (world frame): the inward
+normals of the stable edges at every orientation of the sequence, the reorient
+directions among them.  A basic optimum has at most two non-zero columns, and
+because all columns are unit vectors the optimum is closed-form: the columns
+are points on the unit circle, the cost of reaching ``T''`` with columns ``a``
+and ``b`` is ``|T''|`` divided by the distance along ``T''`` to the chord
+``ab``, and that chord is farthest out for the nearest column on each side of
+``T''``.  So the LP optimum uses the nearest column counter-clockwise and the
+nearest clockwise of ``T''``; it is infeasible when they are pi or more apart
+(the columns do not positively span ``T''``).
+
+``objective="pushes"`` is the paper's proposed MILP extension: fewest pushes,
+then shortest.  Extending a reorient push (a ``merged`` column: the reorient
+edge's own normal right after a reorient) costs no push; any other column
+used costs one.  By Caratheodory in the plane the lexicographic optimum again
+uses at most two columns, one of four pairs: nearest merged on both sides,
+nearest merged on one side and nearest other on the other (both ways), or the
+nearest overall.
+
+Functions here take one LP; the batched planner vmaps :func:`solve_jax`.
+:func:`solve_cvxpy` is the reference solver (and the MILP reference for
+``objective="pushes"``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+ZERO_TARGET = 1e-13  # m: a residual translation this small needs no push
+DROP = 1e-12         # m: a push shorter than this is dropped from the plan
+DET_EPS = 1e-12      # columns closer than this to antiparallel do not span
+
+
+@dataclasses.dataclass(frozen=True)
+class LPSolution:
+    """Optimum of one pose LP (numpy).
+
+    Attributes:
+      feasible: whether the columns positively span the target.
+      cost: sum of the weights (m); ``inf`` when infeasible.
+      pushes: number of non-merged columns with weight above ``DROP``.
+      weights: (K,) non-negative weight per column (m).
+    """
+
+    feasible: bool
+    cost: float
+    pushes: int
+    weights: np.ndarray
+
+
+# --------------------------------------------------------------------------
+# Closed form, numpy (one LP)
+# --------------------------------------------------------------------------
+def _wrap_np(a):
+    return -np.remainder(-a + np.pi, 2 * np.pi) + np.pi
+
+
+def _pair_np(angles, target, ia, ib):
+    ua = np.array([math.cos(angles[ia]), math.sin(angles[ia])])
+    ub = np.array([math.cos(angles[ib]), math.sin(angles[ib])])
+    det = ua[0] * ub[1] - ua[1] * ub[0]
+    if ia == ib or abs(det) < DET_EPS:
+        # one column along the target (or antiparallel pair: infeasible unless aligned)
+        if math.cos(angles[ia] - math.atan2(target[1], target[0])) > 1 - 1e-15:
+            return True, float(np.hypot(*target)), float(np.hypot(*target)), 0.0
+        return False, math.inf, 0.0, 0.0
+    xa = (target[0] * ub[1] - target[1] * ub[0]) / det
+    xb = (ua[0] * target[1] - ua[1] * target[0]) / det
+    if xa < -1e-12 or xb < -1e-12:
+        return False, math.inf, 0.0, 0.0
+    xa, xb = max(xa, 0.0), max(xb, 0.0)
+    return True, xa + xb, xa, xb
+
+
+def _nearest_np(delta, mask):
+    """Index of the nearest column on the CCW side (delta >= 0) and CW side (delta <= 0)."""
+    ccw = np.where(mask & (delta >= 0), delta, np.inf)
+    cw = np.where(mask & (delta <= 0), -delta, np.inf)
+    a = int(np.argmin(ccw)) if np.isfinite(ccw).any() else -1
+    b = int(np.argmin(cw)) if np.isfinite(cw).any() else -1
+    return a, b
+
+
+def solve_closed_form(angles, mask, merged, target, objective="distance") -> LPSolution:
+    """Closed-form optimum of one pose LP (numpy, float64).
+
+    Args:
+      angles: (K,) world-frame angles of the unit columns (rad).
+      mask: (K,) bool, column present.
+      merged: (K,) bool, column extends a reorient push (free for ``pushes``).
+      target: (2,) right-hand side ``T''`` (m, world frame).
+      objective: ``"distance"`` or ``"pushes"``.
+    """
+    angles = np.asarray(angles, np.float64)
+    mask = np.asarray(mask, bool)
+    merged = np.asarray(merged, bool) & mask
+    target = np.asarray(target, np.float64)
+    k = len(angles)
+    if np.hypot(*target) <= ZERO_TARGET:
+        return LPSolution(True, 0.0, 0, np.zeros(k))
+    delta = _wrap_np(angles - math.atan2(target[1], target[0]))
+
+    def pair(sel_a, sel_b):
+        a, _ = _nearest_np(delta, sel_a)
+        _, b = _nearest_np(delta, sel_b)
+        if a < 0 or b < 0:
+            return None
+        ok, cost, xa, xb = _pair_np(angles, target, a, b)
+        if not ok:
+            return None
+        w = np.zeros(k)
+        w[a] += xa
+        w[b] += xb
+        npush = int(np.sum((w > DROP) & ~merged))
+        return npush, cost, w
+
+    if objective == "distance":
+        options = [pair(mask, mask)]
+    elif objective == "pushes":
+        other = mask & ~merged
+        options = [pair(merged, merged), pair(merged, other), pair(other, merged), pair(mask, mask)]
+    else:
+        raise ValueError(f"objective: expected 'distance' or 'pushes', got {objective!r}")
+    options = [o for o in options if o is not None]
+    if not options:
+        return LPSolution(False, math.inf, 0, np.zeros(k))
+    key = (lambda o: (o[0], o[1])) if objective == "pushes" else (lambda o: o[1])
+    best = min(options, key=key)
+    return LPSolution(True, best[1], best[0], best[2])
+
+
+# --------------------------------------------------------------------------
+# Closed form, JAX (one LP; vmap it)
+# --------------------------------------------------------------------------
+def _nearest_jax(delta, mask):
+    ccw = jnp.where(mask & (delta >= 0), delta, jnp.inf)
+    cw = jnp.where(mask & (delta <= 0), -delta, jnp.inf)
+    return jnp.argmin(ccw), jnp.isfinite(jnp.min(ccw)), jnp.argmin(cw), jnp.isfinite(jnp.min(cw))
+
+
+def _pair_jax(angles, target, ia, ib, ok_in):
+    ua = jnp.stack([jnp.cos(angles[ia]), jnp.sin(angles[ia])])
+    ub = jnp.stack([jnp.cos(angles[ib]), jnp.sin(angles[ib])])
+    det = ua[0] * ub[1] - ua[1] * ub[0]
+    norm_t = jnp.hypot(target[0], target[1])
+    single = (ia == ib) | (jnp.abs(det) < DET_EPS)
+    aligned = jnp.cos(angles[ia] - jnp.arctan2(target[1], target[0])) > 1 - 1e-15
+    safe_det = jnp.where(single, 1.0, det)
+    xa = (target[0] * ub[1] - target[1] * ub[0]) / safe_det
+    xb = (ua[0] * target[1] - ua[1] * target[0]) / safe_det
+    pair_ok = (xa >= -1e-12) & (xb >= -1e-12)
+    ok = ok_in & jnp.where(single, aligned, pair_ok)
+    xa = jnp.where(single, norm_t, jnp.maximum(xa, 0.0))
+    xb = jnp.where(single, 0.0, jnp.maximum(xb, 0.0))
+    return ok, jnp.where(ok, xa + xb, jnp.inf), xa, xb
+
+
+def solve_jax(angles, mask, merged, target, objective="distance"):
+    """Closed-form optimum of one pose LP in JAX (same rules as
+    :func:`solve_closed_form`; ``objective`` is static).
+
+    Returns:
+      ``(feasible, cost, pushes, idx_a, x_a, idx_b, x_b)``: the optimum puts
+      weight ``x_a`` on column ``idx_a`` and ``x_b`` on ``idx_b`` (m).
+    """
+    merged = merged & mask
+    zero = jnp.hypot(target[0], target[1]) <= ZERO_TARGET
+    delta = -jnp.remainder(-(angles - jnp.arctan2(target[1], target[0])) + jnp.pi, 2 * jnp.pi) + jnp.pi
+
+    def pair(sel_a, sel_b):
+        a, oka, _, _ = _nearest_jax(delta, sel_a)
+        _, _, b, okb = _nearest_jax(delta, sel_b)
+        ok, cost, xa, xb = _pair_jax(angles, target, a, b, oka & okb)
+        npush = (jnp.where((xa > DROP) & ~merged[a], 1, 0)
+                 + jnp.where((xb > DROP) & ~merged[b] & (a != b), 1, 0))
+        return ok, cost, npush, a, xa, b, xb
+
+    if objective == "distance":
+        options = [pair(mask, mask)]
+    elif objective == "pushes":
+        other = mask & ~merged
+        options = [pair(merged, merged), pair(merged, other), pair(other, merged), pair(mask, mask)]
+    else:
+        raise ValueError(f"objective: expected 'distance' or 'pushes', got {objective!r}")
+    stacked = [jnp.stack(v) for v in zip(*options)]
+    ok, cost, npush, a, xa, b, xb = stacked
+    if objective == "pushes":
+        best_n = jnp.min(jnp.where(ok, npush, jnp.iinfo(jnp.int32).max))
+        cost_sel = jnp.where(ok & (npush == best_n), cost, jnp.inf)
+        i = jnp.argmin(cost_sel)
+    else:
+        i = jnp.argmin(jnp.where(ok, cost, jnp.inf))
+    feasible = ok[i] | zero
+    return (feasible, jnp.where(zero, 0.0, cost[i]), jnp.where(zero, 0, npush[i]),
+            a[i], jnp.where(zero, 0.0, xa[i]), b[i], jnp.where(zero, 0.0, xb[i]))
+
+
+# --------------------------------------------------------------------------
+# Reference: cvxpy
+# --------------------------------------------------------------------------
+def solve_cvxpy(angles, mask, merged, target, objective="distance", paper_form=True) -> LPSolution:
+    """The same LP solved by cvxpy (reference solver).
+
+    With ``paper_form`` the two equality rows are the paper's projections on
+    ``t'`` and ``t'_perp``; otherwise the x/y components.  ``objective="pushes"``
+    is solved as the paper's MILP (binary per non-merged column, big-M), first
+    minimising the number of pushes, then the distance at that number.
+    """
+    import cvxpy as cp
+
+    angles = np.asarray(angles, np.float64)
+    mask = np.asarray(mask, bool)
+    merged = np.asarray(merged, bool) & mask
+    target = np.asarray(target, np.float64)
+    k = len(angles)
+    idx = np.flatnonzero(mask)
+    norm_t = float(np.hypot(*target))
+    if norm_t <= ZERO_TARGET:
+        return LPSolution(True, 0.0, 0, np.zeros(k))
+    cols = np.stack([np.cos(angles[idx]), np.sin(angles[idx])])
+    if paper_form:
+        t_hat = target / norm_t
+        t_perp = np.array([-t_hat[1], t_hat[0]])
+        a_eq = np.stack([t_hat @ cols, t_perp @ cols])
+        b_eq = np.array([norm_t, 0.0])
+    else:
+        a_eq, b_eq = cols, target
+    x = cp.Variable(len(idx), nonneg=True)
+    cons = [a_eq @ x == b_eq]
+    if objective == "distance":
+        prob = cp.Problem(cp.Minimize(cp.sum(x)), cons)
+        prob.solve(solver=cp.HIGHS) if "HIGHS" in cp.installed_solvers() else prob.solve()
+        if prob.status not in ("optimal", "optimal_inaccurate"):
+            return LPSolution(False, math.inf, 0, np.zeros(k))
+        w = np.zeros(k)
+        w[idx] = np.maximum(x.value, 0.0)
+        return LPSolution(True, float(prob.value), int(np.sum((w > 1e-9) & ~merged)), w)
+    if objective != "pushes":
+        raise ValueError(f"objective: expected 'distance' or 'pushes', got {objective!r}")
+    free = merged[idx]
+    z = cp.Variable(len(idx), boolean=True)
+    # weights of the lexicographic optimum are bounded well inside 100x the
+    # distance optimum on any sane instance; big-M must not cut it off.
+    big_m = 100.0 * solve_closed_form(angles, mask, merged, target, "distance").cost + norm_t
+    link = [x[i] <= big_m * z[i] for i in range(len(idx)) if not free[i]]
+    count = cp.sum(cp.hstack([z[i] for i in range(len(idx)) if not free[i]])) if (~free).any() else 0
+    prob = cp.Problem(cp.Minimize(count), cons + link)
+    prob.solve(solver=cp.HIGHS)
+    if prob.status not in ("optimal", "optimal_inaccurate"):
+        return LPSolution(False, math.inf, 0, np.zeros(k))
+    n_best = int(round(prob.value))
+    prob2 = cp.Problem(cp.Minimize(cp.sum(x)), cons + link + ([count <= n_best] if (~free).any() else []))
+    prob2.solve(solver=cp.HIGHS)
+    w = np.zeros(k)
+    w[idx] = np.maximum(x.value, 0.0)
+    return LPSolution(True, float(prob2.value), n_best, w)

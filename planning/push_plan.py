@@ -1,0 +1,173 @@
+"""Plan types of the pushing planner: plain frozen dataclasses that serialise
+to JSON-ready dicts (and from them back).
+
+Frames and units: world frame, metres, radians (CCW positive, wrapped to
+(-pi, pi]).  A pose ``(x, y, theta)`` places the part so that
+``p_world = R(theta) (p - com) + (x, y)`` for a point ``p`` given in the
+caller's part frame; ``(x, y)`` is the world position of the centre of mass.
+Edges and vertices are indices into the caller's own vertex list.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Optional
+
+PLAN_CLASSES = ("translation", "cw", "ccw", "singular-cw", "singular-ccw")
+PUSH_KINDS = ("translate", "reorient")
+
+
+def _tuple(x, n=None):
+    t = tuple(float(v) for v in x)
+    if n is not None and len(t) != n:
+        raise ValueError(f"expected {n} numbers, got {len(t)}")
+    return t
+
+
+@dataclasses.dataclass(frozen=True)
+class Push:
+    """One normal linear push of the fence.
+
+    Attributes:
+      kind: ``"translate"`` (a stable edge is flush all along) or
+        ``"reorient"`` (the part turns about ``contact_vertex`` until ``edge``
+        lies flush, then translates).
+      direction: unit vector of the fence's motion, world frame.
+      distance: fence travel in contact with the part, m (any approach offset
+        before contact is extra).
+      edge: the stable edge that is flush with the fence at the end, as a
+        pair of caller vertex indices in CCW order.
+      contact_vertex: reorient pushes: the caller index of the vertex the
+        part pivots about; ``None`` for translations.
+      min_distance: reorient pushes: the Peshkin distance times the safety
+        factor, the least distance that guarantees completion (m); ``None``
+        for translations.
+      pose_after: the part's pose after the push, ``(x, y, theta)``, as
+        replayed by the exact kinematics.
+    """
+
+    kind: str
+    direction: tuple[float, float]
+    distance: float
+    edge: tuple[int, int]
+    contact_vertex: Optional[int]
+    min_distance: Optional[float]
+    pose_after: tuple[float, float, float]
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict."""
+        return {"kind": self.kind, "direction": list(self.direction), "distance": self.distance,
+                "edge": list(self.edge), "contact_vertex": self.contact_vertex,
+                "min_distance": self.min_distance, "pose_after": list(self.pose_after)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Push":
+        """Inverse of :meth:`to_dict`."""
+        if d["kind"] not in PUSH_KINDS:
+            raise ValueError(f"kind: expected one of {PUSH_KINDS}, got {d['kind']!r}")
+        return cls(kind=d["kind"], direction=_tuple(d["direction"], 2), distance=float(d["distance"]),
+                   edge=(int(d["edge"][0]), int(d["edge"][1])),
+                   contact_vertex=None if d.get("contact_vertex") is None else int(d["contact_vertex"]),
+                   min_distance=None if d.get("min_distance") is None else float(d["min_distance"]),
+                   pose_after=_tuple(d["pose_after"], 3))
+
+
+@dataclasses.dataclass(frozen=True)
+class PushPlan:
+    """A verified pose plan of the Akella-Mason planner.
+
+    Attributes:
+      vertices: the caller's part vertices (m), as given.
+      com: centre of mass (m, caller's frame).
+      start, goal: poses ``(x, y, theta)``.
+      pushes: the pushes in execution order.
+      plan_class: one of ``translation``, ``cw``, ``ccw``, ``singular-cw``,
+        ``singular-ccw``.
+      reorient_edge: the stable edge the reorient pushes land (caller indices),
+        ``None`` for a translation plan.
+      object_class: ``uni-stable``, ``biplus-stable`` or ``nice-stable``.
+      objective: ``distance`` or ``pushes``.
+      objective_value: the LP objective: total push distance (m) for
+        ``distance``; for ``pushes`` the number of pushes.
+      total_distance: sum of the push distances, m.
+      margin_deg, safety_factor: the planner's settings.
+      final_error: ``(position error m, |angle error| rad)`` of the exact
+        replay's final pose against the goal.
+    """
+
+    vertices: tuple[tuple[float, float], ...]
+    com: tuple[float, float]
+    start: tuple[float, float, float]
+    goal: tuple[float, float, float]
+    pushes: tuple[Push, ...]
+    plan_class: str
+    reorient_edge: Optional[tuple[int, int]]
+    object_class: str
+    objective: str
+    objective_value: float
+    total_distance: float
+    margin_deg: float
+    safety_factor: float
+    final_error: tuple[float, float]
+
+    @property
+    def n_pushes(self) -> int:
+        """Number of pushes."""
+        return len(self.pushes)
+
+    @property
+    def n_reorients(self) -> int:
+        """Number of reorient pushes."""
+        return sum(p.kind == "reorient" for p in self.pushes)
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict (round-trips through :meth:`from_dict`)."""
+        return {
+            "vertices": [list(v) for v in self.vertices], "com": list(self.com),
+            "start": list(self.start), "goal": list(self.goal),
+            "pushes": [p.to_dict() for p in self.pushes], "plan_class": self.plan_class,
+            "reorient_edge": None if self.reorient_edge is None else list(self.reorient_edge),
+            "object_class": self.object_class, "objective": self.objective,
+            "objective_value": self.objective_value, "total_distance": self.total_distance,
+            "margin_deg": self.margin_deg, "safety_factor": self.safety_factor,
+            "final_error": list(self.final_error),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "PushPlan":
+        """Inverse of :meth:`to_dict`."""
+        if d["plan_class"] not in PLAN_CLASSES:
+            raise ValueError(f"plan_class: expected one of {PLAN_CLASSES}, got {d['plan_class']!r}")
+        re = d.get("reorient_edge")
+        return cls(
+            vertices=tuple(_tuple(v, 2) for v in d["vertices"]), com=_tuple(d["com"], 2),
+            start=_tuple(d["start"], 3), goal=_tuple(d["goal"], 3),
+            pushes=tuple(Push.from_dict(p) for p in d["pushes"]), plan_class=d["plan_class"],
+            reorient_edge=None if re is None else (int(re[0]), int(re[1])),
+            object_class=d["object_class"], objective=d["objective"],
+            objective_value=float(d["objective_value"]), total_distance=float(d["total_distance"]),
+            margin_deg=float(d["margin_deg"]), safety_factor=float(d["safety_factor"]),
+            final_error=_tuple(d["final_error"], 2),
+        )
+
+    def summary(self) -> str:
+        """A short human-readable table of the plan."""
+        lines = [f"{self.object_class} part, {self.plan_class} plan: {self.n_pushes} pushes "
+                 f"({self.n_reorients} reorient), total {self.total_distance:.6g} m; replay error "
+                 f"{self.final_error[0]:.2e} m / {self.final_error[1]:.2e} rad"]
+        lines.append(f"{'#':>3} {'kind':<9} {'dir_x':>9} {'dir_y':>9} {'dist_m':>10} {'min_m':>10} "
+                     f"{'edge':>8} {'pivot':>5} {'x_after':>10} {'y_after':>10} {'th_after':>9}")
+        for i, p in enumerate(self.pushes):
+            mn = "" if p.min_distance is None else f"{p.min_distance:.4g}"
+            pv = "" if p.contact_vertex is None else str(p.contact_vertex)
+            lines.append(f"{i:>3} {p.kind:<9} {p.direction[0]:>9.4f} {p.direction[1]:>9.4f} "
+                         f"{p.distance:>10.4g} {mn:>10} {str(list(p.edge)):>8} {pv:>5} "
+                         f"{p.pose_after[0]:>10.4g} {p.pose_after[1]:>10.4g} "
+                         f"{p.pose_after[2]:>9.4f}")
+        return "\n".join(lines)
+
+
+def angle_error(a: float, b: float) -> float:
+    """|a - b| wrapped to [0, pi] (rad)."""
+    d = (a - b + math.pi) % (2 * math.pi) - math.pi
+    return abs(d)
