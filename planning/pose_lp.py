@@ -43,6 +43,7 @@ import numpy as np
 ZERO_TARGET = 1e-13  # m: a residual translation this small needs no push
 DROP = 1e-12         # m: a push shorter than this is dropped from the plan
 DET_EPS = 1e-12      # columns closer than this to antiparallel do not span
+TIE = 1e-12          # rad: columns this close in direction are ties, won by the lower rank
 
 
 @dataclasses.dataclass(frozen=True)
@@ -86,13 +87,21 @@ def _pair_np(angles, target, ia, ib):
     return True, xa + xb, xa, xb
 
 
-def _nearest_np(delta, mask):
-    """Index of the nearest column on the CCW side (delta >= 0) and CW side (delta <= 0)."""
+def _first_nearest_np(dist, rank):
+    if not np.isfinite(dist).any():
+        return -1
+    tie = dist <= dist.min() + TIE
+    return int(np.flatnonzero(tie)[np.argmin(rank[tie])])
+
+
+def _nearest_np(delta, mask, rank=None):
+    """Index of the nearest column on the CCW side (delta >= 0) and CW side
+    (delta <= 0); columns within ``TIE`` rad of the nearest are ties, won by
+    the lowest ``rank`` (default: column order)."""
+    rank = np.arange(len(delta)) if rank is None else np.asarray(rank)
     ccw = np.where(mask & (delta >= 0), delta, np.inf)
     cw = np.where(mask & (delta <= 0), -delta, np.inf)
-    a = int(np.argmin(ccw)) if np.isfinite(ccw).any() else -1
-    b = int(np.argmin(cw)) if np.isfinite(cw).any() else -1
-    return a, b
+    return _first_nearest_np(ccw, rank), _first_nearest_np(cw, rank)
 
 
 def solve_closed_form(angles, mask, merged, target, objective="distance") -> LPSolution:
@@ -146,48 +155,54 @@ def solve_closed_form(angles, mask, merged, target, objective="distance") -> LPS
 # --------------------------------------------------------------------------
 # Closed form, JAX (one LP; vmap it)
 # --------------------------------------------------------------------------
-def _nearest_jax(delta, mask):
+def _first_nearest_jax(dist, rank):
+    best = jnp.min(dist)
+    tie = dist <= best + TIE
+    return jnp.argmin(jnp.where(tie, rank, jnp.iinfo(jnp.int32).max)), jnp.isfinite(best)
+
+
+def _nearest_jax(delta, mask, rank):
     ccw = jnp.where(mask & (delta >= 0), delta, jnp.inf)
     cw = jnp.where(mask & (delta <= 0), -delta, jnp.inf)
-    return jnp.argmin(ccw), jnp.isfinite(jnp.min(ccw)), jnp.argmin(cw), jnp.isfinite(jnp.min(cw))
+    a, oka = _first_nearest_jax(ccw, rank)
+    b, okb = _first_nearest_jax(cw, rank)
+    return a, oka, b, okb
 
 
-def _pair_jax(angles, target, ia, ib, ok_in):
-    ua = jnp.stack([jnp.cos(angles[ia]), jnp.sin(angles[ia])])
-    ub = jnp.stack([jnp.cos(angles[ib]), jnp.sin(angles[ib])])
-    det = ua[0] * ub[1] - ua[1] * ub[0]
-    norm_t = jnp.hypot(target[0], target[1])
-    single = (ia == ib) | (jnp.abs(det) < DET_EPS)
-    aligned = jnp.cos(angles[ia] - jnp.arctan2(target[1], target[0])) > 1 - 1e-15
-    safe_det = jnp.where(single, 1.0, det)
-    xa = (target[0] * ub[1] - target[1] * ub[0]) / safe_det
-    xb = (ua[0] * target[1] - ua[1] * target[0]) / safe_det
-    pair_ok = (xa >= -1e-12) & (xb >= -1e-12)
-    ok = ok_in & jnp.where(single, aligned, pair_ok)
-    xa = jnp.where(single, norm_t, jnp.maximum(xa, 0.0))
-    xb = jnp.where(single, 0.0, jnp.maximum(xb, 0.0))
-    return ok, jnp.where(ok, xa + xb, jnp.inf), xa, xb
+def solve_delta(delta, mask, merged, norm_t, objective="distance", rank=None):
+    """Closed-form optimum of one pose LP in JAX, with the columns given by
+    their angle ``delta`` (rad, in (-pi, pi]) relative to the target direction
+    and the target by its length ``norm_t`` (m).  Same rules as
+    :func:`solve_closed_form`; ``objective`` is static.  No trigonometry but
+    for the chosen pair: with ``da >= 0 >= db`` the weights are
+    ``x_a = |T| sin(-db) / sin(da - db)``, ``x_b = |T| sin(da) / sin(da - db)``.
 
-
-def solve_jax(angles, mask, merged, target, objective="distance"):
-    """Closed-form optimum of one pose LP in JAX (same rules as
-    :func:`solve_closed_form`; ``objective`` is static).
+    Columns within ``TIE`` rad of the nearest on a side tie; the lowest
+    ``rank`` (default: column order) wins, as in the numpy twin.
 
     Returns:
       ``(feasible, cost, pushes, idx_a, x_a, idx_b, x_b)``: the optimum puts
       weight ``x_a`` on column ``idx_a`` and ``x_b`` on ``idx_b`` (m).
     """
     merged = merged & mask
-    zero = jnp.hypot(target[0], target[1]) <= ZERO_TARGET
-    delta = -jnp.remainder(-(angles - jnp.arctan2(target[1], target[0])) + jnp.pi, 2 * jnp.pi) + jnp.pi
+    zero = norm_t <= ZERO_TARGET
+    rank = jnp.arange(delta.shape[0]) if rank is None else rank
 
     def pair(sel_a, sel_b):
-        a, oka, _, _ = _nearest_jax(delta, sel_a)
-        _, _, b, okb = _nearest_jax(delta, sel_b)
-        ok, cost, xa, xb = _pair_jax(angles, target, a, b, oka & okb)
+        a, oka, _, _ = _nearest_jax(delta, sel_a, rank)
+        _, _, b, okb = _nearest_jax(delta, sel_b, rank)
+        da, db = delta[a], delta[b]
+        on_a, on_b = da == 0.0, (db == 0.0) & (da != 0.0)
+        gap_sin = jnp.sin(da - db)
+        spans = gap_sin > DET_EPS
+        safe = jnp.where(spans, gap_sin, 1.0)
+        xa = jnp.where(on_a, norm_t, jnp.where(on_b, 0.0, norm_t * jnp.sin(-db) / safe))
+        xb = jnp.where(on_a, 0.0, jnp.where(on_b, norm_t, norm_t * jnp.sin(da) / safe))
+        ok = oka & okb & (on_a | on_b | spans)
+        xa, xb = jnp.maximum(xa, 0.0), jnp.maximum(xb, 0.0)
         npush = (jnp.where((xa > DROP) & ~merged[a], 1, 0)
                  + jnp.where((xb > DROP) & ~merged[b] & (a != b), 1, 0))
-        return ok, cost, npush, a, xa, b, xb
+        return ok, jnp.where(ok, xa + xb, jnp.inf), npush, a, xa, b, xb
 
     if objective == "distance":
         options = [pair(mask, mask)]
@@ -196,17 +211,28 @@ def solve_jax(angles, mask, merged, target, objective="distance"):
         options = [pair(merged, merged), pair(merged, other), pair(other, merged), pair(mask, mask)]
     else:
         raise ValueError(f"objective: expected 'distance' or 'pushes', got {objective!r}")
-    stacked = [jnp.stack(v) for v in zip(*options)]
-    ok, cost, npush, a, xa, b, xb = stacked
+    ok, cost, npush, a, xa, b, xb = [jnp.stack(v) for v in zip(*options)]
     if objective == "pushes":
         best_n = jnp.min(jnp.where(ok, npush, jnp.iinfo(jnp.int32).max))
-        cost_sel = jnp.where(ok & (npush == best_n), cost, jnp.inf)
-        i = jnp.argmin(cost_sel)
+        i = jnp.argmin(jnp.where(ok & (npush == best_n), cost, jnp.inf))
     else:
         i = jnp.argmin(jnp.where(ok, cost, jnp.inf))
     feasible = ok[i] | zero
     return (feasible, jnp.where(zero, 0.0, cost[i]), jnp.where(zero, 0, npush[i]),
             a[i], jnp.where(zero, 0.0, xa[i]), b[i], jnp.where(zero, 0.0, xb[i]))
+
+
+def solve_jax(angles, mask, merged, target, objective="distance"):
+    """Closed-form optimum of one pose LP in JAX (same rules as
+    :func:`solve_closed_form`; ``objective`` is static).  ``angles`` are the
+    world angles of the unit columns (rad), ``target`` is ``T''`` (m).
+
+    Returns:
+      ``(feasible, cost, pushes, idx_a, x_a, idx_b, x_b)`` as :func:`solve_delta`.
+    """
+    psi = jnp.arctan2(target[1], target[0])
+    delta = -jnp.remainder(-(angles - psi) + jnp.pi, 2 * jnp.pi) + jnp.pi
+    return solve_delta(delta, mask, merged, jnp.hypot(target[0], target[1]), objective)
 
 
 # --------------------------------------------------------------------------

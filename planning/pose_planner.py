@@ -402,7 +402,8 @@ class PushPlanBatch:
       ok: (B,) plan found and verified by replay.
       plan_class: (B,) index into ``PLAN_CLASSES``; reorient_edge: (B,) hull edge (-1 none).
       total_distance: (B,) m; n_pushes: (B,).
-      kind: (B, P) 0 none / 1 translate / 2 reorient; direction (B, P, 2);
+      kind: (B, P) 0 none / 1 translate / 2 reorient; angle (B, P) world angle of
+      the fence direction (rad; ``direction`` gives unit vectors);
       distance (B, P) m; edge (B, P) hull edge; contact (B, P) hull vertex or -1;
       min_distance (B, P) m; pose_after (B, P, 3) replayed; final_error (B, 2).
     """
@@ -418,7 +419,7 @@ class PushPlanBatch:
     total_distance: np.ndarray
     n_pushes: np.ndarray
     kind: np.ndarray
-    direction: np.ndarray
+    angle: np.ndarray
     distance: np.ndarray
     edge: np.ndarray
     contact: np.ndarray
@@ -428,6 +429,11 @@ class PushPlanBatch:
 
     def __len__(self) -> int:
         return len(self.ok)
+
+    @property
+    def direction(self) -> np.ndarray:
+        """(B, P, 2) unit fence directions, world frame (computed from ``angle``)."""
+        return np.stack([np.cos(self.angle), np.sin(self.angle)], -1)
 
     def plan(self, b: int) -> PushPlan:
         """The b-th plan as a :class:`PushPlan` (raises PlanningError if not ok)."""
@@ -443,7 +449,7 @@ class PushPlanBatch:
             reo = k == 2
             pushes.append(Push(
                 kind="reorient" if reo else "translate",
-                direction=(float(self.direction[b, i, 0]), float(self.direction[b, i, 1])),
+                direction=(math.cos(self.angle[b, i]), math.sin(self.angle[b, i])),
                 distance=float(self.distance[b, i]), edge=poly.edge_vertices(int(self.edge[b, i])),
                 contact_vertex=hull[int(self.contact[b, i])] if reo else None,
                 min_distance=float(self.min_distance[b, i]) if reo else None,
@@ -498,40 +504,56 @@ def _candidate_table(part: PushPart) -> tuple[dict, int]:
     return table, r_max
 
 
-def _progression_picks(a, sigma, count, psi):
-    """Indices t in [1, count] of the arithmetic progression ``a + sigma t``
-    (rad, |sigma| < pi, span < 5 pi) that can be nearest to direction ``psi``
-    on either side: both ends and the terms on each side of every crossing of
-    a multiple of 2 pi (relative to ``psi``).  Returns (6,) ints clipped to
-    [1, max(count, 1)]."""
+def _progression_deltas(a, sigma, count, psi):
+    """Nearest terms of an arithmetic progression of column angles.
+
+    The columns ``a + sigma t`` (rad), ``t = 1..count``, ``0 < |sigma| < pi``,
+    span less than 5 pi.  Relative to direction ``psi`` the terms that can be
+    nearest on either side are both ends and the terms on each side of every
+    crossing of a multiple of 2 pi; there are at most two crossings.  Returns
+    ``(t, delta)`` for those six terms, ``delta`` the term's angle relative to
+    ``psi`` wrapped to (-pi, pi], computed with arithmetic only.
+    """
     sg = jnp.sign(sigma)
     st = jnp.abs(sigma)
-    y0 = jnp.remainder(sg * (a + sigma - psi), 2 * jnp.pi)   # value at t = 1, mirrored to increase
+    y0 = jnp.remainder(sg * (a + sigma - psi), 2 * jnp.pi)   # term t = 1, mirrored to increase
     c1 = jnp.ceil((2 * jnp.pi - y0) / st)
     c2 = jnp.ceil((4 * jnp.pi - y0) / st)
-    off = jnp.stack([jnp.zeros_like(c1), c1 - 1, c1, c2 - 1, c2, jnp.asarray(count - 1, c1.dtype)])
-    return (jnp.clip(off, 0, jnp.maximum(count - 1, 0)) + 1).astype(jnp.int32)
+    last = jnp.maximum(count - 1, 0).astype(y0.dtype)
+    off = jnp.clip(jnp.stack([jnp.zeros_like(c1), c1 - 1, c1, c2 - 1, c2, last]), 0, last)
+    z = y0 + st * off - 2 * jnp.pi * ((off >= c1).astype(y0.dtype) + (off >= c2).astype(y0.dtype))
+    z = jnp.where(z > jnp.pi, z - 2 * jnp.pi, z)
+    return off.astype(jnp.int32) + 1, sg * z
+
+
+def _wrap(a):
+    return -jnp.remainder(-a + jnp.pi, 2 * jnp.pi) + jnp.pi
 
 
 @functools.lru_cache(maxsize=32)
-def _plan_fn(part: PushPart, objective: str):
-    """jit(vmap) of the batched planner: (starts, goals) -> compact plans."""
+def _plan_fn(part: PushPart, objective: str, singular: bool):
+    """jit(vmap) of the batched planner over (starts, goals) -> compact plans.
+
+    ``singular=False`` evaluates the translation and regular CW/CCW
+    candidates; ``True`` the singularity handlers (run only for the pairs
+    that the regular candidates cannot serve).
+    """
     table, R = _candidate_table(part)
+    keep = (table["sing"] == 1) if singular else (table["sing"] == 0)
     ns = len(part.stable)
     body = jnp.asarray(part.body)
-    nu = jnp.asarray(part.nu)
     stable = jnp.asarray(np.array(part.stable))
     omega = jnp.asarray(_omega(part))
-    cand = {k: jnp.asarray(v) for k, v in table.items()}
-    P = R + 2
+    cand = {k: jnp.asarray(v[keep]) for k, v in table.items()}
     rows_r = jnp.arange(1, R + 1)
-
-    def unit(a):
-        return jnp.stack([jnp.cos(a), jnp.sin(a)], -1)
+    js = jnp.arange(ns)
 
     def rotv(th, v):
         c, s = jnp.cos(th), jnp.sin(th)
         return jnp.stack([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+
+    def unit(a):
+        return jnp.stack([jnp.cos(a), jnp.sin(a)], -1)
 
     def eval_cand(theta0, thetag, T, c):
         trans = c["trans"] == 1
@@ -551,7 +573,7 @@ def _plan_fn(part: PushPart, objective: str):
         # centre-of-mass shifts telescope: sum_i R(th_{i-1}) v - R(th_i) v
         v, vp = body[c["piv"]], body[c["piv_pre"]]
         shift = rotv(base, v) - rotv(thf, v) + sing * (rotv(theta0, vp) - rotv(th1, vp))
-        # Peshkin parts along the reorient directions: a geometric sum over full steps
+        # Peshkin parts along the reorient directions: a geometric sum over the full steps
         sig = sgn * c["step"]
         k = (n - 1).astype(sig.dtype)
         geo = jnp.sin(0.5 * k * sig) / jnp.sin(0.5 * sig)
@@ -561,46 +583,39 @@ def _plan_fn(part: PushPart, objective: str):
         target = jnp.where(trans, T, T - shift)
         sum_m = jnp.where(trans, 0.0, sum_m)
         psi = jnp.arctan2(target[1], target[0])
-        # reduced column set: per stable edge, start / pre-step / final orientation and the
-        # progression terms that can be nearest to the target direction on either side
-        picks = jax.vmap(lambda w: _progression_picks(base + w, sig, n - 1, psi))(omega)   # (ns, 6)
-        prog_rows = sing + picks
-        prog_ang = base[None] + omega[:, None] + sig * picks
-        js = jnp.arange(ns)
+        # reduced column set, as angles relative to the target: per stable edge, the start,
+        # pre-step and final orientations and the progression terms nearest the target
+        t_prog, d_prog = jax.vmap(lambda w: _progression_deltas(base + w, sig, n - 1, psi))(omega)
         rows = jnp.concatenate([jnp.zeros((ns, 1), jnp.int32), jnp.ones((ns, 1), jnp.int32),
-                                jnp.broadcast_to(r, (ns, 1)).astype(jnp.int32), prog_rows], 1)
-        ang = jnp.concatenate([(theta0 + omega)[:, None], (th1 + omega)[:, None],
-                               (thf + omega)[:, None], prog_ang], 1)
+                                jnp.broadcast_to(r, (ns, 1)).astype(jnp.int32), sing + t_prog], 1)
+        dlt = jnp.concatenate([_wrap(theta0 + omega - psi)[:, None], _wrap(th1 + omega - psi)[:, None],
+                               _wrap(thf + omega - psi)[:, None], d_prog], 1)
         valid = jnp.concatenate([jnp.ones((ns, 1), bool), jnp.broadcast_to(sing == 1, (ns, 1)),
                                  jnp.broadcast_to(~trans, (ns, 1)),
                                  jnp.broadcast_to((n >= 2) & ~trans, (ns, 6))], 1)
         merged = (js[:, None] == c["sidx"]) & (rows >= 1) & valid
         edges = jnp.broadcast_to(js[:, None], rows.shape)
-        ok_c = jnp.where(trans, jnp.abs(pg.wrap_angle(thetag - theta0)) <= SAME_ORIENTATION, True)
-        feas, cost, npush, ia, xa, ib, xb = pose_lp.solve_jax(
-            ang.ravel(), valid.ravel(), merged.ravel(), target, objective)
+        ok_c = jnp.where(trans, jnp.abs(_wrap(thetag - theta0)) <= SAME_ORIENTATION, True)
+        rank = (rows * ns + edges).ravel()   # ties go to the earliest (orientation, edge), as in plan_pose
+        feas, cost, npush, ia, xa, ib, xb = pose_lp.solve_delta(
+            dlt.ravel(), valid.ravel(), merged.ravel(), jnp.hypot(target[0], target[1]), objective, rank)
         feas = feas & ok_c
-        flat = lambda x: x.ravel()
+        fl = lambda x: x.ravel()
         return dict(feas=feas, total=jnp.where(feas, sum_m + cost, jnp.inf), npush=r + npush, r=r,
-                    n=n, a_last=a_last, m_last=m_last, th1=th1, base=base, thf=thf, sig=sig,
-                    row_a=flat(rows)[ia], col_a=flat(edges)[ia], ang_a=flat(ang)[ia],
-                    mrg_a=flat(merged)[ia], xa=xa,
-                    row_b=flat(rows)[ib], col_b=flat(edges)[ib], ang_b=flat(ang)[ib],
-                    mrg_b=flat(merged)[ib], xb=jnp.where(ia == ib, 0.0, xb))
+                    a_last=a_last, m_last=m_last, th1=th1, base=base, thf=thf, sig=sig,
+                    row_a=fl(rows)[ia], col_a=fl(edges)[ia], ang_a=psi + fl(dlt)[ia],
+                    mrg_a=fl(merged)[ia], xa=xa,
+                    row_b=fl(rows)[ib], col_b=fl(edges)[ib], ang_b=psi + fl(dlt)[ib],
+                    mrg_b=fl(merged)[ib], xb=jnp.where(ia == ib, 0.0, xb))
 
     def plan_one(start, goal):
         theta0, thetag = start[2], goal[2]
         res = jax.vmap(eval_cand, in_axes=(None, None, None, 0))(theta0, thetag, goal[:2] - start[:2], cand)
-        regular = cand["sing"] == 0
         if objective == "pushes":
-            def pick(sel):
-                ok = res["feas"] & sel
-                bn = jnp.min(jnp.where(ok, res["npush"], jnp.iinfo(jnp.int32).max))
-                return jnp.argmin(jnp.where(ok & (res["npush"] == bn), res["total"], jnp.inf))
+            bn = jnp.min(jnp.where(res["feas"], res["npush"], jnp.iinfo(jnp.int32).max))
+            ci = jnp.argmin(jnp.where(res["feas"] & (res["npush"] == bn), res["total"], jnp.inf))
         else:
-            def pick(sel):
-                return jnp.argmin(jnp.where(res["feas"] & sel, res["total"], jnp.inf))
-        ci = jnp.where(jnp.any(res["feas"] & regular), pick(regular), pick(~regular))
+            ci = jnp.argmin(jnp.where(res["feas"], res["total"], jnp.inf))
         g = jax.tree_util.tree_map(lambda x: x[ci], res)
         c = jax.tree_util.tree_map(lambda x: x[ci], cand)
         r, sing = g["r"], c["sing"]
@@ -612,26 +627,37 @@ def _plan_fn(part: PushPart, objective: str):
         ext = (jnp.where(g["mrg_a"] & (g["row_a"] == rows_r), g["xa"], 0.0)
                + jnp.where(g["mrg_b"] & (g["row_b"] == rows_r), g["xb"], 0.0))
         live = rows_r <= r
-        # two translation pushes (the LP's basic columns that do not extend a reorient)
+        # at most two translation pushes: the LP's basic columns that do not extend a reorient
         tr_live = jnp.stack([~g["mrg_a"] & (g["xa"] > pose_lp.DROP), ~g["mrg_b"] & (g["xb"] > pose_lp.DROP)])
-        key = jnp.concatenate([jnp.where(live, 2 * rows_r, 4 * R + 9),
-                               jnp.where(tr_live, 2 * jnp.stack([g["row_a"], g["row_b"]]) + 1, 4 * R + 9)])
-        order = jnp.argsort(key)
-        used = (key < 4 * R + 9)[order] & g["feas"]
-        kind = jnp.concatenate([jnp.full(R, 2), jnp.ones(2, jnp.int32)])[order]
-        ang = jnp.concatenate([th + omega[c["sidx"]], jnp.stack([g["ang_a"], g["ang_b"]])])[order]
-        dist = jnp.concatenate([m + ext, jnp.stack([g["xa"], g["xb"]])])[order]
-        edge = jnp.concatenate([jnp.full(R, c["s"]), stable[jnp.stack([g["col_a"], g["col_b"]])]])[order]
+        # execution order: reorient i, then the translations at orientation i by stable edge;
+        # positions are counted, not sorted: a reorient follows the translations at earlier
+        # orientations, a translation follows the reorients up to its orientation
+        tr_row = jnp.stack([g["row_a"], g["row_b"]])
+        tr_key = tr_row * (ns + 1) + jnp.stack([g["col_a"], g["col_b"]])
+        n_before_reo = jnp.sum(tr_live[None, :] & (tr_row[None, :] < rows_r[:, None]), axis=1)
+        pos_reo = jnp.where(live, rows_r - 1 + n_before_reo, R + 2)
+        other_first = tr_live[::-1] & ((tr_key[::-1] < tr_key) | ((tr_key[::-1] == tr_key) & (jnp.arange(2) == 1)))
+        pos_tr = jnp.where(tr_live, jnp.minimum(tr_row, r) + other_first, R + 2)
+        pos = jnp.concatenate([pos_reo, pos_tr])
+        used_in = jnp.concatenate([live, tr_live]) & g["feas"]
+        pos = jnp.where(used_in, pos, R + 2)
+
+        def place(vals, fill):
+            return jnp.full(R + 2, fill, vals.dtype).at[pos].set(vals, mode="drop")
+
         piv = jnp.where(is_pre, c["piv_pre"], c["piv"])
-        contact = jnp.concatenate([piv, jnp.full(2, -1)])[order]
-        mind = jnp.concatenate([m, jnp.zeros(2)])[order]
+        used = place(used_in, False)
+        kind = place(jnp.concatenate([jnp.full(R, 2), jnp.ones(2, jnp.int32)]), 0)
+        ang = place(_wrap(jnp.concatenate([th + omega[c["sidx"]], jnp.stack([g["ang_a"], g["ang_b"]])])), 0.0)
+        dist = place(jnp.concatenate([m + ext, jnp.stack([g["xa"], g["xb"]])]), 0.0)
+        edge = place(jnp.concatenate([jnp.full(R, c["s"]), stable[jnp.stack([g["col_a"], g["col_b"]])]]), -1)
+        contact = place(jnp.concatenate([piv, jnp.full(2, -1)]), -1)
+        mind = place(jnp.concatenate([m, jnp.zeros(2)]), 0.0)
         return dict(feasible=g["feas"], plan_class=c["cls"],
                     reorient_edge=jnp.where(c["trans"] == 1, -1, c["s"]), n_pushes=jnp.sum(used),
-                    kind=jnp.where(used, kind, 0), direction=unit(ang), distance=jnp.where(used, dist, 0.0),
-                    edge=jnp.where(used, edge, -1), contact=jnp.where(used, contact, -1),
-                    min_distance=jnp.where(used, mind, 0.0))
+                    kind=kind, angle=ang, distance=dist, edge=edge, contact=contact, min_distance=mind)
 
-    return jax.jit(jax.vmap(plan_one)), P
+    return jax.jit(jax.vmap(plan_one)), R + 2
 
 
 @functools.lru_cache(maxsize=64)
@@ -639,7 +665,8 @@ def _replay_fn(part: PushPart, length: int):
     """jit(vmap) of the exact replay of ``length`` pushes, with per-plan checks."""
     geom = part.geom
 
-    def one(start, goal, dirs, dists, edges, kinds):
+    def one(start, goal, angles, dists, edges, kinds):
+        dirs = jnp.stack([jnp.cos(angles), jnp.sin(angles)], -1)
         final, outs = replay_pushes(geom, start, dirs, dists)
         landed = jnp.all(jnp.where(kinds > 0, outs.edge == edges, True))
         pos_err = jnp.hypot(final[0] - goal[0], final[1] - goal[1])
@@ -695,24 +722,37 @@ def plan_pose_batch(vertices, starts, goals, com=None, margin_deg: float = 7.0,
     if B == 0:
         raise ValueError("starts: need at least one start/goal pair")
     part = prepare_part(vertices, com, margin_deg, safety_factor)
-    fn, P = _plan_fn(part, objective)
     size = min(B, int(chunk)) if chunk else B
-    parts = []
-    for lo, hi in _blocks(B, size):
-        o = fn(jnp.asarray(_padded(starts[lo:hi], size)), jnp.asarray(_padded(goals[lo:hi], size)))
-        parts.append({k: np.asarray(v)[:hi - lo] for k, v in o.items()})
-    out = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
-    # replay, longest plans last, each block only as long as it needs (power-of-two buckets)
+
+    def run_plan(singular, sel):
+        fn, P = _plan_fn(part, objective, singular)
+        blocks = []
+        for lo, hi in _blocks(len(sel), size):
+            idx = sel[lo:hi]
+            o = fn(jnp.asarray(_padded(starts[idx], size)), jnp.asarray(_padded(goals[idx], size)))
+            blocks.append({k: np.asarray(v)[:hi - lo] for k, v in o.items()})
+        return {k: np.concatenate([blk[k] for blk in blocks]) for k in blocks[0]}, P
+
+    out, P = run_plan(False, np.arange(B))
+    hard = np.flatnonzero(~out["feasible"])
+    if len(hard):  # the singularity handlers, only where the regular candidates fail
+        sub, _ = run_plan(True, hard)
+        for k in out:
+            out[k][hard] = sub[k]
+    # replay, shortest plans first, each block only as long as its longest plan
+    # (power-of-two lengths bound the number of compilations)
+    used_len = max(1, int(out["n_pushes"].max()))
+    out = {k: (v[:, :used_len] if v.ndim == 2 else v) for k, v in out.items()}
     order = np.argsort(out["n_pushes"], kind="stable")
-    pose_after = np.zeros((B, P, 3))
+    pose_after = np.zeros((B, used_len, 3))
     landed = np.zeros(B, bool)
     final_error = np.zeros((B, 2))
     for lo, hi in _blocks(B, size):
         idx = order[lo:hi]
         need = int(out["n_pushes"][idx].max())
-        length = min(P, max(4, 1 << max(need - 1, 0).bit_length()))
+        length = min(used_len, max(4, 1 << max(need - 1, 0).bit_length()))
         rf = _replay_fn(part, length)
-        args = [starts[idx], goals[idx], out["direction"][idx, :length], out["distance"][idx, :length],
+        args = [starts[idx], goals[idx], out["angle"][idx, :length], out["distance"][idx, :length],
                 out["edge"][idx, :length], out["kind"][idx, :length]]
         poses, lnd, err = rf(*[jnp.asarray(_padded(a, size)) for a in args])
         k = hi - lo
