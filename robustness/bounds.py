@@ -1,0 +1,197 @@
+"""Analytic tolerance-propagation bounds for push and tumble plans.
+
+Pushing (first order; the Akella-Mason paper has no such bound)
+----------------------------------------------------------------
+A push plan's final pose is a function ``F(p)`` of the uncertain parameters
+``p``: the hull vertices (part frame), the centre-of-mass offset, the start
+pose, and per push the fence angle and the push distance.  Under the paper's
+assumptions (quasi-static, no slip, every reorient completes: the exact
+replay of :mod:`kernels.push`) ``F`` is smooth as long as every push lands the
+same edge, and to first order
+
+    |dF_i| <= sum_k |dF_i / dp_k| tau_k
+
+for every parameter within its box tolerance ``|dp_k| <= tau_k``.  The
+structure of ``dF/dp``, derived by hand:
+
+* A *complete reorient push* onto edge ``s`` ends flush, so its final
+  orientation is ``theta = angle(-d) - nu_s``: it depends only on the fence
+  direction ``d`` (fence angle error, coefficient 1) and on the edge's normal
+  angle ``nu_s`` (``d nu_s = cross(e, dV_b - dV_a) / |e|^2`` for the edge
+  ``e = V_b - V_a``), NOT on any earlier error: orientation errors are reset
+  by every reorient.  Its final centre of mass is
+  ``P + s d - R(theta) v`` with ``P`` the pivot's world position at the
+  start: start-pose errors and earlier position errors pass through with
+  coefficient 1 along the fence and are re-aligned with the pivot,
+  the distance error moves it along ``d``, and the orientation error at the
+  end turns the lever ``v``.
+* A *translation push* adds ``s d``: a fence angle error ``da`` moves the
+  part by ``s da`` across the push, a distance error along it; its
+  orientation is the flush orientation of its edge (as above).
+* The centre-of-mass offset ``dc`` changes the lever arms (``v - dc``) and
+  the reported reference point.
+
+The planner's own kinematics are differentiated exactly (forward-mode
+automatic differentiation through :func:`kernels.push.replay_pushes`), so
+the bound is the exact first-order term of the model, not an estimate.  It is
+NOT a guarantee beyond first order, and it does not cover slip at the fence,
+incomplete reorientation (a push shorter than the perturbed part's Peshkin
+distance) or a different landing edge: the Monte-Carlo layer reports those
+as failure modes, and a bound exceeded by a sample is reported as a finding.
+
+Tumbling
+--------
+:func:`tumble_first_order_bound` is the same construction for a tumble plan
+(vertex tolerance ``tau_v`` per coordinate, box) through
+:func:`kernels.tumble.replay`; :func:`tumble_plan_paper_bounds` returns the
+Marigo-Bicchi bounds of section III-A and IV as the tumble planner computed
+them (they are far looser: the paper bounds the worst case over every
+lattice coefficient and generator).
+
+Units: metres and radians; position bounds are Euclidean norms of the
+worst-case (x, y) box corner, ``hypot(bound_x, bound_y)``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from kernels import polygon as pg
+from kernels.push import replay_pushes
+from planning.pose_planner import prepare_part
+from planning.push_plan import PushPlan
+
+jax.config.update("jax_enable_x64", True)
+
+
+@dataclasses.dataclass(frozen=True)
+class PushTolerances:
+    """Box tolerances of a push plan's uncertain parameters (all >= 0).
+
+    Attributes:
+      tau_v: each hull vertex coordinate, m.
+      tau_com: each centre-of-mass coordinate, m.
+      start_xy: each start-position coordinate, m.
+      start_theta: start orientation, rad.
+      fence_angle: each push's fence direction, rad.
+      distance_abs: each push's distance, m.
+      distance_rel: each push's distance, as a fraction of it.
+    """
+
+    tau_v: float = 0.0
+    tau_com: float = 0.0
+    start_xy: float = 0.0
+    start_theta: float = 0.0
+    fence_angle: float = 0.0
+    distance_abs: float = 0.0
+    distance_rel: float = 0.0
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"{f.name}: tolerance must be a finite number >= 0, got {v!r}")
+
+
+def push_final_pose_fn(plan: PushPlan):
+    """The plan's final pose as a function of parameter perturbations.
+
+    Returns ``(f, sizes)``: ``f(dV, dcom, dstart, dfence, ddist) -> (3,)``
+    final pose of the part frame (the NOMINAL centre of mass as reference
+    point), with ``dV`` (n, 2) hull-vertex offsets (part frame), ``dcom`` (2,)
+    centre-of-mass offset (part frame), ``dstart`` (3,) start-pose error,
+    ``dfence`` (P,) fence angle errors (rad, CCW), ``ddist`` (P,) distance
+    errors (m).  Pure JAX, float64, exact replay kinematics.
+    """
+    part = prepare_part(plan.vertices, plan.com, plan.margin_deg, plan.safety_factor)
+    body0 = jnp.asarray(part.body)
+    dirs = jnp.asarray(np.array([p.direction for p in plan.pushes]).reshape(-1, 2))
+    dists = jnp.asarray(np.array([p.distance for p in plan.pushes]))
+    start = jnp.asarray(plan.start)
+    ang0 = jnp.arctan2(dirs[:, 1], dirs[:, 0])
+
+    def f(dV, dcom, dstart, dfence, ddist):
+        body = body0 + dV - dcom[None, :]
+        geom = pg.polygon_geometry(body)
+        th0 = start[2] + dstart[2]
+        com_w = start[:2] + dstart[:2] + pg.rot2(th0) @ dcom
+        ang = ang0 + dfence
+        d = jnp.stack([jnp.cos(ang), jnp.sin(ang)], -1)
+        final, _ = replay_pushes(geom, jnp.concatenate([com_w, th0[None]]), d, dists + ddist)
+        ref = final[:2] - pg.rot2(final[2]) @ dcom
+        return jnp.concatenate([ref, final[2:]])
+
+    return f, dict(n=part.n, pushes=len(plan.pushes))
+
+
+def push_plan_bound(plan: PushPlan, tol: PushTolerances) -> dict:
+    """First-order worst-case bound on a push plan's final pose error.
+
+    Args:
+      plan: a verified :class:`~planning.push_plan.PushPlan`.
+      tol: box tolerances (:class:`PushTolerances`).
+
+    Returns:
+      dict with ``x_m``, ``y_m``, ``position_m`` (``hypot`` of the two) and
+      ``theta_rad`` bounds, and ``by_source``: the position and angle
+      contributions of each tolerance (m, rad), to see what dominates.
+    """
+    f, sz = push_final_pose_fn(plan)
+    n, P = sz["n"], sz["pushes"]
+    dists = np.array([p.distance for p in plan.pushes])
+    zeros = (jnp.zeros((n, 2)), jnp.zeros(2), jnp.zeros(3), jnp.zeros(P), jnp.zeros(P))
+    jac = jax.jacfwd(f, argnums=(0, 1, 2, 3, 4))(*zeros)
+    jv, jc, js, jf, jd = (np.asarray(j) for j in jac)
+    contrib = {
+        "tau_v": np.abs(jv).reshape(3, -1).sum(1) * tol.tau_v,
+        "tau_com": np.abs(jc).sum(1) * tol.tau_com,
+        "start_xy": np.abs(js[:, :2]).sum(1) * tol.start_xy,
+        "start_theta": np.abs(js[:, 2]) * tol.start_theta,
+        "fence_angle": np.abs(jf).sum(1) * tol.fence_angle,
+        "distance": (np.abs(jd) * (tol.distance_abs + tol.distance_rel * dists)[None, :]).sum(1),
+    }
+    total = sum(contrib.values())
+    return {
+        "x_m": float(total[0]), "y_m": float(total[1]),
+        "position_m": float(math.hypot(total[0], total[1])), "theta_rad": float(total[2]),
+        "by_source": {k: {"position_m": float(math.hypot(v[0], v[1])), "theta_rad": float(v[2])}
+                      for k, v in contrib.items()},
+    }
+
+
+def tumble_first_order_bound(vertices, com, topology, start, faces, tau_v: float) -> dict:
+    """First-order worst-case bound on a tumble sequence's final configuration
+    error when every vertex coordinate is within ``tau_v`` (m, box).
+
+    Args:
+      vertices: (m, 3) nominal vertices (part frame, m); com: (3,).
+      topology: the nominal :class:`~kernels.polyhedron.TumbleTopology`.
+      start: :class:`~kernels.tumble.TumbleConfig` start configuration.
+      faces: (T,) int landing faces of the plan.
+      tau_v: vertex tolerance, m.
+
+    Returns:
+      dict ``x_m``, ``y_m``, ``position_m``, ``theta_rad``.
+    """
+    from kernels.polyhedron import tumble_geometry
+    from kernels.tumble import replay
+
+    if not (math.isfinite(tau_v) and tau_v >= 0):
+        raise ValueError(f"tau_v: tolerance must be a finite number >= 0, got {tau_v!r}")
+    v0 = jnp.asarray(vertices, jnp.float64)
+    c0 = jnp.asarray(com, jnp.float64)
+    seq = jnp.asarray(np.asarray(faces, np.int32))
+
+    def f(dv):
+        geom = tumble_geometry(v0 + dv, c0, topology)
+        final, _ = replay(geom, start, seq)
+        return jnp.concatenate([final.xy, final.theta[None]])
+
+    j = np.asarray(jax.jacfwd(f)(jnp.zeros_like(v0)))
+    b = np.abs(j).reshape(3, -1).sum(1) * tau_v
+    return {"x_m": float(b[0]), "y_m": float(b[1]), "position_m": float(math.hypot(b[0], b[1])),
+            "theta_rad": float(b[2])}
