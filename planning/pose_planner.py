@@ -124,14 +124,19 @@ def _prepare_cached(vkey: bytes, vshape, ckey, margin_deg: float, safety_factor:
     vertices = np.frombuffer(vkey, dtype=np.float64).reshape(vshape)
     com = None if ckey is None else np.frombuffer(ckey, dtype=np.float64)
     poly = pg.make_polygon(vertices, com)
-    geom = pg.polygon_geometry(jnp.asarray(poly.body))
-    stable = tuple(int(e) for e in np.flatnonzero(np.asarray(geom.stable)))
-    mx = np.asarray(pg.max_reorient_table(geom))
     margin = math.radians(margin_deg)
-    step = np.asarray(pg.step_angle(mx, margin))
-    return PushPart(polygon=poly, geom=geom, stable=stable, max_reorient=mx, step=step,
-                    object_class=int(pg.object_class(geom)), margin=margin,
+    geom, mx, step, cls = _part_tables(jnp.asarray(poly.body), margin)
+    stable = tuple(int(e) for e in np.flatnonzero(np.asarray(geom.stable)))
+    return PushPart(polygon=poly, geom=geom, stable=stable, max_reorient=np.asarray(mx),
+                    step=np.asarray(step), object_class=int(cls), margin=margin,
                     safety_factor=float(safety_factor))
+
+
+@jax.jit
+def _part_tables(body, margin):
+    geom = pg.polygon_geometry(body)
+    mx = pg.max_reorient_table(geom)
+    return geom, mx, pg.step_angle(mx, margin), pg.object_class(geom)
 
 
 def prepare_part(vertices, com=None, margin_deg: float = 7.0, safety_factor: float = 1.15) -> PushPart:

@@ -1,0 +1,270 @@
+"""Part files: the one place that reads a part description from YAML.
+
+Format (one part per file; keys other than these are rejected)::
+
+    name: triangle          # optional string, default: the file's stem
+    kind: polygon           # polygon | polyhedron; optional, default from the row length
+    vertices: [[x, y], ...] # metres, caller's frame; [x, y, z] rows for a polyhedron
+    com: [x, y]             # optional centre of mass (same frame); default: centroid
+    description: "..."      # optional free text
+
+This module checks the *file*: YAML syntax, allowed keys, types, shapes and
+finiteness.  Geometry (convexity, zero area or volume, a centre of mass
+outside the part) is checked by :func:`kernels.polygon.make_polygon` and
+:func:`kernels.polyhedron.make_polyhedron` when the part is used.  Every
+failure raises :class:`PartFileError` (a ``ValueError``) with a one-line
+message that starts with the file's path and names the offending field.
+"""
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+from typing import Literal, Optional, Union
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, StrictFloat, StrictInt, ValidationError
+
+KINDS = ("polygon", "polyhedron")
+DIMS = {"polygon": 2, "polyhedron": 3}
+MIN_VERTICES = {"polygon": 3, "polyhedron": 4}
+
+Number = Union[StrictInt, StrictFloat]
+
+
+class PartFileError(ValueError):
+    """A part file that cannot be read; the one-line message names the file and the field."""
+
+
+class _PartSchema(BaseModel):
+    """The raw YAML document (validated with pydantic v2)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=True)
+
+    name: Optional[str] = None
+    kind: Optional[Literal["polygon", "polyhedron"]] = None
+    vertices: list[list[Number]]
+    com: Optional[list[Number]] = None
+    description: Optional[str] = None
+
+
+ALLOWED_KEYS = tuple(_PartSchema.model_fields)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class PartFile:
+    """A part read from a YAML file.
+
+    Attributes:
+      name: the part's name (the file's stem when the file gives none).
+      kind: ``"polygon"`` or ``"polyhedron"``.
+      vertices: (m, 2) or (m, 3) float64 vertex coordinates, metres, as given.
+      com: (2,) or (3,) float64 centre of mass, or ``None`` (the part's
+        centroid is used).
+      description: free text or ``None``.
+      path: the file it was read from.
+    """
+
+    name: str
+    kind: str
+    vertices: np.ndarray
+    com: Optional[np.ndarray]
+    description: Optional[str]
+    path: pathlib.Path
+
+    @property
+    def dim(self) -> int:
+        """2 for a polygon, 3 for a polyhedron."""
+        return DIMS[self.kind]
+
+    def to_dict(self) -> dict:
+        """Plain dict in the file format (lists of floats)."""
+        d = {"name": self.name, "kind": self.kind, "vertices": self.vertices.tolist()}
+        if self.com is not None:
+            d["com"] = self.com.tolist()
+        if self.description is not None:
+            d["description"] = self.description
+        return d
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that rejects a key given twice in one mapping."""
+
+
+def _construct_mapping(loader, node, deep=False):
+    seen = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"key {key!r} is given twice", key_node.start_mark)
+        seen.add(key)
+    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def _loc(loc) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out or "(top level)"
+
+
+def _describe(err: dict) -> str:
+    """One error of a pydantic ValidationError as 'field: message'."""
+    typ, loc = err["type"], err["loc"]
+    # drop the union-branch names pydantic appends to the location ('int', 'float')
+    loc = tuple(p for p in loc if p not in ("int", "float"))
+    field = _loc(loc)
+    if typ == "extra_forbidden":
+        return (f"unknown key {loc[-1]!r}; allowed keys: {', '.join(ALLOWED_KEYS)}")
+    if typ == "missing":
+        return f"{field}: required key is missing"
+    if typ == "literal_error":
+        return f"{field}: expected one of {', '.join(KINDS)}, got {err.get('input')!r}"
+    if typ in ("int_type", "float_type"):
+        return f"{field}: expected a number (metres), got {err.get('input')!r}"
+    if typ == "list_type":
+        top = loc[0] if loc else ""
+        want = {"vertices": "a list of [x, y] (polygon) or [x, y, z] (polyhedron) rows",
+                "com": "a list [x, y] or [x, y, z]"}.get(str(top), "a list")
+        if len(loc) > 1:
+            want = "a row [x, y] or [x, y, z]"
+        return f"{field}: expected {want}, got {err.get('input')!r}"
+    if typ == "string_type":
+        return f"{field}: expected a string, got {err.get('input')!r}"
+    return f"{field}: {err['msg']}"
+
+
+def _finite_rows(arr: np.ndarray, field: str) -> None:
+    bad = np.argwhere(~np.isfinite(arr))
+    if len(bad):
+        idx = "".join(f"[{int(i)}]" for i in bad[0])
+        raise ValueError(f"{field}{idx}: must be a finite number (metres), got {arr[tuple(bad[0])]}")
+
+
+def parse_part(doc, path: Union[str, pathlib.Path] = "<part>") -> PartFile:
+    """Validate an already-parsed YAML document (a dict) as a part.
+
+    Args:
+      doc: the mapping read from the file.
+      path: where it came from (used in messages and for the default name).
+
+    Returns:
+      A :class:`PartFile`.
+
+    Raises:
+      PartFileError: the message starts with ``path`` and names the field.
+    """
+    path = pathlib.Path(path)
+    try:
+        return _parse(doc, path)
+    except ValueError as exc:
+        raise PartFileError(f"{path}: {exc}") from None
+
+
+def _parse(doc, path: pathlib.Path) -> PartFile:
+    if doc is None:
+        raise ValueError(f"the file is empty; expected a mapping with keys {', '.join(ALLOWED_KEYS)}")
+    if not isinstance(doc, dict):
+        raise ValueError(f"expected a mapping with keys {', '.join(ALLOWED_KEYS)}, "
+                         f"got a {type(doc).__name__}")
+    bad_keys = [k for k in doc if not isinstance(k, str)]
+    if bad_keys:
+        raise ValueError(f"unknown key {bad_keys[0]!r}; allowed keys: {', '.join(ALLOWED_KEYS)}")
+    try:
+        raw = _PartSchema.model_validate(doc)
+    except ValidationError as exc:
+        errs = exc.errors()
+        extra = [e for e in errs if e["type"] == "extra_forbidden"]
+        if extra:
+            names = ", ".join(repr(e["loc"][-1]) for e in extra)
+            raise ValueError(f"unknown key{'s' if len(extra) > 1 else ''} {names}; "
+                             f"allowed keys: {', '.join(ALLOWED_KEYS)}") from None
+        # a union of int and float reports each bad number twice: count locations
+        locs = {tuple(p for p in e["loc"] if p not in ("int", "float")) for e in errs}
+        msg = _describe(errs[0])
+        if len(locs) > 1:
+            msg += f" (and {len(locs) - 1} more error{'s' if len(locs) > 2 else ''})"
+        raise ValueError(msg) from None
+
+    rows = raw.vertices
+    lengths = sorted({len(r) for r in rows})
+    if not rows:
+        raise ValueError("vertices: the list is empty; give one [x, y] (polygon) or [x, y, z] "
+                         "(polyhedron) row per vertex")
+    kind = raw.kind
+    if kind is None:
+        if lengths not in ([2], [3]):
+            raise ValueError(f"vertices: rows must all have 2 numbers (polygon) or all 3 "
+                             f"(polyhedron); got rows of length {lengths}")
+        kind = "polygon" if lengths == [2] else "polyhedron"
+    dim = DIMS[kind]
+    for i, r in enumerate(rows):
+        if len(r) != dim:
+            want = "[x, y]" if dim == 2 else "[x, y, z]"
+            raise ValueError(f"vertices[{i}]: a {kind} needs {want} rows ({dim} numbers), got "
+                             f"{len(r)} numbers")
+    if len(rows) < MIN_VERTICES[kind]:
+        raise ValueError(f"vertices: a {kind} needs at least {MIN_VERTICES[kind]} vertices, "
+                         f"got {len(rows)}")
+    vertices = np.asarray(rows, dtype=np.float64)
+    _finite_rows(vertices, "vertices")
+    com = None
+    if raw.com is not None:
+        if len(raw.com) != dim:
+            want = "[x, y]" if dim == 2 else "[x, y, z]"
+            raise ValueError(f"com: a {kind} needs {want} ({dim} numbers), got {len(raw.com)}")
+        com = np.asarray(raw.com, dtype=np.float64)
+        _finite_rows(com, "com")
+    name = raw.name if raw.name is not None else path.stem
+    vertices.setflags(write=False)
+    if com is not None:
+        com.setflags(write=False)
+    return PartFile(name=name, kind=kind, vertices=vertices, com=com,
+                    description=raw.description, path=path)
+
+
+def load_part(path: Union[str, pathlib.Path]) -> PartFile:
+    """Read and validate a part file.
+
+    Args:
+      path: a YAML file in the format of this module's docstring.
+
+    Returns:
+      A :class:`PartFile` (vertices and com as read-only float64 arrays).
+
+    Raises:
+      PartFileError: missing or unreadable file, YAML syntax error, unknown
+        or missing key, wrong type or shape, NaN or inf; one line, starting
+        with the path and naming the field.
+    """
+    path = pathlib.Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise PartFileError(f"{path}: no such part file") from None
+    except IsADirectoryError:
+        raise PartFileError(f"{path}: is a directory, expected a part file (.yaml)") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise PartFileError(f"{path}: cannot read the part file ({exc})") from None
+    try:
+        doc = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 (a SafeLoader subclass)
+    except yaml.YAMLError as exc:
+        raise PartFileError(f"{path}: YAML syntax error: {_yaml_message(exc)}") from None
+    return parse_part(doc, path)
+
+
+def _yaml_message(exc: yaml.YAMLError) -> str:
+    """A one-line description of a YAML error with its line and column."""
+    mark = getattr(exc, "problem_mark", None)
+    problem = getattr(exc, "problem", None) or str(exc)
+    context = getattr(exc, "context", None)
+    text = f"{context}, {problem}" if context else problem
+    text = " ".join(str(text).split())
+    if mark is not None:
+        text += f" (line {mark.line + 1}, column {mark.column + 1})"
+    return text
+

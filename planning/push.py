@@ -1,0 +1,224 @@
+"""Command line: plan fence pushes that take a polygonal part from one pose to another.
+
+Usage::
+
+    python -m planning.push PART.yaml --start X,Y,THETA --goal X,Y,THETA
+        [--margin-deg 7] [--safety-factor 1.15] [--objective distance|pushes]
+        [--solver closed_form|cvxpy] [--json] [--plot FILE.png] [--psd FILE.png]
+
+Poses are ``x,y,theta`` in metres and radians (world frame; ``(x, y)`` is the
+centre of mass); ``theta`` may carry a ``deg`` suffix (``0.1,0,90deg``) or a
+``rad`` one.  A pose may start with a minus sign (``--start -0.1,0,0``).
+``--psd`` alone (no ``--start``/``--goal``) only draws the part's push
+stability diagram.
+
+Output: the plan's summary table, or with ``--json`` the plan as JSON
+(:meth:`planning.push_plan.PushPlan.to_dict`) and nothing else on stdout.
+Messages go to stderr.  Exit status: 0 success, 1 no plan found
+(:class:`~planning.pose_planner.PlanningError`), 2 bad input (one line
+``error: ...`` naming the field).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import re
+import sys
+import warnings
+from typing import Optional, Sequence
+
+EXIT_OK, EXIT_PLANNING, EXIT_INPUT = 0, 1, 2
+
+_NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_THETA = re.compile(rf"^({_NUM})\s*(deg|rad)?$")
+
+
+class InputError(ValueError):
+    """Bad command-line input (exit status 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2, no usage dump
+        sys.stderr.write(f"error: {message} (see --help)\n")
+        sys.exit(EXIT_INPUT)
+
+
+def parse_pose(text: str, field: str) -> tuple[float, float, float]:
+    """Parse ``x,y,theta`` (m, m, rad; ``theta`` may end in ``deg`` or ``rad``).
+
+    Raises:
+      InputError: the message names ``field`` and shows the expected form.
+    """
+    form = "expected x,y,theta in metres and radians (e.g. 0.1,-0.05,1.57 or 0.1,-0.05,90deg)"
+    parts = [p.strip() for p in str(text).split(",")]
+    if len(parts) != 3:
+        raise InputError(f"{field}: {form}, got {text!r} ({len(parts)} value"
+                         f"{'s' if len(parts) != 1 else ''})")
+    out = []
+    for name, p in zip(("x", "y"), parts[:2]):
+        if not re.fullmatch(_NUM, p):
+            raise InputError(f"{field}: {name} must be a number in metres, got {p!r}; {form}")
+        out.append(float(p))
+    m = _THETA.match(parts[2])
+    if not m:
+        raise InputError(f"{field}: theta must be a number in radians or degrees with a 'deg' "
+                         f"suffix, got {parts[2]!r}; {form}")
+    theta = float(m.group(1))
+    if m.group(2) == "deg":
+        theta = math.radians(theta)
+    out.append(theta)
+    if not all(math.isfinite(v) for v in out):
+        raise InputError(f"{field}: values must be finite, got {text!r}")
+    return (out[0], out[1], out[2])
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="python -m planning.push",
+        description="Plan normal fence pushes (Akella & Mason 1992) that take a polygonal part "
+                    "from a start pose to a goal pose, and optionally draw the plan and the "
+                    "part's push stability diagram.",
+        epilog="Poses: x,y,theta in metres and radians, world frame, (x, y) = centre of mass; "
+               "theta may end in 'deg' (e.g. 0.1,0,90deg). Exit status: 0 ok, 1 no plan, "
+               "2 bad input.")
+    p.add_argument("part", metavar="PART.yaml", help="part file (see planning.partfile)")
+    p.add_argument("--start", metavar="X,Y,THETA", help="start pose (m, m, rad or ...deg)")
+    p.add_argument("--goal", metavar="X,Y,THETA", help="goal pose (m, m, rad or ...deg)")
+    p.add_argument("--margin-deg", type=float, default=7.0, metavar="DEG",
+                   help="margin angle taken off each maximum reorient angle (default 7)")
+    p.add_argument("--safety-factor", type=float, default=1.15, metavar="F",
+                   help="multiplier of the Peshkin distance, >= 1 (default 1.15)")
+    p.add_argument("--objective", choices=("distance", "pushes"), default="distance",
+                   help="minimise total push distance (default) or the number of pushes")
+    p.add_argument("--solver", choices=("closed_form", "cvxpy"), default="closed_form",
+                   help="LP solver (default closed_form; cvxpy is the reference)")
+    p.add_argument("--json", action="store_true", help="print the plan as JSON on stdout")
+    p.add_argument("--plot", metavar="FILE.png", help="draw the plan (Akella-Mason Fig. 1)")
+    p.add_argument("--psd", metavar="FILE.png",
+                   help="draw the push stability diagram (Fig. 6, normal pushes)")
+    return p
+
+
+def _join_pose_args(argv: Sequence[str]) -> list[str]:
+    """``--start -0.1,0,0`` -> ``--start=-0.1,0,0`` (argparse would take the value for an option)."""
+    out, i = [], 0
+    argv = list(argv)
+    while i < len(argv):
+        tok = argv[i]
+        if tok in ("--start", "--goal") and i + 1 < len(argv) and argv[i + 1].startswith("-") \
+                and not argv[i + 1].startswith("--"):
+            out.append(f"{tok}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(tok)
+        i += 1
+    return out
+
+
+def _flag_names(message: str) -> str:
+    """Name planner settings by their command-line flags."""
+    for field, flag in (("margin_deg", "--margin-deg"), ("safety_factor", "--safety-factor"),
+                        ("start", "--start"), ("goal", "--goal")):
+        if message.startswith(field + ":"):
+            return flag + message[len(field):]
+    return message
+
+
+def _fail(message: str, code: int = EXIT_INPUT) -> int:
+    sys.stderr.write(f"error: {' '.join(str(message).split())}\n")
+    return code
+
+
+def _report_warnings(caught) -> None:
+    for w in caught:
+        sys.stderr.write(f"warning: {' '.join(str(w.message).split())}\n")
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Run the command line; returns the exit status."""
+    args = build_parser().parse_args(_join_pose_args(sys.argv[1:] if argv is None else argv))
+    try:
+        if (args.start is None) != (args.goal is None) or (args.start is None and not args.psd):
+            missing = "--start" if args.start is None else "--goal"
+            raise InputError(f"{missing}: required (give both --start and --goal, or --psd "
+                             "alone to draw only the push stability diagram)")
+        start = goal = None
+        if args.start is not None:
+            start = parse_pose(args.start, "--start")
+            goal = parse_pose(args.goal, "--goal")
+        if args.plot and start is None:
+            raise InputError("--plot: needs --start and --goal")
+        for flag, path in (("--plot", args.plot), ("--psd", args.psd)):
+            if path and not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+                raise InputError(f"{flag}: the folder of {path!r} does not exist")
+    except InputError as exc:
+        return _fail(str(exc))
+
+    from planning.partfile import PartFileError, load_part
+    try:
+        part = load_part(args.part)
+    except PartFileError as exc:
+        return _fail(str(exc))
+    if part.kind != "polygon":
+        return _fail(f"{part.path}: kind: the push planner takes polygon parts, this file holds a "
+                     f"{part.kind} (tumble planning is a separate tool)")
+
+    # heavy imports (JAX) only after the cheap checks
+    from kernels.polygon import PartError
+    from planning.pose_planner import PlanningError, plan_pose, prepare_part
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            prepared = prepare_part(part.vertices, part.com, args.margin_deg, args.safety_factor)
+            plan = None
+            if start is not None:
+                plan = plan_pose(part.vertices, start, goal, com=part.com,
+                                 margin_deg=args.margin_deg, safety_factor=args.safety_factor,
+                                 objective=args.objective, solver=args.solver)
+        except PartError as exc:
+            _report_warnings(caught)
+            return _fail(f"{part.path}: {exc}")
+        except PlanningError as exc:
+            _report_warnings(caught)
+            return _fail(str(exc), EXIT_PLANNING)
+        except ValueError as exc:
+            _report_warnings(caught)
+            return _fail(_flag_names(str(exc)))
+        except ImportError as exc:  # cvxpy missing
+            _report_warnings(caught)
+            return _fail(f"--solver {args.solver}: {exc}")
+    _report_warnings(caught)
+
+    if plan is not None:
+        if args.json:
+            sys.stdout.write(json.dumps(plan.to_dict(), indent=2) + "\n")
+        else:
+            sys.stdout.write(f"{part.name}: {part.path}\n{plan.summary()}\n")
+    elif not args.json:
+        stable = [list(prepared.polygon.edge_vertices(e)) for e in prepared.stable]
+        sys.stdout.write(f"{part.name}: {prepared.class_name} part, stable edges {stable}\n")
+
+    if args.plot or args.psd:
+        from planning import push_plots
+        for flag, path in (("--plot", args.plot), ("--psd", args.psd)):
+            if not path:
+                continue
+            try:
+                if flag == "--plot":
+                    push_plots.plot_plan(plan, path, name=part.name)
+                else:
+                    push_plots.plot_psd(prepared, path, name=part.name)
+            except (OSError, ValueError) as exc:
+                return _fail(f"{flag}: cannot write {path} ({exc})")
+            sys.stderr.write(f"wrote {path}\n")
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except KeyboardInterrupt:
+        sys.exit(130)

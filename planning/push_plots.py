@@ -1,0 +1,436 @@
+"""Figures of the pushing planner (matplotlib, Agg backend).
+
+* :func:`plot_plan` draws a pose plan like Akella & Mason's Figure 1: the part
+  at the start, after every push and at the goal, and for every push the fence
+  where it first touches the part, with an arrow as long as the push.
+* :func:`plot_psd` draws the push stability diagram of a part for normal
+  pushes (the paper's Figure 6 on its 90-degree line, unrolled): which stable
+  edge every orientation ends on, the convergent and divergent orientations,
+  and the maximum reorient and step angles of every stable edge.
+  :func:`push_stability` computes its data.
+
+No I/O here beyond ``savefig`` of the path given.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+from typing import Optional
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.patches import Patch, Polygon as PolyPatch  # noqa: E402
+
+from kernels import polygon as pg  # noqa: E402
+from kernels.push import replay_push  # noqa: E402
+from planning.pose_planner import PushPart, prepare_part  # noqa: E402
+from planning.push_plan import PushPlan  # noqa: E402
+
+START_COLOR = "tab:blue"
+GOAL_COLOR = "tab:green"
+MID_COLOR = "0.45"
+# push colours: distinct from the start (blue), goal (green) and intermediate (grey) poses
+PUSH_COLORS = ("tab:orange", "tab:red", "tab:purple", "tab:brown", "tab:pink", "tab:olive",
+               "tab:cyan", "navy", "darkgoldenrod", "maroon")
+
+
+def _rot(theta: float) -> np.ndarray:
+    c, s = math.cos(theta), math.sin(theta)
+    return np.array([[c, -s], [s, c]])
+
+
+def _world(body: np.ndarray, pose) -> np.ndarray:
+    """Body-frame points (relative to the centre of mass) placed at ``pose``."""
+    return body @ _rot(float(pose[2])).T + np.asarray(pose[:2], dtype=float)
+
+
+# --------------------------------------------------------------------------
+# Plan figure (Figure 1)
+# --------------------------------------------------------------------------
+def _fence(world: np.ndarray, d: np.ndarray, extent: float):
+    """The fence before a push along ``d``: the part's support line on its
+    trailing side (normal ``-d``).  Returns (segment (2, 2), contact centre)."""
+    s = world @ d
+    smin = float(s.min())
+    touching = world[s - smin <= 1e-9 * max(extent, 1e-12)]
+    centre = touching.mean(axis=0)
+    perp = np.array([-d[1], d[0]])
+    t = (world - centre) @ perp
+    pad = 0.25 * extent
+    lo, hi = float(t.min()) - pad, float(t.max()) + pad
+    return np.stack([centre + lo * perp, centre + hi * perp]), centre
+
+
+def plot_plan(plan: PushPlan, path, title: Optional[str] = None, name: Optional[str] = None,
+              dpi: int = 150) -> None:
+    """Draw a pose plan (the paper's Figure 1) and save it to ``path``.
+
+    The part's outline (its convex hull) is drawn at the start (blue, pose 0),
+    after every push (grey, numbered 1, 2, ...), and at the goal (green, the
+    last pose); the black dot is the centre of mass and the thick side of
+    every outline is the edge the plan's reorient pushes land.  For push ``i``
+    the fence is drawn where it first touches the part, i.e. the part's
+    support line on the trailing side at the pose before the push, and the
+    arrow from the contact along the push direction is as long as the push,
+    so its tip lies on the fence's final position.
+
+    Args:
+      plan: a :class:`~planning.push_plan.PushPlan`.
+      path: PNG (or any matplotlib format) to write.
+      title: optional title; default: part class, plan class, pushes, distance.
+      name: the part's name, put in front of the default title.
+      dpi: resolution.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", pg.PartWarning)
+        poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    body = poly.body
+    hull = poly.hull_index
+    extent = float(np.max(np.linalg.norm(body[:, None] - body[None], axis=-1)))
+    poses = [np.asarray(plan.start, float)] + [np.asarray(p.pose_after, float) for p in plan.pushes]
+    mark = plan.reorient_edge or (plan.pushes[0].edge if plan.pushes else None)
+    mark_idx = None
+    if mark is not None:
+        a, b = hull.index(mark[0]), hull.index(mark[1])
+        mark_idx = (a, b)
+
+    fig, ax = plt.subplots(figsize=(9.5, 7.0))
+    handles = []
+    extra_pts = []  # fence ends and arrow tips, for the axis limits
+    last = len(poses) - 1
+    for i, pose in enumerate(poses):
+        w = _world(body, pose)
+        if i == 0:
+            fc, ec, alpha, z, lw = START_COLOR, START_COLOR, 0.35, 4, 1.6
+        elif i == last:
+            fc, ec, alpha, z, lw = GOAL_COLOR, GOAL_COLOR, 0.35, 4, 1.6
+        else:
+            fc, ec, alpha, z, lw = MID_COLOR, MID_COLOR, 0.10, 3, 1.0
+        ax.add_patch(PolyPatch(w, closed=True, facecolor=fc, alpha=alpha, edgecolor="none", zorder=z))
+        ax.add_patch(PolyPatch(w, closed=True, fill=False, edgecolor=ec, lw=lw, zorder=z + 0.1))
+        if mark_idx is not None:
+            ax.plot(w[list(mark_idx), 0], w[list(mark_idx), 1], color=ec, lw=lw + 2.2,
+                    solid_capstyle="butt", zorder=z + 0.2)
+        ax.plot(pose[0], pose[1], "o", color="k", ms=2.5, zorder=6)
+        ax.annotate(str(i), (pose[0], pose[1]), xytext=(4, 4), textcoords="offset points",
+                    fontsize=9, color=ec if i in (0, last) else "0.25", zorder=7,
+                    fontweight="bold" if i in (0, last) else "normal")
+
+    for i, push in enumerate(plan.pushes):
+        d = np.asarray(push.direction, float)
+        d = d / np.linalg.norm(d)
+        w = _world(body, poses[i])
+        seg, c0 = _fence(w, d, extent)
+        col = PUSH_COLORS[i % len(PUSH_COLORS)]
+        extra_pts += [seg, (c0 + push.distance * d)[None]]
+        ax.plot(seg[:, 0], seg[:, 1], color=col, lw=3.2, solid_capstyle="butt", zorder=5)
+        # hatch marks on the fence's back side
+        back = -d * 0.06 * extent
+        for t in np.linspace(0.0, 1.0, 7):
+            p = seg[0] + t * (seg[1] - seg[0])
+            ax.plot([p[0], p[0] + back[0]], [p[1], p[1] + back[1]], color=col, lw=1.0, zorder=5)
+        ax.annotate("", xy=c0 + push.distance * d, xytext=c0,
+                    arrowprops=dict(arrowstyle="-|>", color=col, lw=1.3, shrinkA=0, shrinkB=0,
+                                    mutation_scale=12, alpha=0.85), zorder=5)
+        label = f"push {i + 1}: {push.kind} {push.distance * 1000:.4g} mm"
+        if push.kind == "reorient":
+            label += f", pivot {push.contact_vertex}"
+        label += f" -> edge {list(push.edge)}"
+        handles.append(Line2D([], [], color=col, lw=3, label=label))
+
+    pts = np.concatenate([_world(body, p) for p in poses] + extra_pts)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.08 * max(float(np.max(hi - lo)), extent) + 0.3 * extent
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.grid(True, lw=0.4, alpha=0.5)
+    head = [Patch(facecolor=START_COLOR, alpha=0.5, label=f"start (pose 0) {_fmt_pose(plan.start)}")]
+    if last > 1:
+        head.append(Patch(facecolor=MID_COLOR, alpha=0.25, label="after push i (pose i)"))
+    head.append(Patch(facecolor=GOAL_COLOR, alpha=0.5, label=f"goal (pose {last}) {_fmt_pose(plan.goal)}"))
+    if mark is not None:
+        head.append(Line2D([], [], color="k", lw=3.5, label=f"edge {list(mark)} (thick side)"))
+    ax.legend(handles=head + handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
+              frameon=False, title="fence at the start of each push; arrow = push distance",
+              title_fontsize=8)
+    if title is None:
+        pushes = f"{plan.n_pushes} push{'es' if plan.n_pushes != 1 else ''}"
+        title = (f"{name + ': ' if name else ''}{plan.object_class} part, {plan.plan_class} plan: "
+                 f"{pushes} ({plan.n_reorients} reorient), total {plan.total_distance:.4g} m")
+    ax.set_title(title, fontsize=11)
+    fig.savefig(path, dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
+
+
+def _fmt_pose(p) -> str:
+    return f"({p[0]:.3g} m, {p[1]:.3g} m, {math.degrees(p[2]):.1f}°)"
+
+
+# --------------------------------------------------------------------------
+# Push stability diagram (Figure 6, normal pushes)
+# --------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class PushStability:
+    """Data of the push stability diagram for normal pushes.
+
+    Orientation convention: the fence lies along the world x axis below the
+    part and moves in +y; ``theta`` is the part's orientation (body frame
+    rotated by ``theta``, rad, CCW).  Hull edge ``e`` is flush with the fence
+    at ``theta = -pi/2 - nu[e]``.  A CW reorient (``theta`` decreasing) lands
+    edge ``e`` from ``theta_e + alpha``, a CCW one from ``theta_e - alpha``.
+
+    Attributes:
+      part: the prepared part.
+      theta: (N,) grid of orientations in [0, 2 pi), rad.
+      final_edge: (N,) hull index of the stable edge a long push ends on, -1
+        where it does not end on one (only at divergent orientations).
+      radius: (N,) distance from the centre of mass to the fence, m.
+      edge_theta: (n,) orientation at which each hull edge lies flush, rad in [0, 2 pi).
+      divergent: orientations (rad in [0, 2 pi)) with the centre of mass straight
+        above the touching vertex, and that vertex's hull index.
+    """
+
+    part: PushPart
+    theta: np.ndarray
+    final_edge: np.ndarray
+    radius: np.ndarray
+    edge_theta: np.ndarray
+    divergent: tuple[tuple[float, int], ...]
+
+    def caller_edge(self, e: int) -> tuple[int, int]:
+        """Caller vertex-index pair of hull edge ``e``."""
+        return self.part.polygon.edge_vertices(int(e))
+
+
+@jax.jit
+def _final_edges(geom, thetas, distance):
+    def one(th):
+        pose = jnp.stack([jnp.zeros_like(th), jnp.zeros_like(th), th])
+        return replay_push(geom, pose, jnp.array([0.0, 1.0], dtype=thetas.dtype), distance).edge
+    return jax.vmap(one)(thetas)
+
+
+def _as_part(part_or_vertices, margin_deg: float, com) -> tuple[PushPart, str]:
+    if isinstance(part_or_vertices, PushPart):
+        return part_or_vertices, ""
+    name = ""
+    vertices = part_or_vertices
+    if hasattr(part_or_vertices, "vertices") and hasattr(part_or_vertices, "kind"):  # PartFile
+        if part_or_vertices.kind != "polygon":
+            raise ValueError(f"kind: the push stability diagram needs a polygon part, got "
+                             f"{part_or_vertices.kind!r}")
+        name = part_or_vertices.name
+        vertices = part_or_vertices.vertices
+        com = part_or_vertices.com if com is None else com
+    elif hasattr(part_or_vertices, "vertices") and hasattr(part_or_vertices, "com"):  # Polygon
+        vertices, com = part_or_vertices.vertices, part_or_vertices.com if com is None else com
+    return prepare_part(np.asarray(vertices, dtype=float), com, margin_deg), name
+
+
+def push_stability(part_or_vertices, margin_deg: float = 7.0, com=None,
+                   n_grid: int = 3600) -> PushStability:
+    """Compute the push stability data of a polygonal part for normal pushes.
+
+    Every orientation of an ``n_grid`` grid is pushed by a long normal push
+    (1000 part radii, far beyond every Peshkin distance away from the
+    divergent orientations themselves) with the exact replay
+    :func:`kernels.push.replay_push`, vmapped.
+
+    Args:
+      part_or_vertices: a :class:`~planning.pose_planner.PushPart`, a
+        :class:`~planning.partfile.PartFile`, a :class:`kernels.polygon.Polygon`
+        or an (m, 2) vertex array (metres).
+      margin_deg: margin angle (degrees) for the step angles (ignored for a PushPart).
+      com: centre of mass (m), default the file's or the area centroid.
+      n_grid: number of orientations.
+    """
+    part, _ = _as_part(part_or_vertices, margin_deg, com)
+    return _stability(part, n_grid)
+
+
+def _stability(part: PushPart, n_grid: int) -> PushStability:
+    geom = part.geom
+    theta = np.arange(n_grid) * (2 * math.pi / n_grid)
+    radius_len = float(geom.radius)
+    final = np.asarray(_final_edges(geom, jnp.asarray(theta), jnp.asarray(1000.0 * radius_len)))
+    body = part.body
+    # distance from the centre of mass to the fence: support of the part in direction -y
+    c, s = np.cos(theta), np.sin(theta)
+    rad = np.max(-(s[:, None] * body[None, :, 0] + c[:, None] * body[None, :, 1]), axis=1)
+    edge_theta = np.mod(-0.5 * math.pi - part.nu, 2 * math.pi)
+    div = []
+    for k, v in enumerate(body):
+        if np.all(body @ v <= v @ v * (1 + 1e-12)):  # vertex k is the support point along v_k
+            div.append((float(np.mod(-0.5 * math.pi - math.atan2(v[1], v[0]), 2 * math.pi)), k))
+    return PushStability(part=part, theta=theta, final_edge=final, radius=rad,
+                         edge_theta=edge_theta, divergent=tuple(sorted(div)))
+
+
+def _runs(values: np.ndarray):
+    """Contiguous runs (start index, stop index, value) of a 1-D array."""
+    change = np.flatnonzero(np.diff(values)) + 1
+    starts = np.concatenate([[0], change])
+    stops = np.concatenate([change, [len(values)]])
+    return [(int(a), int(b), int(values[a])) for a, b in zip(starts, stops)]
+
+
+def _span(ax, a: float, b: float, y: float, color, lw: float, tick: float, alpha=1.0):
+    """Horizontal bracket from a to b degrees (a < b, may leave [0, 360]) at height
+    y, wrapped into [0, 360], with end ticks at its true ends only."""
+    pieces = []
+    lo, hi = a, b
+    while lo < 0:
+        lo += 360.0
+        hi += 360.0
+    if hi <= 360.0:
+        pieces.append((lo, hi))
+    else:
+        pieces += [(lo, 360.0), (0.0, hi - 360.0)]
+    for p, q in pieces:
+        ax.plot([p, q], [y, y], color=color, lw=lw, solid_capstyle="butt", alpha=alpha)
+    for x in (lo % 360.0 if lo != 360.0 else 360.0, hi - 360.0 if hi > 360.0 else hi):
+        ax.plot([x, x], [y - tick, y + tick], color=color, lw=1.2, alpha=alpha)
+
+
+def plot_psd(part_or_vertices, path, margin_deg: float = 7.0, com=None, title: Optional[str] = None,
+             name: Optional[str] = None, n_grid: int = 3600, dpi: int = 150) -> PushStability:
+    """Draw the push stability diagram for normal pushes and save it to ``path``.
+
+    Horizontal axis: the part's orientation relative to the fence, 0..360
+    degrees (fence along x below the part, pushing in +y; see
+    :class:`PushStability`).  Top panel: the distance from the centre of mass
+    to the fence (its local minima are the stable edges), over colour bands
+    showing on which stable edge a long normal push from each orientation
+    ends (capture ranges, from the exact replay); convergent orientations
+    (stable edges flush) as double lines, divergent ones (centre of mass above
+    the touching vertex) as single bold lines, unstable edges flush as dotted
+    lines.  Bottom panel, one row per stable edge: the maximum CW and CCW
+    reorient angles (light brackets) and the step angles after the margin
+    (dark brackets).  Edges are labelled by caller vertex-index pairs.
+
+    Args:
+      part_or_vertices: as :func:`push_stability`.
+      path: file to write.
+      margin_deg, com, n_grid: as :func:`push_stability`.
+      title: optional title.
+      name: the part's name for the default title (default: a PartFile's name).
+
+    Returns:
+      The :class:`PushStability` data drawn.
+    """
+    part, file_name = _as_part(part_or_vertices, margin_deg, com)
+    name = name or file_name
+    data = _stability(part, n_grid)
+    deg = np.degrees(data.theta)
+    stable = sorted(part.stable, key=lambda e: data.caller_edge(e))
+    palette = plt.get_cmap("tab10") if len(stable) <= 10 else plt.get_cmap("tab20")
+    color = {e: palette(i % palette.N) for i, e in enumerate(stable)}
+
+    fig, (ax, bx) = plt.subplots(2, 1, figsize=(11, 6.8), sharex=True,
+                                 gridspec_kw=dict(height_ratios=[2.2, 0.45 + 0.45 * len(stable)],
+                                                  hspace=0.08))
+    step = 360.0 / len(deg)
+    for a, b, e in _runs(data.final_edge):
+        fc = color.get(e, "0.6")
+        ax.axvspan(deg[a] - 0.5 * step, deg[b - 1] + 0.5 * step, color=fc, alpha=0.22, lw=0)
+        bx.axvspan(deg[a] - 0.5 * step, deg[b - 1] + 0.5 * step, color=fc, alpha=0.10, lw=0)
+    ax.plot(deg, data.radius * 1000.0, color="k", lw=1.3)
+    rmin, rmax = float(data.radius.min()) * 1000, float(data.radius.max()) * 1000
+    span = rmax - rmin
+    ax.set_ylim(rmin - 0.08 * span, rmax + 0.22 * span)
+    label_y = rmax + 0.12 * span
+    for e in range(part.n):
+        x = float(np.degrees(data.edge_theta[e]))
+        pair = list(data.caller_edge(e))
+        xs = _at_both_ends(x)
+        ha = "left" if x < 6 else ("right" if x > 354 else "center")
+        if e in color:
+            for a_ in (ax, bx):
+                for xx in xs:
+                    a_.axvline(xx, color=color[e], lw=4.2, zorder=3)
+                    a_.axvline(xx, color="white", lw=1.4, zorder=3.1)
+            ax.text(x + (1.5 if ha == "left" else -1.5 if ha == "right" else 0), label_y, f"{pair}",
+                    ha=ha, va="center", fontsize=9, color=color[e], fontweight="bold",
+                    bbox=dict(facecolor="white", edgecolor="none", pad=0.5), zorder=4)
+        else:
+            for xx in xs:
+                ax.axvline(xx, color="0.35", lw=1.0, ls=":", zorder=2)
+            ax.text(x, rmin - 0.04 * span, f"{pair}", ha=ha, va="center", fontsize=7,
+                    color="0.3", bbox=dict(facecolor="white", edgecolor="none", pad=0.3))
+    for x, k in data.divergent:
+        for a_ in (ax, bx):
+            for xx in _at_both_ends(math.degrees(x)):
+                a_.axvline(xx, color="k", lw=2.2, zorder=3)
+        ax.text(math.degrees(x), rmax + 0.04 * span, f"v{part.polygon.hull_index[k]}", ha="left",
+                va="bottom", fontsize=7, color="k")
+    ax.set_ylabel("centre of mass to fence [mm]")
+    ax.set_xlim(0, 360)
+
+    # reorient brackets
+    nrow = len(stable)
+    for r, e in enumerate(stable):
+        y = nrow - 1 - r
+        x = float(np.degrees(data.edge_theta[e]))
+        mx_cw, mx_ccw = np.degrees(part.max_reorient[e])
+        st_cw, st_ccw = np.degrees(part.step[e])
+        col = color[e]
+        _span(bx, x, x + mx_cw, y + 0.14, col, 5.0, 0.13, alpha=0.45)
+        _span(bx, x - mx_ccw, x, y + 0.14, col, 5.0, 0.13, alpha=0.45)
+        _span(bx, x, x + st_cw, y - 0.14, col, 2.0, 0.09)
+        _span(bx, x - st_ccw, x, y - 0.14, col, 2.0, 0.09)
+        # labels centred on their brackets: CW above, CCW below
+        bx.text(_wrap_deg(x + 0.5 * mx_cw), y + 0.36, f"CW {mx_cw:.1f}° (step {st_cw:.1f}°)",
+                fontsize=7, ha="center", va="center", color=col, zorder=5,
+                bbox=dict(facecolor="white", edgecolor="none", alpha=0.8, pad=0.2))
+        bx.text(_wrap_deg(x - 0.5 * mx_ccw), y - 0.36, f"CCW {mx_ccw:.1f}° (step {st_ccw:.1f}°)",
+                fontsize=7, ha="center", va="center", color=col, zorder=5,
+                bbox=dict(facecolor="white", edgecolor="none", alpha=0.8, pad=0.2))
+    bx.set_ylim(-0.6, nrow - 0.4)
+    bx.set_yticks(range(nrow))
+    bx.set_yticklabels([f"edge {list(data.caller_edge(e))}" for e in reversed(stable)], fontsize=8)
+    bx.set_xlabel("orientation of the part relative to the fence [deg] "
+                  "(fence along x below the part, pushing +y; CW turns go left)")
+    bx.set_xticks(np.arange(0, 361, 30))
+
+    handles = [Patch(facecolor=color[e], alpha=0.35, label=f"ends on edge {list(data.caller_edge(e))}")
+               for e in stable]
+    if np.any(data.final_edge < 0):
+        handles.append(Patch(facecolor="0.6", alpha=0.35, label="ends on a vertex"))
+    handles += [Line2D([], [], color="0.5", lw=4.2, label="convergent (stable edge)"),
+                Line2D([], [], color="k", lw=2.2, label="divergent (vertex)"),
+                Line2D([], [], color="0.35", lw=1.0, ls=":", label="unstable edge flush"),
+                Line2D([], [], color="0.5", lw=5, alpha=0.45, label="max reorient angle"),
+                Line2D([], [], color="0.5", lw=2,
+                       label=f"step angle (margin {math.degrees(part.margin):.3g}°)")]
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    if title is None:
+        title = (f"Push stability diagram, normal pushes{': ' + name if name else ''} "
+                 f"({part.class_name}, {len(stable)} stable edge{'s' if len(stable) != 1 else ''})")
+    ax.set_title(title, fontsize=11)
+    fig.savefig(path, dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
+    return data
+
+
+def _wrap_deg(x: float) -> float:
+    return x % 360.0
+
+
+def _at_both_ends(x: float, tol: float = 1.0) -> list:
+    """``x`` (deg), repeated at the other end of the 0..360 axis when it sits on one."""
+    if x < tol:
+        return [x, x + 360.0]
+    if x > 360.0 - tol:
+        return [x, x - 360.0]
+    return [x]
