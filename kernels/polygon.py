@@ -246,7 +246,7 @@ def polygon_geometry(body) -> PolygonGeometry:
     body = jnp.asarray(body)
     nxt = jnp.roll(body, -1, axis=0)
     e = nxt - body
-    nu = jnp.arctan2(-e[:, 0], e[:, 1])  # outward normal (ey, -ex) of a CCW polygon
+    nu = wrap_angle(jnp.arctan2(-e[:, 0], e[:, 1]))  # outward normal (ey, -ex), in (-pi, pi]
     exterior = mod_2pi(nu - jnp.roll(nu, 1))
     foot = jnp.sum(-body * e, axis=1) / jnp.sum(e * e, axis=1)
     height = cross2(e, -body) / jnp.linalg.norm(e, axis=1)

@@ -99,6 +99,8 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance) -> PushOutcome
         divergent = sigma == 0
         target = jnp.where(sigma < 0, k, (k - 1) % n)
         delta = jnp.where(sigma < 0, mod_2pi(geom.nu[target] - phi0), mod_2pi(phi0 - geom.nu[target]))
+        # a normal cone is narrower than pi: a wrap past 2 pi is the target a rounding error behind
+        delta = jnp.where(delta > jnp.pi, 0.0, delta)
         beta_a = jnp.arctan2(jnp.abs(cr), jnp.dot(u, v))
         beta_b = beta_a + delta
         c = jnp.linalg.norm(v)
@@ -106,7 +108,8 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance) -> PushOutcome
         safe_a = jnp.where(divergent, 1.0, beta_a)
         s_need = kk * (jnp.log(jnp.tan(0.5 * beta_b)) - jnp.log(jnp.tan(0.5 * safe_a)))
         s_need = jnp.where(divergent, jnp.inf, s_need)
-        full = s_rem >= s_need
+        # a push of exactly the needed distance completes (relative rounding slack)
+        full = s_rem >= s_need * (1.0 - 64.0 * jnp.finfo(dtype).eps)
         partial_rot = 2.0 * jnp.arctan(jnp.tan(0.5 * safe_a) * jnp.exp(s_rem / kk)) - safe_a
         rot = jnp.where(full, delta, jnp.where(divergent, 0.0, partial_rot))
         s_used = jnp.where(full, s_need, s_rem)

@@ -257,6 +257,8 @@ def solve_cvxpy(angles, mask, merged, target, objective="distance", paper_form=T
     norm_t = float(np.hypot(*target))
     if norm_t <= ZERO_TARGET:
         return LPSolution(True, 0.0, 0, np.zeros(k))
+    if len(idx) == 0:
+        return LPSolution(False, math.inf, 0, np.zeros(k))
     cols = np.stack([np.cos(angles[idx]), np.sin(angles[idx])])
     if paper_form:
         t_hat = target / norm_t
@@ -278,10 +280,14 @@ def solve_cvxpy(angles, mask, merged, target, objective="distance", paper_form=T
     if objective != "pushes":
         raise ValueError(f"objective: expected 'distance' or 'pushes', got {objective!r}")
     free = merged[idx]
+    if not solve_closed_form(angles, mask, merged, target, "distance").feasible:
+        return LPSolution(False, math.inf, 0, np.zeros(k))
     z = cp.Variable(len(idx), boolean=True)
-    # weights of the lexicographic optimum are bounded well inside 100x the
-    # distance optimum on any sane instance; big-M must not cut it off.
-    big_m = 100.0 * solve_closed_form(angles, mask, merged, target, "distance").cost + norm_t
+    # big-M: the lexicographic optimum is a basic solution of its support (at most two
+    # columns a, b), whose weights are at most |T''| / |sin(angle_a - angle_b)|.
+    diff = np.abs(np.sin(angles[idx][:, None] - angles[idx][None, :]))
+    diff = diff[diff > DET_EPS]
+    big_m = 1.01 * norm_t / (diff.min() if diff.size else 1.0) + norm_t
     link = [x[i] <= big_m * z[i] for i in range(len(idx)) if not free[i]]
     count = cp.sum(cp.hstack([z[i] for i in range(len(idx)) if not free[i]])) if (~free).any() else 0
     prob = cp.Problem(cp.Minimize(count), cons + link)

@@ -145,11 +145,12 @@ def prepare_part(vertices, com=None, margin_deg: float = 7.0, safety_factor: flo
     Args:
       vertices: (m, 2) part vertices (m), any order (non-convex: hull, with a warning).
       com: optional centre of mass (m), default the area centroid.
-      margin_deg: margin angle in degrees, 0 <= margin < 90.
+      margin_deg: margin angle in degrees, 0 < margin < 90.
       safety_factor: multiplier of the Peshkin distance, >= 1.
     """
-    margin_deg = _check_number(margin_deg, "margin_deg", 0.0, 90.0,
-                               hint="; the paper uses 7 degrees")
+    margin_deg = _check_number(margin_deg, "margin_deg", 0.0, 90.0, lo_open=True,
+                               hint="; at zero a reorient from the divergent orientation needs an "
+                                    "infinite push (the paper uses 7 degrees)")
     safety_factor = _check_number(safety_factor, "safety_factor", 1.0,
                                   hint="; below 1 the Peshkin guarantee is lost (paper: 1.15)")
     v = pg._as_points(vertices, "vertices", 2)

@@ -1,0 +1,492 @@
+"""The Akella-Mason pose planner: completeness on random parts of all three
+classes (every plan replayed by the independent numpy oracle), the batched
+planner against the single one, the cvxpy solver, plan classes, objectives,
+serialisation and input validation."""
+from __future__ import annotations
+
+import functools
+import json
+import math
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import event, given, settings, strategies as st
+
+from kernels import polygon as pg
+from planning import pose_lp
+from planning import pose_planner as pp
+from planning.push_plan import PLAN_CLASSES, Push, PushPlan
+from tests import strategies as S
+from tests.oracles import push_numpy as oracle
+
+POS_TOL = 1e-9
+ANG_TOL = 1e-9
+CLASS_NAMES = {S.UNI: "uni-stable", S.BIPLUS: "biplus-stable", S.NICE: "nice-stable"}
+
+
+def _pose_err(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return float(np.hypot(*(a[:2] - b[:2]))), abs(oracle.wrap(float(a[2] - b[2])))
+
+
+def _rot(t):
+    c, s = math.cos(t), math.sin(t)
+    return np.array([[c, -s], [s, c]])
+
+
+def _plan(vertices, start, goal, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", pg.PartWarning)
+        return pp.plan_pose(vertices, start, goal, **kw)
+
+
+def check_plan(plan: PushPlan, vertices, com, start, goal, margin_deg=7.0, safety=1.15):
+    """Replay ``plan`` with the numpy oracle and check every claim it makes."""
+    body, hidx, _ = oracle.body_from_part(vertices, com)
+    n = len(body)
+    stable = {(int(hidx[e]), int(hidx[(e + 1) % n])): e for e in oracle.stable_edges(body)}
+    margin = math.radians(margin_deg)
+    p = np.asarray(start, float)
+    senses = []
+    for i, push in enumerate(plan.pushes):
+        d = np.asarray(push.direction, float)
+        assert abs(math.hypot(*d) - 1.0) < 1e-12, (i, push)
+        assert push.distance > 0.0, (i, push)
+        assert tuple(push.edge) in stable, (i, push.edge, sorted(stable))  # a stable edge, CCW order
+        e = stable[tuple(push.edge)]
+        o = oracle.replay_push(body, p, d, push.distance)
+        assert o.complete and o.edge == e, (i, push, o)
+        pe, ae = _pose_err(o.pose, push.pose_after)
+        assert pe < POS_TOL and ae < ANG_TOL, (i, pe, ae)
+        if push.kind == "translate":
+            assert push.contact_vertex is None and push.min_distance is None
+            assert abs(o.rotation) < 1e-12 and o.landings <= 1
+        else:
+            assert push.kind == "reorient"
+            assert push.min_distance > 0.0 and push.distance >= push.min_distance, (i, push)
+            W = body @ _rot(p[2]).T + p[:2]
+            piv = int(np.argmin(W @ d))
+            assert int(hidx[piv]) == push.contact_vertex, (i, push)
+            assert o.rotation != 0.0
+            sense = pg.CCW if o.rotation > 0 else pg.CW
+            assert push.contact_vertex == push.edge[0 if sense == pg.CW else 1]
+            # the rotation stays within the step angle (maximum reorient angle less the margin)
+            ed = body[(e + 1) % n] - body[e]
+            u_out = np.array([ed[1], -ed[0]]) / math.hypot(*ed)
+            v = body[piv]
+            align = math.atan2(abs(u_out[0] * v[1] - u_out[1] * v[0]), float(u_out @ v))
+            e1, e2 = body[piv] - body[piv - 1], body[(piv + 1) % n] - body[piv]
+            ext = math.atan2(e1[0] * e2[1] - e1[1] * e2[0], float(e1 @ e2))
+            mx = min(align, ext)
+            assert abs(o.rotation) <= mx - min(margin, 0.5 * mx) + 1e-9, (i, o.rotation, mx)
+            # min_distance is the Peshkin distance of this very rotation, times the safety factor
+            rc = p[:2] - W[piv]
+            beta1 = math.atan2(abs(d[0] * rc[1] - d[1] * rc[0]), float(d @ rc))
+            want = safety * oracle.peshkin_distance(body, piv, beta1, beta1 + abs(o.rotation))
+            assert push.min_distance == pytest.approx(want, rel=1e-8, abs=1e-15), (i, push)
+            senses.append(sense)
+            assert tuple(push.edge) == tuple(plan.reorient_edge)
+        p = o.pose
+    pe, ae = _pose_err(p, goal)
+    assert pe < POS_TOL and ae < ANG_TOL, (pe, ae)
+    assert plan.final_error[0] < POS_TOL and plan.final_error[1] < ANG_TOL
+    # the plan class says which way the reorient pushes turn
+    cls = plan.plan_class
+    assert cls in PLAN_CLASSES
+    if cls == "translation":
+        assert senses == [] and plan.reorient_edge is None
+        assert abs(oracle.wrap(float(goal[2]) - float(start[2]))) <= 1e-12 + 1e-15
+    else:
+        main = pg.CW if cls.endswith("-cw") or cls == "cw" else pg.CCW
+        if cls.startswith("singular"):
+            assert len(senses) >= 2 and senses[0] == 1 - main and set(senses[1:]) == {main}
+        else:
+            assert len(senses) >= 1 and set(senses) == {main}
+    assert plan.total_distance == pytest.approx(sum(q.distance for q in plan.pushes), rel=1e-12, abs=1e-15)
+    if plan.objective == "pushes":
+        assert plan.objective_value == plan.n_pushes
+    else:
+        assert plan.objective_value == pytest.approx(plan.total_distance, rel=1e-12, abs=1e-15)
+    assert plan.object_class == CLASS_NAMES[oracle.object_class(body)]
+    assert plan.n_reorients == len(senses)
+    np.testing.assert_allclose(plan.start, start, atol=0)
+    np.testing.assert_allclose(plan.goal, goal, atol=0)
+
+
+# --------------------------------------------------------------------------
+# completeness (the paper's appendix), one property test per object class
+# --------------------------------------------------------------------------
+@pytest.mark.parametrize("relation", S.RELATIONS)
+@pytest.mark.parametrize("cls", [S.UNI, S.BIPLUS, S.NICE], ids=["uni", "biplus", "nice"])
+@settings(derandomize=True, deadline=None, max_examples=12)
+@given(data=st.data())
+def test_completeness(cls, relation, data):
+    """Every (class, orientation relation) pair gets its own examples, so each
+    class and each relation (random / equal / exactly pi apart / tiny) is hit."""
+    pts, com = data.draw(S.parts_of_class(cls), label="part")
+    start, goal, rel = data.draw(S.start_goal(relation), label="start_goal")
+    assert rel == relation
+    plan = _plan(pts, start, goal, com=com)
+    event(f"plan class: {plan.plan_class}")
+    event(f"hull vertices: {len(oracle.body_from_part(pts, com)[0])}")
+    assert plan.object_class == CLASS_NAMES[cls]
+    check_plan(plan, pts, com, start, goal)
+
+
+@settings(derandomize=True, deadline=None, max_examples=15)
+@given(S.any_class_parts(), S.start_goal(),
+       st.floats(0.5, 30.0), st.floats(1.0, 2.0))
+def test_completeness_other_settings(part, sg, margin_deg, safety):
+    pts, com = part
+    start, goal, _ = sg
+    safety = max(safety, 1.001)  # exactly 1.0: see test_safety_factor_one
+    plan = _plan(pts, start, goal, com=com, margin_deg=margin_deg, safety_factor=safety)
+    assert plan.margin_deg == margin_deg and plan.safety_factor == safety
+    check_plan(plan, pts, com, start, goal, margin_deg=margin_deg, safety=safety)
+
+
+# --------------------------------------------------------------------------
+# three fixed parts (one per class) and a few hundred start/goal pairs
+# --------------------------------------------------------------------------
+@functools.lru_cache(maxsize=None)
+def _fixed_parts():
+    rng = np.random.default_rng(11)
+    uni = S.numpy_uni_stable_part(rng, n=5)
+    biplus = S.numpy_random_part(rng, cls=S.BIPLUS)
+    nice = S.numpy_random_part(rng, cls=S.NICE)
+    return {"uni": uni, "biplus": biplus, "nice": nice}
+
+
+@functools.lru_cache(maxsize=None)
+def _pairs(count=160):
+    rng = np.random.default_rng(12)
+    starts = np.c_[rng.uniform(-0.5, 0.5, (count, 2)), rng.uniform(-math.pi, math.pi, count)]
+    goals = np.c_[rng.uniform(-0.5, 0.5, (count, 2)), rng.uniform(-math.pi, math.pi, count)]
+    k = count // 8
+    goals[:k, 2] = starts[:k, 2]                                               # equal orientations
+    goals[k:2 * k, 2] = [oracle.wrap(t + math.pi) for t in starts[k:2 * k, 2]]  # opposite
+    goals[2 * k:3 * k, 2] = [oracle.wrap(t + s * 1e-7) for t, s in
+                             zip(starts[2 * k:3 * k, 2], rng.choice([-1, 1], k))]  # tiny
+    goals[3 * k:3 * k + 4, :2] = starts[3 * k:3 * k + 4, :2]                   # no translation
+    goals[3 * k, 2] = starts[3 * k, 2]                                          # nothing to do
+    return starts, goals
+
+
+@functools.lru_cache(maxsize=None)
+def _single_plans(name, objective):
+    pts, com = _fixed_parts()[name]
+    starts, goals = _pairs()
+    return [_plan(pts, s, g, com=com, objective=objective) for s, g in zip(starts, goals)]
+
+
+@pytest.mark.parametrize("objective", ["distance", "pushes"])
+@pytest.mark.parametrize("name", ["uni", "biplus", "nice"])
+def test_batch_agrees_with_single(name, objective):
+    pts, com = _fixed_parts()[name]
+    starts, goals = _pairs()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", pg.PartWarning)
+        batch = pp.plan_pose_batch(pts, starts, goals, com=com, objective=objective, chunk=64)
+    singles = _single_plans(name, objective)
+    assert len(batch) == len(starts)
+    assert np.all(batch.ok)
+    for b, single in enumerate(singles):
+        got = batch.plan(b)
+        ctx = (name, objective, b)
+        assert got.plan_class == single.plan_class, ctx
+        assert got.reorient_edge == single.reorient_edge, ctx
+        assert got.n_pushes == single.n_pushes, ctx
+        for q, r in zip(got.pushes, single.pushes):
+            assert (q.kind, q.edge, q.contact_vertex) == (r.kind, r.edge, r.contact_vertex), ctx
+            assert q.distance == pytest.approx(r.distance, abs=1e-9), ctx
+            np.testing.assert_allclose(q.direction, r.direction, atol=1e-12)
+            np.testing.assert_allclose(q.pose_after, r.pose_after, atol=1e-9)
+            if r.min_distance is not None:
+                assert q.min_distance == pytest.approx(r.min_distance, rel=1e-9, abs=1e-12), ctx
+        assert got.total_distance == pytest.approx(single.total_distance, abs=1e-9), ctx
+        assert float(batch.total_distance[b]) == pytest.approx(single.total_distance, abs=1e-9), ctx
+        assert got.objective_value == pytest.approx(single.objective_value, abs=1e-9), ctx
+        assert np.all(batch.final_error[b] < [POS_TOL, ANG_TOL]), ctx
+    # spot-check the batch's plans with the oracle too
+    for b in range(0, len(starts), 16):
+        check_plan(batch.plan(b), pts, com, starts[b], goals[b])
+
+
+@pytest.mark.parametrize("name", ["uni", "biplus", "nice"])
+def test_pushes_objective_is_fewer_pushes_longer_distance(name):
+    pts, com = _fixed_parts()[name]
+    starts, goals = _pairs()
+    fewer = 0
+    for b, (pd, pn) in enumerate(zip(_single_plans(name, "distance"), _single_plans(name, "pushes"))):
+        assert pn.n_pushes <= pd.n_pushes, b
+        assert pn.total_distance >= pd.total_distance * (1 - 1e-12) - 1e-15, b
+        assert pd.objective == "distance" and pn.objective == "pushes"
+        fewer += pn.n_pushes < pd.n_pushes
+        if b % 10 == 0:
+            check_plan(pn, pts, com, starts[b], goals[b])
+            check_plan(pd, pts, com, starts[b], goals[b])
+    assert fewer > 0  # the objectives differ somewhere
+
+
+@pytest.mark.parametrize("name", ["biplus", "nice"])
+def test_cvxpy_solver_gives_the_same_plans(name):
+    pts, com = _fixed_parts()[name]
+    starts, goals = _pairs()
+    for b in (5, 30, 47, 90, 150):
+        cf = _single_plans(name, "distance")[b]
+        ref = _plan(pts, starts[b], goals[b], com=com, solver="cvxpy")
+        assert ref.total_distance == pytest.approx(cf.total_distance, rel=1e-7)
+        assert ref.plan_class == cf.plan_class
+        check_plan(ref, pts, com, starts[b], goals[b])
+
+
+def test_cvxpy_solver_with_pushes_objective():
+    """plan_pose(objective="pushes", solver="cvxpy") must give the closed form's plan.
+
+    Fails today for any part where some candidate LP is infeasible (here the
+    uni-stable part): pose_lp.solve_cvxpy(objective="pushes") computes big-M
+    from the closed form's distance optimum, which is inf for an infeasible
+    candidate, and cvxpy raises ``ValueError: Problem data contains NaN or Inf``.
+    """
+    pts, com = _fixed_parts()["uni"]
+    starts, goals = _pairs()
+    b = 40
+    cf = _single_plans("uni", "pushes")[b]
+    ref = _plan(pts, starts[b], goals[b], com=com, objective="pushes", solver="cvxpy")
+    assert ref.n_pushes == cf.n_pushes
+    assert ref.total_distance == pytest.approx(cf.total_distance, rel=1e-6)
+
+
+# --------------------------------------------------------------------------
+# plan classes by construction
+# --------------------------------------------------------------------------
+def _inward(body, e, theta):
+    """World direction of a translation push on body edge e at orientation theta."""
+    n = len(body)
+    ed = body[(e + 1) % n] - body[e]
+    nu = math.atan2(-ed[0], ed[1])
+    return np.array([math.cos(theta + nu + math.pi), math.sin(theta + nu + math.pi)])
+
+
+def _brute_translation_cost(body, theta, T):
+    """Cheapest non-negative combination of the stable edges' push directions
+    reaching T (single columns and all pairs)."""
+    cols = [_inward(body, e, theta) for e in oracle.stable_edges(body)]
+    best = math.inf
+    nt = math.hypot(*T)
+    if nt == 0:
+        return 0.0
+    for c in cols:
+        if abs(c[0] * T[1] - c[1] * T[0]) < 1e-12 * nt and c @ T > 0:
+            best = min(best, nt)
+    for i in range(len(cols)):
+        for j in range(i + 1, len(cols)):
+            a = np.stack([cols[i], cols[j]], 1)
+            if abs(np.linalg.det(a)) < 1e-12:
+                continue
+            x = np.linalg.solve(a, T)
+            if np.all(x >= -1e-12):
+                best = min(best, float(x.sum()))
+    return best
+
+
+def test_translation_plans_for_a_nice_part():
+    """Equal orientations: a nice-stable part can always be translated; short
+    moves are translation plans (at most two pushes, the cheapest pair of
+    stable push directions); for long moves a full turn may be cheaper, but
+    never more expensive than the translation."""
+    pts, com = _fixed_parts()["nice"]
+    body = oracle.body_from_part(pts, com)[0]
+    size = float(np.max(np.hypot(*body.T)))
+    rng = np.random.default_rng(13)
+    n_translation = 0
+    for k in range(30):
+        theta = rng.uniform(-math.pi, math.pi)
+        start = np.array([rng.uniform(-1, 1), rng.uniform(-1, 1), theta])
+        short = k < 15
+        T = rng.normal(size=2) * (0.05 * size if short else 1.0) if k else np.zeros(2)
+        goal = np.r_[start[:2] + T, theta]
+        plan = _plan(pts, start, goal, com=com)
+        check_plan(plan, pts, com, start, goal)
+        brute = _brute_translation_cost(body, theta, T)
+        assert math.isfinite(brute)
+        assert plan.total_distance <= brute * (1 + 1e-9) + 1e-15
+        if short:
+            assert plan.plan_class == "translation" and plan.reorient_edge is None
+        if plan.plan_class == "translation":
+            n_translation += 1
+            assert all(q.kind == "translate" for q in plan.pushes)
+            assert plan.n_pushes <= 2
+            assert plan.total_distance == pytest.approx(brute, rel=1e-9, abs=1e-15)
+        if k == 0:
+            assert plan.n_pushes == 0 and plan.total_distance == 0.0
+    assert n_translation >= 15
+
+
+def test_uni_stable_translation_only_along_its_ray():
+    pts, com = _fixed_parts()["uni"]
+    body = oracle.body_from_part(pts, com)[0]
+    (e,) = oracle.stable_edges(body)
+    theta = 0.7
+    u = _inward(body, e, theta)
+    start = np.array([0.2, -0.1, theta])
+    # along the preimage ray: one translation push of exactly |T|
+    goal = np.r_[start[:2] + 0.4 * u, theta]
+    plan = _plan(pts, start, goal, com=com)
+    assert plan.plan_class == "translation" and plan.n_pushes == 1
+    assert plan.total_distance == pytest.approx(0.4, rel=1e-12)
+    check_plan(plan, pts, com, start, goal)
+    # anywhere else it has to turn all the way round
+    for T in (-0.4 * u, np.array([-u[1], u[0]]) * 0.3):
+        goal = np.r_[start[:2] + T, theta]
+        plan = _plan(pts, start, goal, com=com)
+        assert plan.plan_class != "translation"
+        check_plan(plan, pts, com, start, goal)
+        turn = 0.0
+        p = start
+        for q in plan.pushes:
+            o = oracle.replay_push(body, p, q.direction, q.distance)
+            turn += o.rotation
+            p = o.pose
+        assert abs(turn) == pytest.approx(2 * math.pi, abs=1e-9)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_uni_stable_singularity(seed):
+    """Orientations pi apart and a translation along the stable edge's push
+    direction (either way): neither the CW nor the CCW push directions
+    positively span the required translation, so the planner must use a
+    singularity handler (a reorient in the opposite sense first)."""
+    rng = np.random.default_rng(100 + seed)
+    pts, com = S.numpy_uni_stable_part(rng, n=int(rng.integers(4, 6)))
+    body = oracle.body_from_part(pts, com)[0]
+    (e,) = oracle.stable_edges(body)
+    theta0 = rng.uniform(-math.pi, math.pi)
+    u = _inward(body, e, theta0)
+    for L in (0.5, -0.5, 0.0):
+        start = np.array([0.1, 0.2, theta0])
+        goal = np.r_[start[:2] + L * u, oracle.wrap(theta0 + math.pi)]
+        plan = _plan(pts, start, goal, com=com)
+        assert plan.plan_class in ("singular-cw", "singular-ccw"), (L, plan.plan_class)
+        check_plan(plan, pts, com, start, goal)
+        # ...and indeed no regular candidate is feasible (reference LP solver)
+        part = pp.prepare_part(pts, com)
+        regular, _ = pp._candidates(part, float(start[2]), float(goal[2]))
+        assert regular
+        for cand in regular:
+            angles, merged, target, _, _ = pp._candidate_lp(part, cand, start, goal)
+            sol = pose_lp.solve_cvxpy(angles, np.ones(len(angles), bool), merged, target)
+            assert not sol.feasible, cand.plan_class
+
+
+# --------------------------------------------------------------------------
+# serialisation
+# --------------------------------------------------------------------------
+def test_plan_json_round_trip():
+    plans = []
+    for name in ("uni", "biplus", "nice"):
+        for objective in ("distance", "pushes"):
+            plans += _single_plans(name, objective)[::20]
+    pts, com = _fixed_parts()["uni"]
+    body = oracle.body_from_part(pts, com)[0]
+    (e,) = oracle.stable_edges(body)
+    u = _inward(body, e, 0.3)
+    plans.append(_plan(pts, [0, 0, 0.3], np.r_[0.5 * u, oracle.wrap(0.3 + math.pi)], com=com))
+    classes = {p.plan_class for p in plans}
+    assert {"translation", "cw", "ccw"} <= classes and classes & {"singular-cw", "singular-ccw"}
+    assert any(p.n_pushes == 0 for p in plans)
+    for p in plans:
+        d = json.loads(json.dumps(p.to_dict()))
+        q = PushPlan.from_dict(d)
+        assert q == p
+        assert q.to_dict() == d
+    bad = plans[0].to_dict()
+    bad["plan_class"] = "sideways"
+    with pytest.raises(ValueError, match="plan_class"):
+        PushPlan.from_dict(bad)
+    with pytest.raises(ValueError, match="kind"):
+        Push.from_dict({**plans[1].pushes[0].to_dict(), "kind": "shove"})
+
+
+# --------------------------------------------------------------------------
+# bad input
+# --------------------------------------------------------------------------
+SQUARE = [[0.0, 0.0], [0.04, 0.0], [0.04, 0.03], [0.0, 0.03]]
+GOOD = dict(vertices=SQUARE, start=[0.0, 0.0, 0.0], goal=[0.1, 0.2, 1.0])
+
+
+@pytest.mark.parametrize("change, exc, field", [
+    (dict(start=[0.0, float("nan"), 0.0]), ValueError, "start"),
+    (dict(start=[0.0, 0.0, float("inf")]), ValueError, "start"),
+    (dict(goal=[0.1, 0.2]), ValueError, "goal"),
+    (dict(goal=[0.1, 0.2, 0.3, 0.4]), ValueError, "goal"),
+    (dict(goal="north"), ValueError, "goal"),
+    (dict(margin_deg=-1.0), ValueError, "margin_deg"),
+    (dict(margin_deg=float("nan")), ValueError, "margin_deg"),
+    (dict(margin_deg=90.0), ValueError, "margin_deg"),
+    (dict(margin_deg=120.0), ValueError, "margin_deg"),
+    (dict(safety_factor=0.9), ValueError, "safety_factor"),
+    (dict(safety_factor=float("nan")), ValueError, "safety_factor"),
+    (dict(objective="time"), ValueError, "objective"),
+    (dict(solver="simplex"), ValueError, "solver"),
+    (dict(com=[1.0, 1.0]), pg.PartError, "com"),
+    (dict(com=[0.02, float("nan")]), pg.PartError, "com"),
+    (dict(com=[0.02]), pg.PartError, "com"),
+    (dict(vertices=[[0, 0], [1, 1], [2, 2]]), pg.PartError, "vertices"),
+    (dict(vertices=[[0, 0], [1, 0]]), pg.PartError, "vertices"),
+])
+def test_bad_input_names_the_field(change, exc, field):
+    kw = {**GOOD, **change}
+    with pytest.raises(exc, match=f"^{field}"):
+        pp.plan_pose(kw.pop("vertices"), kw.pop("start"), kw.pop("goal"), **kw)
+
+
+def test_batch_bad_input():
+    with pytest.raises(ValueError, match="objective"):
+        pp.plan_pose_batch(SQUARE, [[0, 0, 0]], [[1, 0, 0]], objective="time")
+    with pytest.raises(ValueError, match="starts/goals"):
+        pp.plan_pose_batch(SQUARE, [[0, 0, 0], [0, 0, 1]], [[1, 0, 0]])
+    with pytest.raises(ValueError, match="^starts"):
+        pp.plan_pose_batch(SQUARE, [[0, float("nan"), 0]], [[1, 0, 0]])
+
+
+def test_non_convex_part_warns_and_plans():
+    pts = [[0.0, 0.0], [0.05, 0.0], [0.03, 0.01], [0.05, 0.03], [0.0, 0.03]]  # 2 is a notch
+    start, goal = [0.0, 0.0, 0.2], [0.3, -0.1, -2.0]
+    with pytest.warns(pg.PartWarning, match=r"\[2\]"):
+        plan = pp.plan_pose(pts, start, goal)
+    check_plan(plan, pts, None, start, goal)
+    assert all(2 not in q.edge for q in plan.pushes)
+
+
+def test_safety_factor_one():
+    """safety_factor = 1 is allowed (>= 1) and must still give a valid plan.
+
+    Fails today: with the bare Peshkin distance the LP often leaves no extra
+    on a reorient push, and the replay needs a hair more than the planner's
+    m_i (rounding), so the reorient stops short and plan_pose raises
+    PlanningError ("push 0 ended on edge -1 instead of 2").
+    """
+    start, goal = [0.0, 0.0, 0.0], [0.1, 0.2, 2.5]
+    rect = [[-0.03, -0.01], [0.03, -0.01], [0.03, 0.01], [-0.03, 0.01]]
+    plan = pp.plan_pose(rect, start, goal, safety_factor=1.0)
+    check_plan(plan, rect, None, start, goal, safety=1.0)
+
+
+def test_margin_zero():
+    """margin_deg = 0 is accepted by validation; planning must then either work
+    or fail with a clear error naming margin_deg.
+
+    Fails today: for the rectangle the maximum reorient angle is the divergent
+    (alignment) angle, a full step reaches it, the Peshkin distance is
+    log(tan(0)) and _peshkin_np raises a bare ``ValueError: math domain error``.
+    """
+    rect = [[-0.03, -0.01], [0.03, -0.01], [0.03, 0.01], [-0.03, 0.01]]
+    start, goal = [0.0, 0.0, 0.0], [0.1, 0.2, 2.5]
+    try:
+        plan = pp.plan_pose(rect, start, goal, margin_deg=0.0)
+    except ValueError as exc:
+        assert str(exc).startswith("margin_deg"), str(exc)
+    else:
+        check_plan(plan, rect, None, start, goal, margin_deg=0.0)
