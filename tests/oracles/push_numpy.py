@@ -173,7 +173,7 @@ def replay_push(body, pose, direction, distance) -> Outcome:
         beta2 = beta1 + phi
         assert 0.0 < beta1 and beta2 < math.pi, (beta1, beta2)
         s_need = K * (math.log(math.tan(0.5 * beta2)) - math.log(math.tan(0.5 * beta1)))
-        if s < s_need:                 # the push ends mid-rotation
+        if s < s_need * (1 - 1e-13):   # the push ends mid-rotation (exactly s_need completes)
             rot = 2.0 * math.atan(math.tan(0.5 * beta1) * math.exp(s / K)) - beta1
             s_used, stop = s, True
         else:
