@@ -1,0 +1,310 @@
+"""Command line: plan tumbles that take a polyhedral part to a goal configuration.
+
+Usage::
+
+    python -m planning.tumble PART.yaml --goal X,Y,THETA,FACE --eps E
+        [--start X,Y,THETA,FACE] [--tau-v T] [--tau-g T] [--no-shorten]
+        [--json] [--plot FILE.png] [--development FILE.png]
+        [--lattice FILE.png] [--lattice-radius R]
+
+A configuration is ``x,y,theta,face`` (Marigo & Bicchi): ``face`` (a face
+number of :func:`kernels.polyhedron.make_polyhedron`, optionally written
+``F3``) lies on the plane, its frame at world ``(x, y)`` (metres) with
+heading ``theta`` (radians, or degrees with a ``deg`` suffix, e.g.
+``0.2,0,90deg,3``).  A configuration may start with a minus sign
+(``--goal -0.1,0,0,0``).  The start defaults to ``0,0,0,0``.  ``eps`` is the
+accuracy in the paper's metric (metres for the position, radians for the
+heading); ``--tau-v`` the tolerance on the vertex coordinates (m) and
+``--tau-g`` the tolerance of the rational approximation of the translation
+generators (default: the planner's choice from eps).
+
+``--development`` and ``--lattice`` alone (no ``--goal``) draw only the
+plane development (Fig. 3) and the reachable lattice (Fig. 2).
+
+Output: the plan's summary, or with ``--json`` the plan as JSON
+(:meth:`planning.tumble_plan.TumblePlan.to_dict`) and nothing else on stdout.
+Messages go to stderr.  Exit status: 0 solved, 1 not solvable (the plan is
+printed with its reason), 2 bad input (one line ``error: ...`` naming the
+field).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import re
+import sys
+import warnings
+from fractions import Fraction
+from typing import Optional, Sequence
+
+EXIT_OK, EXIT_NOT_SOLVABLE, EXIT_INPUT = 0, 1, 2
+
+_NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_THETA = re.compile(rf"^({_NUM})\s*(deg|rad)?$")
+_FACE = re.compile(r"^[Ff]?(\d+)$")
+
+
+class InputError(ValueError):
+    """Bad command-line input (exit status 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2, no usage dump
+        sys.stderr.write(f"error: {message} (see --help)\n")
+        sys.exit(EXIT_INPUT)
+
+
+def parse_config(text: str, field: str) -> tuple[float, float, float, int]:
+    """Parse ``x,y,theta,face`` (m, m, rad or ``...deg``, face number).
+
+    Raises:
+      InputError: the message names ``field`` and shows the expected form.
+    """
+    form = ("expected x,y,theta,face in metres, radians and a face number "
+            "(e.g. 0.2,-0.05,1.57,3 or 0.2,-0.05,90deg,3)")
+    parts = [p.strip() for p in str(text).split(",")]
+    if len(parts) != 4:
+        raise InputError(f"{field}: {form}, got {text!r} ({len(parts)} value"
+                         f"{'s' if len(parts) != 1 else ''})")
+    out: list = []
+    for name, p in zip(("x", "y"), parts[:2]):
+        if not re.fullmatch(_NUM, p):
+            raise InputError(f"{field}: {name} must be a number in metres, got {p!r}; {form}")
+        out.append(float(p))
+    m = _THETA.match(parts[2])
+    if not m:
+        raise InputError(f"{field}: theta must be a number in radians or degrees with a 'deg' "
+                         f"suffix, got {parts[2]!r}; {form}")
+    theta = float(m.group(1))
+    if m.group(2) == "deg":
+        theta = math.radians(theta)
+    out.append(theta)
+    if not all(math.isfinite(v) for v in out):
+        raise InputError(f"{field}: values must be finite, got {text!r}")
+    fm = _FACE.match(parts[3])
+    if not fm:
+        raise InputError(f"{field}: face must be a non-negative face number, got {parts[3]!r}; {form}")
+    out.append(int(fm.group(1)))
+    return (out[0], out[1], out[2], out[3])
+
+
+def _number(text: str, field: str, *, positive: bool, allow_zero: bool = False) -> float:
+    try:
+        v = float(text)
+    except (TypeError, ValueError):
+        raise InputError(f"{field}: must be a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise InputError(f"{field}: must be finite, got {text!r}")
+    if positive and (v < 0 or (v == 0 and not allow_zero)):
+        want = "non-negative" if allow_zero else "positive"
+        raise InputError(f"{field}: must be a {want} number, got {text!r}")
+    return v
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="python -m planning.tumble",
+        description="Plan a sequence of tumbles (rotations about edges on the plane, Marigo & "
+                    "Bicchi) that takes a convex polyhedral part from a start configuration to "
+                    "within eps of a goal, and optionally draw it.",
+        epilog="Configurations: x,y,theta,face in metres, radians (or ...deg) and a face number; "
+               "the face lies on the plane with its frame at (x, y), heading theta. "
+               "Exit status: 0 solved, 1 not solvable, 2 bad input.")
+    p.add_argument("part", metavar="PART.yaml", help="part file with kind: polyhedron "
+                   "(see planning.partfile)")
+    p.add_argument("--goal", metavar="X,Y,THETA,FACE", help="goal configuration")
+    p.add_argument("--start", metavar="X,Y,THETA,FACE", default=None,
+                   help="start configuration (default 0,0,0,0)")
+    p.add_argument("--eps", metavar="E", help="accuracy: metres for the position, radians for "
+                   "the heading (required with --goal)")
+    p.add_argument("--tau-v", metavar="T", default="0", help="tolerance on the vertex "
+                   "coordinates, metres (default 0)")
+    p.add_argument("--tau-g", metavar="T", default=None, help="tolerance of the rational "
+                   "approximation of the translation generators (default: from eps)")
+    p.add_argument("--no-shorten", action="store_true",
+                   help="keep the paper's construction (no shortening of the tumble sequence)")
+    p.add_argument("--json", action="store_true", help="print the plan as JSON on stdout")
+    p.add_argument("--plot", metavar="FILE.png", help="draw the footprints along the plan")
+    p.add_argument("--development", metavar="FILE.png",
+                   help="draw the plane development rooted at the start face (Fig. 3)")
+    p.add_argument("--lattice", metavar="FILE.png",
+                   help="draw the reachable lattice around the start (Fig. 2)")
+    p.add_argument("--lattice-radius", metavar="R", default=None,
+                   help="radius of the --lattice figure, metres (default: 3 part diameters, "
+                        "or enough to show the goal)")
+    return p
+
+
+def _join_config_args(argv: Sequence[str]) -> list[str]:
+    """``--goal -0.1,0,0,0`` -> ``--goal=-0.1,0,0,0`` (argparse would take it for an option)."""
+    out, i = [], 0
+    argv = list(argv)
+    while i < len(argv):
+        tok = argv[i]
+        if tok in ("--start", "--goal", "--eps", "--tau-v", "--tau-g", "--lattice-radius") \
+                and i + 1 < len(argv) and argv[i + 1].startswith("-") \
+                and not argv[i + 1].startswith("--"):
+            out.append(f"{tok}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(tok)
+        i += 1
+    return out
+
+
+def _fail(message: str, code: int = EXIT_INPUT) -> int:
+    sys.stderr.write(f"error: {' '.join(str(message).split())}\n")
+    return code
+
+
+def _report_warnings(caught) -> None:
+    seen = set()
+    for w in caught:
+        msg = " ".join(str(w.message).split())
+        if msg not in seen:
+            seen.add(msg)
+            sys.stderr.write(f"warning: {msg}\n")
+
+
+def _json_default(o):
+    if isinstance(o, Fraction):
+        return f"{o.numerator}/{o.denominator}"
+    try:
+        import numpy as np
+        if isinstance(o, np.generic):
+            return o.item()
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+    except ImportError:  # pragma: no cover
+        pass
+    if isinstance(o, (tuple, set, frozenset)):
+        return list(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Run the command line; returns the exit status."""
+    args = build_parser().parse_args(_join_config_args(sys.argv[1:] if argv is None else argv))
+    try:
+        if args.goal is None and not (args.development or args.lattice):
+            raise InputError("--goal: required (or give --development / --lattice alone to draw "
+                             "only the part's figures)")
+        goal = parse_config(args.goal, "--goal") if args.goal is not None else None
+        start = parse_config(args.start, "--start") if args.start is not None else (0.0, 0.0, 0.0, 0)
+        eps = None
+        if args.eps is not None:
+            eps = _number(args.eps, "--eps", positive=True)
+        elif goal is not None:
+            raise InputError("--eps: required with --goal (accuracy in metres / radians)")
+        tau_v = _number(args.tau_v, "--tau-v", positive=True, allow_zero=True)
+        tau_g = None if args.tau_g is None else _number(args.tau_g, "--tau-g", positive=True)
+        radius = None
+        if args.lattice_radius is not None:
+            radius = _number(args.lattice_radius, "--lattice-radius", positive=True)
+        if args.plot and goal is None:
+            raise InputError("--plot: needs --goal and --eps")
+    except InputError as exc:
+        return _fail(str(exc))
+
+    from planning.partfile import PartFileError, load_part
+    try:
+        part = load_part(args.part)
+    except PartFileError as exc:
+        return _fail(str(exc))
+    if part.kind != "polyhedron":
+        return _fail(f"{part.path}: kind: the tumble planner takes polyhedron parts, this file "
+                     f"holds a {part.kind} (pushing planar parts is python -m planning.push)")
+
+    # heavy imports (JAX) only after the cheap checks; planning is float64
+    import jax
+    jax.config.update("jax_enable_x64", True)
+    from kernels.polyhedron import make_polyhedron
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            poly = make_polyhedron(part.vertices, part.com)
+        except ValueError as exc:
+            _report_warnings(caught)
+            return _fail(f"{part.path}: {exc}")
+        try:
+            for field, cfg in (("--start", start), ("--goal", goal)):
+                if cfg is not None and not 0 <= cfg[3] < poly.n_faces:
+                    raise InputError(f"{field}: face {cfg[3]} does not exist; this part has faces "
+                                     f"0..{poly.n_faces - 1}")
+        except InputError as exc:
+            _report_warnings(caught)
+            return _fail(str(exc))
+
+        plan = None
+        analysis = None
+        try:
+            if goal is not None:
+                from planning.tumble_planner import plan_tumble
+                plan = plan_tumble(part.vertices, goal, start=start, com=part.com, eps=eps,
+                                   tau_v=tau_v, tau_g=tau_g, shorten=not args.no_shorten)
+            if args.lattice or (args.development and plan is not None):
+                # the planner's own analysis (cached by plan_tumble: same part, tolerances
+                # and start face), so the figures show what the plan was built from
+                from planning.tumble_planner import analyze_polyhedron
+                analysis = analyze_polyhedron(part.vertices, com=part.com, tau_v=tau_v,
+                                              tau_g=tau_g, start_face=int(start[3]))
+        except (ValueError, TypeError, ZeroDivisionError, ArithmeticError) as exc:
+            _report_warnings(caught)
+            return _fail(str(exc))
+    _report_warnings(caught)
+
+    code = EXIT_OK
+    if plan is not None:
+        if args.json:
+            sys.stdout.write(json.dumps(plan.to_dict(), indent=2, default=_json_default) + "\n")
+        else:
+            sys.stdout.write(f"{part.name}: {part.path}\n{plan.summary()}\n")
+        if plan.verdict != "solved":
+            code = EXIT_NOT_SOLVABLE
+            sys.stderr.write(f"not solvable: {' '.join(str(plan.reason).split())}\n")
+    elif not args.json:
+        sys.stdout.write(f"{part.name}: {part.path}: {poly.n_faces} faces, {poly.n_vertices} "
+                         f"vertices, {poly.n_edges} edges\n")
+
+    if args.plot or args.development or args.lattice:
+        from planning import tumble_plots
+        import numpy as np
+        diam = float(np.max(np.linalg.norm(poly.vertices[:, None] - poly.vertices[None], axis=-1)))
+        for flag, path in (("--plot", args.plot), ("--development", args.development),
+                           ("--lattice", args.lattice)):
+            if not path:
+                continue
+            try:
+                if flag == "--plot":
+                    tumble_plots.plot_plan(plan, path, name=part.name)
+                elif flag == "--development":
+                    tumble_plots.plot_development(analysis if analysis is not None else poly, path,
+                                                  root=int(start[3]), name=part.name)
+                else:
+                    r = radius
+                    if r is None:
+                        r = 3.0 * diam
+                        if goal is not None:
+                            r = max(r, 1.15 * math.hypot(goal[0] - start[0], goal[1] - start[1]))
+                    tumble_plots.plot_reachable(analysis, path, r, name=part.name)
+            except (OSError, ValueError) as exc:
+                return _fail(f"{flag}: cannot write {path} ({exc})")
+            sys.stderr.write(f"wrote {path}\n")
+    return code
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(main())
+    except KeyboardInterrupt:
+        sys.exit(130)
+    except Exception as exc:  # noqa: BLE001 - a CLI reports, it does not dump a traceback
+        if os.environ.get("NUDGE_DEBUG"):
+            raise
+        sys.stderr.write(f"error: internal error ({type(exc).__name__}: "
+                         f"{' '.join(str(exc).split())}); rerun with NUDGE_DEBUG=1 for the "
+                         "traceback\n")
+        sys.exit(3)
