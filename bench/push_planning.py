@@ -41,7 +41,7 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--plans", type=int, default=65536, help="plans in the batched run")
     ap.add_argument("--ref", type=int, default=24, help="plans solved with cvxpy per LP")
-    ap.add_argument("--chunk", type=int, default=4096, help="plans per compiled batch")
+    ap.add_argument("--chunk", type=int, default=1024, help="plans per compiled batch")
     ap.add_argument("--repeat", type=int, default=3, help="timed repetitions (best is kept)")
     args = ap.parse_args(argv)
 

@@ -696,7 +696,7 @@ def _padded(arr: np.ndarray, size: int) -> np.ndarray:
 
 def plan_pose_batch(vertices, starts, goals, com=None, margin_deg: float = 7.0,
                     safety_factor: float = 1.15, objective: str = "distance",
-                    chunk: Optional[int] = 8192) -> PushPlanBatch:
+                    chunk: Optional[int] = 1024) -> PushPlanBatch:
     """Plan many start/goal pairs of one part at once (JAX, float64).
 
     Same rules and results as :func:`plan_pose` (closed-form LP).  Per

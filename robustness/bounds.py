@@ -144,7 +144,7 @@ def push_plan_bound(plan: PushPlan, tol: PushTolerances) -> dict:
     n, P = sz["n"], sz["pushes"]
     dists = np.array([p.distance for p in plan.pushes])
     zeros = (jnp.zeros((n, 2)), jnp.zeros(2), jnp.zeros(3), jnp.zeros(P), jnp.zeros(P))
-    jac = jax.jacfwd(f, argnums=(0, 1, 2, 3, 4))(*zeros)
+    jac = jax.jit(jax.jacfwd(f, argnums=(0, 1, 2, 3, 4)))(*zeros)  # one compiled call
     jv, jc, js, jf, jd = (np.asarray(j) for j in jac)
     contrib = {
         "tau_v": np.abs(jv).reshape(3, -1).sum(1) * tol.tau_v,

@@ -1,0 +1,81 @@
+"""Statistics of Monte-Carlo evaluations (host-side numpy / scipy).
+
+* :func:`clopper_pearson`: the exact (conservative) binomial confidence
+  interval of a success probability from ``k`` successes in ``n`` trials,
+  from the beta distribution: ``lower = Beta(alpha/2; k, n-k+1)``,
+  ``upper = Beta(1-alpha/2; k+1, n-k)``, with ``alpha = 1 - confidence``
+  (two-sided), and ``lower = 0`` when ``k = 0``, ``upper = 1`` when ``k = n``.
+  For certification the ONE-sided lower bound at the stated confidence
+  (``Beta(alpha; k, n-k+1)``) is what counts: :func:`one_sided_lower`.
+* :func:`quantiles`: the 50/90/99 % quantiles and the maximum of an error.
+* :func:`samples_needed`: how many all-successful samples certify a required
+  probability at a confidence (``p^n <= alpha``).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import stats as _st
+
+QUANTILES = (0.5, 0.9, 0.99)
+QUANTILE_NAMES = ("q50", "q90", "q99")
+
+
+def _check(k: int, n: int, confidence: float) -> None:
+    if not (isinstance(n, (int, np.integer)) and n >= 0):
+        raise ValueError(f"n: expected an integer >= 0, got {n!r}")
+    if not (0 <= k <= n):
+        raise ValueError(f"k: expected 0 <= k <= n = {n}, got {k!r}")
+    if not (0.0 < confidence < 1.0):
+        raise ValueError(f"confidence: expected a number in (0, 1), got {confidence!r}")
+
+
+def clopper_pearson(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Two-sided Clopper-Pearson interval ``(lower, upper)`` for a binomial
+    proportion (``k`` successes of ``n``); ``(0, 1)`` when ``n = 0``."""
+    _check(k, n, confidence)
+    if n == 0:
+        return 0.0, 1.0
+    a = 1.0 - confidence
+    lo = 0.0 if k == 0 else float(_st.beta.ppf(a / 2, k, n - k + 1))
+    hi = 1.0 if k == n else float(_st.beta.ppf(1 - a / 2, k + 1, n - k))
+    return lo, hi
+
+
+def one_sided_lower(k: int, n: int, confidence: float = 0.95) -> float:
+    """One-sided Clopper-Pearson lower bound: with probability ``confidence``
+    the true success probability is at least this (0 when ``k = 0``)."""
+    _check(k, n, confidence)
+    if n == 0 or k == 0:
+        return 0.0
+    return float(_st.beta.ppf(1.0 - confidence, k, n - k + 1))
+
+
+def samples_needed(p_required: float, confidence: float) -> int:
+    """Fewest samples that, all successful, put the one-sided lower bound at
+    ``p_required`` or above: the smallest n with ``p_required ** n <= 1 - confidence``."""
+    if not (0.0 < p_required < 1.0):
+        raise ValueError(f"p_required: expected a number in (0, 1), got {p_required!r}")
+    if not (0.0 < confidence < 1.0):
+        raise ValueError(f"confidence: expected a number in (0, 1), got {confidence!r}")
+    return int(math.ceil(math.log(1.0 - confidence) / math.log(p_required)))
+
+
+def quantiles(values) -> dict:
+    """``{"q50", "q90", "q99", "max"}`` of finite ``values`` (NaN when empty).
+
+    Non-finite values (a diverged sample) make ``max`` infinite, never hide it.
+    """
+    v = np.asarray(values, dtype=np.float64).ravel()
+    out = {}
+    if v.size == 0:
+        return {**{q: math.nan for q in QUANTILE_NAMES}, "max": math.nan}
+    nonfinite = ~np.isfinite(v)
+    w = np.where(nonfinite, np.inf, v)
+    for name, q in zip(QUANTILE_NAMES, QUANTILES):
+        # linear interpolation when every value is finite; otherwise the next
+        # order statistic (interpolating towards inf would give NaN)
+        out[name] = float(np.quantile(w, q, method="higher" if nonfinite.any() else "linear"))
+    out["max"] = float(np.max(w))
+    return out

@@ -1,0 +1,172 @@
+"""Monte-Carlo evaluation of push and tumble plans."""
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from kernels.polyhedron import PartWarning, make_polyhedron
+from kernels.tumble import make_config, replay
+from planning.pose_planner import plan_pose
+from planning.tumble_plan import Tumble, TumblePlan
+from robustness import evaluate as ev_mod
+from robustness.evaluate import BoundViolation, evaluate
+from robustness.samplers import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler
+from robustness.tables import FAILURE_MODES
+
+TRI = [[0.0, 0.0], [0.03, 0.0], [0.005, 0.02]]
+IRREG = [[-0.054, -0.040, -0.028], [0.066, -0.040, -0.028], [0.046, 0.040, -0.028],
+         [-0.044, 0.050, -0.028], [-0.034, -0.030, 0.042], [0.036, -0.020, 0.032],
+         [-0.004, 0.030, 0.052]]
+IRREG_COM = [0.004, -0.003, 0.002]
+
+# fence friction high, c small: every reorient completes without slip (the exact replay's regime)
+N = 32  # one batch size everywhere: the compiled kernels are shared between tests
+STICKY = FrictionRange(mu_f=(50.0, 50.0), c=(0.002, 0.004))
+TOL = Sampler(GeometryTolerance(tau_v=2e-5, tau_com=5e-5), STICKY,
+              ExecutionTolerance(start_xy=2e-4, start_theta=5e-3, fence_angle=1e-3,
+                                 distance_abs=5e-5, distance_rel=2e-3))
+
+
+@pytest.fixture(scope="module")
+def plan():
+    return plan_pose(TRI, (0.0, 0.0, 0.0), (0.1, 0.05, 1.0))
+
+
+@pytest.fixture(scope="module")
+def tumble_plan():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PartWarning)
+        P = make_polyhedron(IRREG, IRREG_COM)
+    rng = np.random.default_rng(0)
+    seq, f = [], 0
+    for _ in range(12):
+        g = int(rng.choice(P.neighbors(f)))
+        seq.append(g)
+        f = g
+    start = (0.01, -0.02, 0.3, 0)
+    fin, ok = replay(P.geometry(jnp.float64), make_config(*start), jnp.asarray(seq))
+    assert bool(ok)
+    pf = (float(fin.xy[0]), float(fin.xy[1]), float(fin.theta), int(fin.face))
+    faces = [0] + seq
+    tumbles = tuple(Tumble(edge=P.shared_edge(a, b), face=b) for a, b in zip(faces[:-1], faces[1:]))
+    return TumblePlan(vertices=tuple(map(tuple, P.vertices.tolist())), com=tuple(P.com.tolist()),
+                      start=start, goal=pf, eps=1e-3, tau_v=0.0, tau_g=None, tumbles=tumbles,
+                      predicted_final=pf, error=0.0, bounds={}, verdict="solved", reason="test",
+                      reachable_class="dense", n_tumbles_paper=len(seq))
+
+
+def test_zero_tolerances_reproduce_the_plan(plan):
+    ev = evaluate(plan, Sampler(), 4, jax.random.key(0), model="exact", bound=False)
+    df = ev.samples
+    assert len(df) == 4 and df["success"].all() and (df["failure_mode"] == "none").all()
+    last = plan.pushes[-1].pose_after
+    np.testing.assert_allclose(df["final_x_m"], last[0], atol=1e-12)
+    np.testing.assert_allclose(df["final_y_m"], last[1], atol=1e-12)
+    np.testing.assert_allclose(df["final_theta_rad"], last[2], atol=1e-12)
+    assert df["err_pos_m"].max() <= 1e-9 and df["err_theta_rad"].abs().max() <= 1e-9
+    assert (df["final_edge_a"] == plan.pushes[-1].edge[0]).all()
+    assert (df["final_edge_b"] == plan.pushes[-1].edge[1]).all()
+    assert ev.summary["success_rate"] == 1.0 and ev.summary["n_none"] == 4
+
+
+def test_tolerances_success_rate_and_interval(plan):
+    ev = evaluate(plan, TOL, N, jax.random.key(1), model="exact", pos_eps_m=4e-4,
+                  theta_eps_rad=2e-3)
+    s, df = ev.summary, ev.samples
+    assert 0.0 <= s["success_rate"] <= 1.0
+    assert s["ci_low"] <= s["success_rate"] <= s["ci_high"]
+    assert s["n"] == N and s["n_success"] == int(df["success"].sum())
+    assert set(df["failure_mode"]) <= set(FAILURE_MODES)
+    assert sum(s[f"n_{m}"] for m in FAILURE_MODES) == N
+    assert df["sample_id"].tolist() == list(range(N))
+    assert s["err_pos_m_q50"] <= s["err_pos_m_q90"] <= s["err_pos_m_q99"] <= s["err_pos_m_max"]
+    assert s["err_pos_m_max"] > 0
+    assert df.loc[df["sample_id"] == s["worst_sample_id"], "err_pos_m"].iloc[0] == s["worst_err_pos_m"]
+    # the analytic bound sits beside the empirical maximum and holds here
+    assert s["bound_position_m"] > 0 and s["bound_violated"] is False
+    assert s["emp_max_pos_in_model_m"] <= s["bound_position_m"]
+    # sampled parameters are columns of the table
+    for c in ("dv0_x_m", "dcom_y_m", "mu_f", "c_m", "start_dtheta_rad", "fence_angle_err_rad_p0"):
+        assert c in df.columns
+    # success is exactly "within eps on both"
+    ok = (df["err_pos_m"] <= 4e-4) & (df["err_theta_rad"].abs() <= 2e-3) & df["model_valid"]
+    assert (ok == df["success"]).all()
+
+
+def test_exact_and_quasistatic_agree_when_sticking(plan):
+    a = evaluate(plan, TOL, N, jax.random.key(2), model="exact", bound=False).samples
+    b = evaluate(plan, TOL, N, jax.random.key(2), model="quasistatic", n_steps=48,
+                 bound=False).samples
+    assert (b["n_incomplete"] == 0).all() and (b["slip_m"] == 0).all()
+    for col in ("final_x_m", "final_y_m", "final_theta_rad"):
+        np.testing.assert_allclose(a[col], b[col], atol=1e-9)
+    assert (a["final_edge_a"] == b["final_edge_a"]).all()
+    assert (a["success"] == b["success"]).all()
+
+
+def test_float32_sees_the_same_samples(plan):
+    a = evaluate(plan, TOL, N, jax.random.key(2), model="exact", bound=False).samples
+    b = evaluate(plan, TOL, N, jax.random.key(2), model="exact", dtype=jnp.float32,
+                 bound=False).samples
+    assert (b["dtype"] == "float32").all()
+    np.testing.assert_allclose(a["dv0_x_m"], b["dv0_x_m"], rtol=1e-6)  # same draws, cast
+    np.testing.assert_allclose(a["final_x_m"], b["final_x_m"], atol=2e-6)
+    np.testing.assert_allclose(a["final_theta_rad"], b["final_theta_rad"], atol=2e-5)
+
+
+def test_quasistatic_shows_failures_when_slippery(plan):
+    # same vmap axes as TOL (one compiled kernel): only the friction values differ
+    s = Sampler(TOL.geometry, FrictionRange(mu_f=(0.02, 0.02), c=(0.01, 0.02)), TOL.execution)
+    df = evaluate(plan, s, N, jax.random.key(3), model="quasistatic", n_steps=48,
+                  bound=False).samples
+    assert (df["slip_m"] > 0).any()
+    assert (df["failure_mode"] != "none").any()
+
+
+def test_bound_violation_is_reported_not_clipped(plan, monkeypatch):
+    monkeypatch.setattr(ev_mod, "_push_bound",
+                        lambda p, s: {"position_m": 1e-9, "theta_rad": 1e-9})
+    with pytest.warns(BoundViolation, match="BOUND VIOLATED"):
+        ev = evaluate(plan, TOL, N, jax.random.key(1), model="exact")
+    assert ev.summary["bound_violated"] is True
+    assert ev.summary["emp_max_pos_in_model_m"] > 1e-9  # the maximum is kept as measured
+
+
+def test_tumble_zero_tolerances_and_com_offset(tumble_plan):
+    ev = evaluate(tumble_plan, Sampler(GeometryTolerance(tau_com=2e-3)), 16, jax.random.key(0))
+    df = ev.samples
+    assert ev.model == "exact" and df["success"].all()
+    # a centre-of-mass offset does not move a tumbling part (errors in the nominal frames)
+    assert df["err_pos_m"].max() <= 1e-12 and df["err_theta_rad"].abs().max() <= 1e-12
+    assert (df["final_face"] == tumble_plan.goal[3]).all()
+    assert ev.summary["pos_eps_m"] == tumble_plan.eps
+
+
+def test_tumble_vertex_tolerance_bound_and_slip(tumble_plan):
+    ev = evaluate(tumble_plan, Sampler(GeometryTolerance(tau_v=2e-5, tau_com=2e-3)), 16,
+                  jax.random.key(1))
+    s = ev.summary
+    assert s["err_pos_m_max"] > 0 and s["bound_position_m"] > 0
+    assert s["n_in_bound_model"] == 16 and s["bound_violated"] is False
+    # start and slip errors: their first-order contribution is part of the bound
+    slip = Sampler(GeometryTolerance(tau_com=2e-3),
+                   execution=ExecutionTolerance(start_xy=1e-4, start_theta=1e-3,
+                                                tumble_slip_xy=2e-5, tumble_slip_theta=2e-4))
+    ev2 = evaluate(tumble_plan, slip, 16, jax.random.key(1))
+    s2 = ev2.summary
+    assert (ev2.samples["slip_m"] > 0).all() and s2["n_in_bound_model"] == 16
+    assert 0.2 * s2["bound_position_m"] <= s2["emp_max_pos_in_model_m"] <= s2["bound_position_m"]
+    assert s2["emp_max_theta_in_model_rad"] <= s2["bound_theta_rad"]
+    assert s2["bound_violated"] is False
+
+
+def test_tumble_combinatorics_change_is_a_failure(tumble_plan):
+    ev = evaluate(tumble_plan, Sampler(GeometryTolerance(tau_v=2.5e-2, tau_com=2e-3)), 16,
+                  jax.random.key(5), bound=False)
+    df = ev.samples
+    assert df["hull_changed"].any()
+    changed = df[df["hull_changed"]]
+    assert (changed["failure_mode"] == "combinatorics_changed").all()
+    assert not changed["success"].any() and not changed["model_valid"].any()

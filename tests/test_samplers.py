@@ -1,0 +1,167 @@
+"""Perturbation samplers: shapes, vmap axes, determinism, bounds, hull checks."""
+import dataclasses
+import math
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from kernels import polygon as pg
+from kernels.polyhedron import PartWarning, make_polyhedron
+from robustness.samplers import (ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler,
+                                 broadcast, face_merge_tol, parameter_columns,
+                                 polygon_hull_changed, polyhedron_combinatorics_changed, take)
+
+PENT = np.array([[0.0, 0.0], [0.028, 0.0], [0.034, 0.016], [0.016, 0.027], [-0.004, 0.015]])
+CUBE = np.array([[x, y, z] for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (-0.05, 0.05)])
+N = 256
+
+FULL = Sampler(
+    GeometryTolerance(tau_v=1e-4, tau_com=2e-4, distribution="gaussian", sigma_v=8e-5),
+    FrictionRange(mu_f=(0.2, 0.8), mu_s=(0.3, 0.4), support_points=8, weight_concentration=2),
+    ExecutionTolerance(start_xy=1e-3, start_theta=0.02, fence_angle=0.003, distance_abs=1e-4,
+                       distance_rel=0.01, tumble_slip_xy=1e-5, tumble_slip_theta=1e-4))
+
+
+@pytest.fixture(scope="module")
+def poly():
+    return pg.make_polygon(PENT)
+
+
+@pytest.fixture(scope="module")
+def drawn(poly):
+    return FULL.sample(jax.random.key(3), N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
+                       body=poly.body)
+
+
+def test_shapes_and_in_axes(drawn):
+    p, ax = drawn
+    assert p.geometry.vertex_offset.shape == (N, 5, 2) and ax.geometry.vertex_offset == 0
+    assert p.geometry.com_offset.shape == (N, 2) and ax.geometry.com_offset == 0
+    assert p.friction.mu_f.shape == (N,) and p.friction.c.shape == (N,)
+    assert p.friction.support_points.shape == (N, 8, 2)
+    assert p.execution.start_offset.shape == (N, 3)
+    assert p.execution.fence_angle.shape == (N, 4) and ax.execution.fence_angle == 0
+    assert p.execution.tumble_slip.shape == (N, 3, 3)
+    # the in_axes drive jax.vmap directly
+    out = jax.vmap(lambda q: q.geometry.vertex_offset.sum() + q.friction.c,
+                   in_axes=(ax,))(p)
+    assert out.shape == (N,)
+
+
+def test_zero_tolerances_are_unbatched(poly):
+    p, ax = Sampler(friction=FrictionRange(mu_f=(0.5, 0.5))).sample(
+        jax.random.key(0), 8, n_vertices=5, dim=2, n_pushes=2, body=poly.body)
+    assert ax.geometry.vertex_offset is None and p.geometry.vertex_offset.shape == (5, 2)
+    assert ax.friction.mu_f is None and float(p.friction.mu_f) == 0.5
+    assert ax.execution.fence_angle is None and ax.execution.start_offset is None
+    assert ax.friction.c == 0  # c still comes from a sampled pressure distribution
+    full = broadcast(p, ax, 8)
+    assert full.geometry.vertex_offset.shape == (8, 5, 2)
+    assert np.all(np.asarray(full.geometry.vertex_offset) == 0)
+    one = take(p, ax, 3)
+    assert one.friction.c.shape == ()
+
+
+def test_deterministic_by_key(poly, drawn):
+    p, _ = drawn
+    q, _ = FULL.sample(jax.random.key(3), N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
+                       body=poly.body)
+    r, _ = FULL.sample(jax.random.key(4), N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
+                       body=poly.body)
+    for a, b, c in zip(jax.tree_util.tree_leaves(p), jax.tree_util.tree_leaves(q),
+                       jax.tree_util.tree_leaves(r)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    assert not np.array_equal(np.asarray(p.geometry.vertex_offset), np.asarray(r.geometry.vertex_offset))
+    # groups draw from their own sub-keys: other friction settings leave the geometry draws alone
+    s2 = dataclasses.replace(FULL, friction=FrictionRange(mu_f=(0.1, 0.2), support_points=4))
+    q2, _ = s2.sample(jax.random.key(3), N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
+                      body=poly.body)
+    np.testing.assert_array_equal(np.asarray(p.geometry.vertex_offset),
+                                  np.asarray(q2.geometry.vertex_offset))
+
+
+def test_bounds_respected(poly, drawn):
+    p, _ = drawn
+    g, f, e = p.geometry, p.friction, p.execution
+    assert np.max(np.abs(np.asarray(g.vertex_offset))) <= 1e-4
+    assert np.max(np.linalg.norm(np.asarray(g.com_offset), axis=1)) <= 2e-4 * (1 + 1e-12)
+    assert np.asarray(g.vertex_offset).std() > 1e-5  # not degenerate
+    mu = np.asarray(f.mu_f)
+    assert mu.min() >= 0.2 and mu.max() <= 0.8
+    radius = float(np.max(np.linalg.norm(poly.body, axis=1)))
+    c = np.asarray(f.c)
+    assert np.all(c > 0) and np.all(c <= radius)
+    w = np.asarray(f.support_weights)
+    np.testing.assert_allclose(w.sum(axis=1), 1.0, rtol=1e-12)
+    # support points inside the (convex, CCW) body polygon
+    pts = np.asarray(f.support_points).reshape(-1, 2)
+    e0 = np.roll(poly.body, -1, axis=0) - poly.body
+    rel = pts[:, None, :] - poly.body[None]
+    assert np.all(e0[None, :, 0] * rel[..., 1] - e0[None, :, 1] * rel[..., 0] >= -1e-15)
+    for arr, half in ((e.start_offset[:, :2], 1e-3), (e.start_offset[:, 2], 0.02),
+                      (e.fence_angle, 0.003), (e.distance_abs, 1e-4), (e.distance_rel, 0.01),
+                      (e.tumble_slip[..., :2], 1e-5), (e.tumble_slip[..., 2], 1e-4)):
+        a = np.asarray(arr)
+        assert np.max(np.abs(a)) <= half and np.max(np.abs(a)) > 0.3 * half
+
+
+def test_settings_validated():
+    with pytest.raises(ValueError, match="tau_v"):
+        GeometryTolerance(tau_v=-1e-4)
+    with pytest.raises(ValueError, match="tau_com"):
+        GeometryTolerance(tau_com=float("nan"))
+    with pytest.raises(ValueError, match="mu_f"):
+        FrictionRange(mu_f=(0.8, 0.2))
+    with pytest.raises(ValueError, match="fence_angle"):
+        ExecutionTolerance(fence_angle=-0.1)
+    with pytest.raises(ValueError, match="distribution"):
+        GeometryTolerance(distribution="cauchy")
+
+
+def test_polygon_hull_change_detection(poly):
+    V0 = jnp.asarray(poly.vertices)
+    com = jnp.asarray(poly.com)
+    hi = tuple(poly.hull_index)
+    check = jax.jit(jax.vmap(lambda dv, dc: polygon_hull_changed(V0 + dv, com + dc, jnp.asarray(hi))))
+    for tau, expect in ((1e-5, "none"), (1.5e-2, "some")):
+        p, ax = Sampler(GeometryTolerance(tau_v=tau)).sample(
+            jax.random.key(1), 400, n_vertices=5, dim=2, body=poly.body)
+        p = broadcast(p, ax, 400)
+        changed = np.asarray(check(p.geometry.vertex_offset, p.geometry.com_offset))
+        if expect == "none":
+            assert not changed.any()
+        else:
+            assert changed.any() and not changed.all()
+    # a reflex vertex by construction
+    bad = np.asarray(poly.vertices).copy()
+    bad[2] = 0.5 * (bad[1] + bad[3]) - np.array([0.003, 0.003])
+    assert bool(polygon_hull_changed(jnp.asarray(bad), com, jnp.asarray(hi)))
+
+
+def test_polyhedron_combinatorics_change_detection():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PartWarning)
+        cube = make_polyhedron(CUBE)
+    diam = float(np.max(np.linalg.norm(CUBE[:, None] - CUBE[None], axis=-1)))
+    for tau, expect in ((1e-5, False), (3e-2, True)):
+        p, ax = Sampler(GeometryTolerance(tau_v=tau)).sample(jax.random.key(2), 12, n_vertices=8,
+                                                               dim=3)
+        V = CUBE[None] + np.asarray(p.geometry.vertex_offset)
+        changed = polyhedron_combinatorics_changed(V, cube, face_merge_tol(tau, diam))
+        assert changed.shape == (12,)
+        assert changed.any() == expect and (expect or not changed.any())
+
+
+def test_parameter_columns(drawn):
+    p, ax = drawn
+    cols = parameter_columns(p, ax, N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
+                             max_pushes=6)
+    assert "dv4_y_m" in cols and "dcom_x_m" in cols and "c_m" in cols
+    assert "fence_angle_err_rad_p3" in cols and np.all(np.isnan(cols["push_dist_abs_err_m_p5"]))
+    assert "slip_sum_dtheta_rad" in cols
+    assert all(len(v) == N for v in cols.values())
+    assert all(np.asarray(v).dtype == np.float64 for v in cols.values())
+    assert math.isclose(cols["dv1_x_m"][7], float(p.geometry.vertex_offset[7, 1, 0]))
