@@ -22,27 +22,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
-import re
 import sys
 import warnings
 from typing import Optional, Sequence
 
+from planning.cli import InputError, Parser, fail, join_negative_values, report_warnings
+from planning.cli import parse_pose as _parse_pose
+
 EXIT_OK, EXIT_PLANNING, EXIT_INPUT = 0, 1, 2
-
-_NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
-_THETA = re.compile(rf"^({_NUM})\s*(deg|rad)?$")
-
-
-class InputError(ValueError):
-    """Bad command-line input (exit status 2)."""
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, exit 2, no usage dump
-        sys.stderr.write(f"error: {message} (see --help)\n")
-        sys.exit(EXIT_INPUT)
 
 
 def parse_pose(text: str, field: str) -> tuple[float, float, float]:
@@ -51,31 +39,11 @@ def parse_pose(text: str, field: str) -> tuple[float, float, float]:
     Raises:
       InputError: the message names ``field`` and shows the expected form.
     """
-    form = "expected x,y,theta in metres and radians (e.g. 0.1,-0.05,1.57 or 0.1,-0.05,90deg)"
-    parts = [p.strip() for p in str(text).split(",")]
-    if len(parts) != 3:
-        raise InputError(f"{field}: {form}, got {text!r} ({len(parts)} value"
-                         f"{'s' if len(parts) != 1 else ''})")
-    out = []
-    for name, p in zip(("x", "y"), parts[:2]):
-        if not re.fullmatch(_NUM, p):
-            raise InputError(f"{field}: {name} must be a number in metres, got {p!r}; {form}")
-        out.append(float(p))
-    m = _THETA.match(parts[2])
-    if not m:
-        raise InputError(f"{field}: theta must be a number in radians or degrees with a 'deg' "
-                         f"suffix, got {parts[2]!r}; {form}")
-    theta = float(m.group(1))
-    if m.group(2) == "deg":
-        theta = math.radians(theta)
-    out.append(theta)
-    if not all(math.isfinite(v) for v in out):
-        raise InputError(f"{field}: values must be finite, got {text!r}")
-    return (out[0], out[1], out[2])
+    return _parse_pose(text, field)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(
+    p = Parser(
         prog="python -m planning.push",
         description="Plan normal fence pushes (Akella & Mason 1992) that take a polygonal part "
                     "from a start pose to a goal pose, and optionally draw the plan and the "
@@ -103,18 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _join_pose_args(argv: Sequence[str]) -> list[str]:
     """``--start -0.1,0,0`` -> ``--start=-0.1,0,0`` (argparse would take the value for an option)."""
-    out, i = [], 0
-    argv = list(argv)
-    while i < len(argv):
-        tok = argv[i]
-        if tok in ("--start", "--goal") and i + 1 < len(argv) and argv[i + 1].startswith("-") \
-                and not argv[i + 1].startswith("--"):
-            out.append(f"{tok}={argv[i + 1]}")
-            i += 2
-            continue
-        out.append(tok)
-        i += 1
-    return out
+    return join_negative_values(argv, ("--start", "--goal"))
 
 
 def _flag_names(message: str) -> str:
@@ -124,16 +81,6 @@ def _flag_names(message: str) -> str:
         if message.startswith(field + ":"):
             return flag + message[len(field):]
     return message
-
-
-def _fail(message: str, code: int = EXIT_INPUT) -> int:
-    sys.stderr.write(f"error: {' '.join(str(message).split())}\n")
-    return code
-
-
-def _report_warnings(caught) -> None:
-    for w in caught:
-        sys.stderr.write(f"warning: {' '.join(str(w.message).split())}\n")
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -154,15 +101,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             if path and not os.path.isdir(os.path.dirname(os.path.abspath(path))):
                 raise InputError(f"{flag}: the folder of {path!r} does not exist")
     except InputError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
 
     from planning.partfile import PartFileError, load_part
     try:
         part = load_part(args.part)
     except PartFileError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     if part.kind != "polygon":
-        return _fail(f"{part.path}: kind: the push planner takes polygon parts, this file holds a "
+        return fail(f"{part.path}: kind: the push planner takes polygon parts, this file holds a "
                      f"{part.kind} (tumble planning is a separate tool)")
 
     # heavy imports (JAX) only after the cheap checks
@@ -179,18 +126,18 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                                  margin_deg=args.margin_deg, safety_factor=args.safety_factor,
                                  objective=args.objective, solver=args.solver)
         except PartError as exc:
-            _report_warnings(caught)
-            return _fail(f"{part.path}: {exc}")
+            report_warnings(caught)
+            return fail(f"{part.path}: {exc}")
         except PlanningError as exc:
-            _report_warnings(caught)
-            return _fail(str(exc), EXIT_PLANNING)
+            report_warnings(caught)
+            return fail(str(exc), EXIT_PLANNING)
         except ValueError as exc:
-            _report_warnings(caught)
-            return _fail(_flag_names(str(exc)))
+            report_warnings(caught)
+            return fail(_flag_names(str(exc)))
         except ImportError as exc:  # cvxpy missing
-            _report_warnings(caught)
-            return _fail(f"--solver {args.solver}: {exc}")
-    _report_warnings(caught)
+            report_warnings(caught)
+            return fail(f"--solver {args.solver}: {exc}")
+    report_warnings(caught)
 
     if plan is not None:
         if args.json:
@@ -212,13 +159,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 else:
                     push_plots.plot_psd(prepared, path, name=part.name)
             except (OSError, ValueError) as exc:
-                return _fail(f"{flag}: cannot write {path} ({exc})")
+                return fail(f"{flag}: cannot write {path} ({exc})")
             sys.stderr.write(f"wrote {path}\n")
     return EXIT_OK
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except KeyboardInterrupt:
-        sys.exit(130)
+    from planning.cli import run_main
+
+    run_main(main)

@@ -32,62 +32,23 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
-import re
 import sys
 import warnings
 from fractions import Fraction
 from typing import Optional, Sequence
 
+from planning.cli import InputError, Parser, fail, join_negative_values, parse_pose, report_warnings
+
 EXIT_OK, EXIT_NOT_SOLVABLE, EXIT_INPUT = 0, 1, 2
-
-_NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
-_THETA = re.compile(rf"^({_NUM})\s*(deg|rad)?$")
-_FACE = re.compile(r"^[Ff]?(\d+)$")
-
-
-class InputError(ValueError):
-    """Bad command-line input (exit status 2)."""
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, exit 2, no usage dump
-        sys.stderr.write(f"error: {message} (see --help)\n")
-        sys.exit(EXIT_INPUT)
 
 
 def parse_config(text: str, field: str) -> tuple[float, float, float, int]:
-    """Parse ``x,y,theta,face`` (m, m, rad or ``...deg``, face number).
+    """Parse ``x,y,theta,face`` (m, m, rad or ``...deg``, face number ``3`` or ``F3``).
 
     Raises:
       InputError: the message names ``field`` and shows the expected form.
     """
-    form = ("expected x,y,theta,face in metres, radians and a face number "
-            "(e.g. 0.2,-0.05,1.57,3 or 0.2,-0.05,90deg,3)")
-    parts = [p.strip() for p in str(text).split(",")]
-    if len(parts) != 4:
-        raise InputError(f"{field}: {form}, got {text!r} ({len(parts)} value"
-                         f"{'s' if len(parts) != 1 else ''})")
-    out: list = []
-    for name, p in zip(("x", "y"), parts[:2]):
-        if not re.fullmatch(_NUM, p):
-            raise InputError(f"{field}: {name} must be a number in metres, got {p!r}; {form}")
-        out.append(float(p))
-    m = _THETA.match(parts[2])
-    if not m:
-        raise InputError(f"{field}: theta must be a number in radians or degrees with a 'deg' "
-                         f"suffix, got {parts[2]!r}; {form}")
-    theta = float(m.group(1))
-    if m.group(2) == "deg":
-        theta = math.radians(theta)
-    out.append(theta)
-    if not all(math.isfinite(v) for v in out):
-        raise InputError(f"{field}: values must be finite, got {text!r}")
-    fm = _FACE.match(parts[3])
-    if not fm:
-        raise InputError(f"{field}: face must be a non-negative face number, got {parts[3]!r}; {form}")
-    out.append(int(fm.group(1)))
-    return (out[0], out[1], out[2], out[3])
+    return parse_pose(text, field, with_face=True)
 
 
 def _number(text: str, field: str, *, positive: bool, allow_zero: bool = False) -> float:
@@ -104,7 +65,7 @@ def _number(text: str, field: str, *, positive: bool, allow_zero: bool = False) 
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(
+    p = Parser(
         prog="python -m planning.tumble",
         description="Plan a sequence of tumbles (rotations about edges on the plane, Marigo & "
                     "Bicchi) that takes a convex polyhedral part from a start configuration to "
@@ -139,33 +100,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _join_config_args(argv: Sequence[str]) -> list[str]:
     """``--goal -0.1,0,0,0`` -> ``--goal=-0.1,0,0,0`` (argparse would take it for an option)."""
-    out, i = [], 0
-    argv = list(argv)
-    while i < len(argv):
-        tok = argv[i]
-        if tok in ("--start", "--goal", "--eps", "--tau-v", "--tau-g", "--lattice-radius") \
-                and i + 1 < len(argv) and argv[i + 1].startswith("-") \
-                and not argv[i + 1].startswith("--"):
-            out.append(f"{tok}={argv[i + 1]}")
-            i += 2
-            continue
-        out.append(tok)
-        i += 1
-    return out
-
-
-def _fail(message: str, code: int = EXIT_INPUT) -> int:
-    sys.stderr.write(f"error: {' '.join(str(message).split())}\n")
-    return code
-
-
-def _report_warnings(caught) -> None:
-    seen = set()
-    for w in caught:
-        msg = " ".join(str(w.message).split())
-        if msg not in seen:
-            seen.add(msg)
-            sys.stderr.write(f"warning: {msg}\n")
+    return join_negative_values(argv, ("--start", "--goal", "--eps", "--tau-v", "--tau-g",
+                                       "--lattice-radius"))
 
 
 def _json_default(o):
@@ -206,15 +142,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.plot and goal is None:
             raise InputError("--plot: needs --goal and --eps")
     except InputError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
 
     from planning.partfile import PartFileError, load_part
     try:
         part = load_part(args.part)
     except PartFileError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     if part.kind != "polyhedron":
-        return _fail(f"{part.path}: kind: the tumble planner takes polyhedron parts, this file "
+        return fail(f"{part.path}: kind: the tumble planner takes polyhedron parts, this file "
                      f"holds a {part.kind} (pushing planar parts is python -m planning.push)")
 
     # heavy imports (JAX) only after the cheap checks; planning is float64
@@ -227,16 +163,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         try:
             poly = make_polyhedron(part.vertices, part.com)
         except ValueError as exc:
-            _report_warnings(caught)
-            return _fail(f"{part.path}: {exc}")
+            report_warnings(caught)
+            return fail(f"{part.path}: {exc}")
         try:
             for field, cfg in (("--start", start), ("--goal", goal)):
                 if cfg is not None and not 0 <= cfg[3] < poly.n_faces:
                     raise InputError(f"{field}: face {cfg[3]} does not exist; this part has faces "
                                      f"0..{poly.n_faces - 1}")
         except InputError as exc:
-            _report_warnings(caught)
-            return _fail(str(exc))
+            report_warnings(caught)
+            return fail(str(exc))
 
         plan = None
         analysis = None
@@ -252,9 +188,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 analysis = analyze_polyhedron(part.vertices, com=part.com, tau_v=tau_v,
                                               tau_g=tau_g, start_face=int(start[3]))
         except (ValueError, TypeError, ZeroDivisionError, ArithmeticError) as exc:
-            _report_warnings(caught)
-            return _fail(str(exc))
-    _report_warnings(caught)
+            report_warnings(caught)
+            return fail(str(exc))
+    report_warnings(caught)
 
     code = EXIT_OK
     if plan is not None:
@@ -291,20 +227,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                             r = max(r, 1.15 * math.hypot(goal[0] - start[0], goal[1] - start[1]))
                     tumble_plots.plot_reachable(analysis, path, r, name=part.name)
             except (OSError, ValueError) as exc:
-                return _fail(f"{flag}: cannot write {path} ({exc})")
+                return fail(f"{flag}: cannot write {path} ({exc})")
             sys.stderr.write(f"wrote {path}\n")
     return code
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except KeyboardInterrupt:
-        sys.exit(130)
-    except Exception as exc:  # noqa: BLE001 - a CLI reports, it does not dump a traceback
-        if os.environ.get("NUDGE_DEBUG"):
-            raise
-        sys.stderr.write(f"error: internal error ({type(exc).__name__}: "
-                         f"{' '.join(str(exc).split())}); rerun with NUDGE_DEBUG=1 for the "
-                         "traceback\n")
-        sys.exit(3)
+    from planning.cli import run_main
+
+    run_main(main)

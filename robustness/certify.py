@@ -52,7 +52,6 @@ import argparse
 import math
 import os
 import pathlib
-import re
 import sys
 import time
 import warnings
@@ -62,10 +61,10 @@ import yaml
 from pydantic import (BaseModel, ConfigDict, Field, StrictBool, ValidationError, field_validator,
                       model_validator)
 
+from planning.cli import Parser, angle_value, fail, run_main
+
 EXIT_OK, EXIT_NOT_CERTIFIED, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
 
-_NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
-_ANGLE = re.compile(rf"^\s*({_NUM})\s*(deg|rad)?\s*$")
 
 
 class ConfigError(ValueError):
@@ -336,13 +335,10 @@ def parse_angle(v, field: str) -> float:
     if isinstance(v, (int, float)):
         x = float(v)
     else:
-        m = _ANGLE.match(str(v))
-        if not m:
+        x = angle_value(str(v))
+        if x is None:
             raise ConfigError(f"{field}: expected an angle in radians or with a 'deg' suffix "
                               f"(e.g. 1.57 or 90deg), got {v!r}")
-        x = float(m.group(1))
-        if m.group(2) == "deg":
-            x = math.radians(x)
     if not math.isfinite(x):
         raise ConfigError(f"{field}: must be finite, got {v!r}")
     return x
@@ -667,14 +663,8 @@ def format_table(certs: list) -> str:
     return "\n".join(lines)
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, exit 2, no usage dump
-        sys.stderr.write(f"error: {message} (see --help)\n")
-        sys.exit(EXIT_INPUT)
-
-
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="python -m robustness.certify",
+    p = Parser(prog="python -m robustness.certify",
                 description="Certify push / tumble plans against tolerances (Monte Carlo + "
                             "analytic bounds); writes Parquet tables.")
     p.add_argument("config", help="certification config (YAML)")
@@ -683,11 +673,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, help="override seed")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     return p
-
-
-def _fail(message: str, code: int = EXIT_INPUT) -> int:
-    sys.stderr.write(f"error: {' '.join(str(message).split())}\n")
-    return code
 
 
 def _enable_compilation_cache() -> None:
@@ -736,7 +721,7 @@ def main(argv=None) -> int:
                 raise ConfigError(f"tasks[{ti}].start: a push task needs a start pose "
                                   "[x, y, theta]")
     except ConfigError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     out = pathlib.Path(args.out) if args.out else pathlib.Path("results") / f"certify-{path.stem}"
     _enable_compilation_cache()
     import jax
@@ -745,7 +730,7 @@ def main(argv=None) -> int:
     try:
         code, certs = run(cfg, path, text, out, quiet=args.quiet)
     except ConfigError as exc:
-        return _fail(str(exc))
+        return fail(str(exc))
     sys.stdout.write(format_table(certs) + "\n")
     sys.stdout.write(f"wrote {out / 'samples.parquet'}, {out / 'summary.parquet'}, "
                      f"{out / 'certificates.parquet'}\n")
@@ -753,14 +738,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    try:
-        sys.exit(main())
-    except KeyboardInterrupt:
-        sys.exit(130)
-    except Exception as exc:  # noqa: BLE001 - a CLI reports, it does not dump a traceback
-        if os.environ.get("NUDGE_DEBUG"):
-            raise
-        sys.stderr.write(f"error: internal error ({type(exc).__name__}: "
-                         f"{' '.join(str(exc).split())}); rerun with NUDGE_DEBUG=1 for the "
-                         "traceback\n")
-        sys.exit(EXIT_INTERNAL)
+    run_main(main)

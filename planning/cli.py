@@ -1,0 +1,133 @@
+"""Pieces shared by nudge's command lines (``planning.push``,
+``planning.tumble``, ``robustness.certify``): one-line errors with exit
+status 2, pose parsing with ``deg`` suffixes, negative values after flags,
+warnings on stderr, and a ``__main__`` guard that reports instead of dumping
+a traceback.
+
+Units on the command line: metres and radians; an angle may end in ``deg``
+(or ``rad``).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import re
+import sys
+from typing import Callable, Iterable, Sequence
+
+EXIT_INPUT, EXIT_INTERNAL = 2, 3
+
+NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+ANGLE = re.compile(rf"^\s*({NUMBER})\s*(deg|rad)?\s*$")
+FACE = re.compile(r"^[Ff]?(\d+)$")
+
+
+class InputError(ValueError):
+    """Bad command-line input (exit status 2)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with a one-line ``error: ...`` and exit status 2 (no usage dump)."""
+
+    def error(self, message):
+        sys.stderr.write(f"error: {message} (see --help)\n")
+        sys.exit(EXIT_INPUT)
+
+
+def angle_value(text: str) -> float | None:
+    """``'1.57'``, ``'90deg'`` or ``'1.57rad'`` -> radians; None if not an angle."""
+    m = ANGLE.match(str(text))
+    if not m:
+        return None
+    x = float(m.group(1))
+    return math.radians(x) if m.group(2) == "deg" else x
+
+
+def parse_pose(text: str, field: str, with_face: bool = False) -> tuple:
+    """Parse ``x,y,theta`` (or ``x,y,theta,face`` with ``with_face``): metres,
+    radians (``theta`` may end in ``deg``), a face number (``3`` or ``F3``).
+
+    Raises:
+      InputError: the message names ``field`` and shows the expected form.
+    """
+    if with_face:
+        want = 4
+        form = ("expected x,y,theta,face in metres, radians and a face number "
+                "(e.g. 0.2,-0.05,1.57,3 or 0.2,-0.05,90deg,3)")
+    else:
+        want = 3
+        form = "expected x,y,theta in metres and radians (e.g. 0.1,-0.05,1.57 or 0.1,-0.05,90deg)"
+    parts = [p.strip() for p in str(text).split(",")]
+    if len(parts) != want:
+        raise InputError(f"{field}: {form}, got {text!r} ({len(parts)} value"
+                         f"{'s' if len(parts) != 1 else ''})")
+    out: list = []
+    for name, p in zip(("x", "y"), parts[:2]):
+        if not re.fullmatch(NUMBER, p):
+            raise InputError(f"{field}: {name} must be a number in metres, got {p!r}; {form}")
+        out.append(float(p))
+    theta = angle_value(parts[2])
+    if theta is None:
+        raise InputError(f"{field}: theta must be a number in radians or degrees with a 'deg' "
+                         f"suffix, got {parts[2]!r}; {form}")
+    out.append(theta)
+    if not all(math.isfinite(v) for v in out):
+        raise InputError(f"{field}: values must be finite, got {text!r}")
+    if with_face:
+        fm = FACE.match(parts[3])
+        if not fm:
+            raise InputError(f"{field}: face must be a non-negative face number, got "
+                             f"{parts[3]!r}; {form}")
+        out.append(int(fm.group(1)))
+    return tuple(out)
+
+
+def join_negative_values(argv: Sequence[str], flags: Iterable[str]) -> list[str]:
+    """``--start -0.1,0,0`` -> ``--start=-0.1,0,0`` for the given value flags
+    (argparse would otherwise take the value for an option)."""
+    flags = set(flags)
+    out, i = [], 0
+    argv = list(argv)
+    while i < len(argv):
+        tok = argv[i]
+        if tok in flags and i + 1 < len(argv) and argv[i + 1].startswith("-") \
+                and not argv[i + 1].startswith("--"):
+            out.append(f"{tok}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(tok)
+        i += 1
+    return out
+
+
+def fail(message: str, code: int = EXIT_INPUT) -> int:
+    """Write ``error: <message>`` as one line on stderr; return ``code``."""
+    sys.stderr.write(f"error: {' '.join(str(message).split())}\n")
+    return code
+
+
+def report_warnings(caught) -> None:
+    """Write each distinct caught warning as one ``warning: ...`` line on stderr."""
+    seen = set()
+    for w in caught:
+        msg = " ".join(str(w.message).split())
+        if msg not in seen:
+            seen.add(msg)
+            sys.stderr.write(f"warning: {msg}\n")
+
+
+def run_main(main: Callable[[], int]) -> None:
+    """``sys.exit(main())``; an unexpected exception becomes one ``error:`` line
+    and exit status 3 (``NUDGE_DEBUG=1`` re-raises it for the traceback)."""
+    try:
+        sys.exit(main())
+    except KeyboardInterrupt:
+        sys.exit(130)
+    except Exception as exc:  # noqa: BLE001 - a CLI reports, it does not dump a traceback
+        if os.environ.get("NUDGE_DEBUG"):
+            raise
+        sys.stderr.write(f"error: internal error ({type(exc).__name__}: "
+                         f"{' '.join(str(exc).split())}); rerun with NUDGE_DEBUG=1 for the "
+                         "traceback\n")
+        sys.exit(EXIT_INTERNAL)
