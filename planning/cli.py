@@ -131,3 +131,23 @@ def run_main(main: Callable[[], int]) -> None:
                          f"{' '.join(str(exc).split())}); rerun with NUDGE_DEBUG=1 for the "
                          "traceback\n")
         sys.exit(EXIT_INTERNAL)
+
+
+def load_part_of_kind(path, kind: str, other_tool: str):
+    """Read a part file (:func:`planning.partfile.load_part`) and check that it
+    holds a ``kind`` part (``polygon`` or ``polyhedron``).
+
+    Raises:
+      InputError: a bad file (the message names the field), or the other kind
+        (the message names ``other_tool``, the command for that kind).
+    """
+    from planning.partfile import PartFileError, load_part
+
+    try:
+        part = load_part(path)
+    except PartFileError as exc:
+        raise InputError(str(exc)) from None
+    if part.kind != kind:
+        raise InputError(f"{part.path}: kind: this planner takes {kind} parts, this file holds a "
+                         f"{part.kind} (use {other_tool})")
+    return part

@@ -27,7 +27,8 @@ import sys
 import warnings
 from typing import Optional, Sequence
 
-from planning.cli import InputError, Parser, fail, join_negative_values, report_warnings
+from planning.cli import (InputError, Parser, fail, join_negative_values, load_part_of_kind,
+                          report_warnings)
 from planning.cli import parse_pose as _parse_pose
 
 EXIT_OK, EXIT_PLANNING, EXIT_INPUT = 0, 1, 2
@@ -103,14 +104,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except InputError as exc:
         return fail(str(exc))
 
-    from planning.partfile import PartFileError, load_part
     try:
-        part = load_part(args.part)
-    except PartFileError as exc:
+        part = load_part_of_kind(args.part, "polygon", "python -m planning.tumble for polyhedra")
+    except InputError as exc:
         return fail(str(exc))
-    if part.kind != "polygon":
-        return fail(f"{part.path}: kind: the push planner takes polygon parts, this file holds a "
-                     f"{part.kind} (tumble planning is a separate tool)")
 
     # heavy imports (JAX) only after the cheap checks
     from kernels.polygon import PartError

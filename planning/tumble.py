@@ -37,7 +37,8 @@ import warnings
 from fractions import Fraction
 from typing import Optional, Sequence
 
-from planning.cli import InputError, Parser, fail, join_negative_values, parse_pose, report_warnings
+from planning.cli import (InputError, Parser, fail, join_negative_values, load_part_of_kind,
+                          parse_pose, report_warnings)
 
 EXIT_OK, EXIT_NOT_SOLVABLE, EXIT_INPUT = 0, 1, 2
 
@@ -144,14 +145,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except InputError as exc:
         return fail(str(exc))
 
-    from planning.partfile import PartFileError, load_part
     try:
-        part = load_part(args.part)
-    except PartFileError as exc:
+        part = load_part_of_kind(args.part, "polyhedron", "python -m planning.push for polygons")
+    except InputError as exc:
         return fail(str(exc))
-    if part.kind != "polyhedron":
-        return fail(f"{part.path}: kind: the tumble planner takes polyhedron parts, this file "
-                     f"holds a {part.kind} (pushing planar parts is python -m planning.push)")
 
     # heavy imports (JAX) only after the cheap checks; planning is float64
     import jax

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import pathlib
-import warnings
 
 import jax
 
@@ -19,31 +17,16 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-import yaml  # noqa: E402
 
 from kernels.polyhedron import make_polyhedron  # noqa: E402
 from kernels.tumble import make_config, replay  # noqa: E402
 from planning.tumble_plan import Tumble, TumblePlan, config_error  # noqa: E402
 from planning.tumble_planner import analyze_polyhedron, plan_tumble  # noqa: E402
 
-EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
+from tests.polyhedra import box, example, random_polyhedron
 A_CUBE = 0.1
 
 
-def example(name):
-    doc = yaml.safe_load((EXAMPLES / f"{name}.yaml").read_text())
-    return doc["vertices"], doc.get("com")
-
-
-def box(a, b, c):
-    return [[x, y, z] for x in (-a / 2, a / 2) for y in (-b / 2, b / 2) for z in (-c / 2, c / 2)]
-
-
-def random_polyhedron(seed, n):
-    rng = np.random.default_rng(seed)
-    d = rng.normal(size=(n, 3))
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    return d * rng.uniform(0.03, 0.1, size=3)
 
 
 def check_plan(plan: TumblePlan, V, com=None):

@@ -24,8 +24,6 @@ from __future__ import annotations
 
 import cmath
 import math
-import pathlib
-import warnings
 
 import jax
 
@@ -34,31 +32,16 @@ jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-import yaml  # noqa: E402
 
 from kernels.tumble import make_config, replay_trajectory  # noqa: E402
 from planning.tumble_motions import Motion, wrap  # noqa: E402
 from planning.tumble_paper import paper_plan  # noqa: E402
 from planning.tumble_planner import analyze_polyhedron, replay_faces  # noqa: E402
 
-EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
+from tests.polyhedra import box, example, random_polyhedron
 TWO_PI = 2 * math.pi
 
 
-def example(name):
-    doc = yaml.safe_load((EXAMPLES / f"{name}.yaml").read_text())
-    return doc["vertices"], doc.get("com")
-
-
-def box(a, b, c):
-    return [[x, y, z] for x in (-a / 2, a / 2) for y in (-b / 2, b / 2) for z in (-c / 2, c / 2)]
-
-
-def random_polyhedron(seed, n):
-    rng = np.random.default_rng(seed)
-    d = rng.normal(size=(n, 3))
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    return d * rng.uniform(0.03, 0.1, size=3)
 
 
 def kernel_samples(A, n_walks=256, length=24, seed=0):
