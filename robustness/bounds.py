@@ -43,7 +43,7 @@ Tumbling
 --------
 :func:`tumble_first_order_bound` is the same construction for a tumble plan
 (vertex tolerance ``tau_v`` per coordinate, box) through
-:func:`kernels.tumble.replay`; :func:`tumble_plan_paper_bounds` returns the
+:func:`kernels.tumble.replay`; :func:`tumble_plan_paper_bounds` computes the
 Marigo-Bicchi bounds of section III-A and IV as the tumble planner computed
 them (they are far looser: the paper bounds the worst case over every
 lattice coefficient and generator).
@@ -195,3 +195,29 @@ def tumble_first_order_bound(vertices, com, topology, start, faces, tau_v: float
     b = np.abs(j).reshape(3, -1).sum(1) * tau_v
     return {"x_m": float(b[0]), "y_m": float(b[1]), "position_m": float(math.hypot(b[0], b[1])),
             "theta_rad": float(b[2])}
+
+
+def tumble_plan_paper_bounds(plan, tau_v: float, tau_g=None) -> dict:
+    """The Marigo-Bicchi bounds (section III-A, eqs. 4-6, and the tumble counts
+    of section IV) for a tumble plan's part and goal, at vertex tolerance
+    ``tau_v`` (m) and generator tolerance ``tau_g`` (default: the plan's).
+
+    Keys (floats, ``inf`` where the paper's expression overflows): ``Delta_D``,
+    ``Delta_beta``, ``Delta_gen``, ``E``, ``U_max`` (eq. 4),
+    ``Delta_theta_f`` (eq. 5, rad), ``Delta_C_f`` (eq. 6, m),
+    ``tumbles_L_f``, ``tumbles_R_bar_k``, ``tumbles_translation``,
+    ``lattice_mesh_Delta`` (m^2), ``beta`` (rad).  ``d_f`` is the distance
+    from the start to the goal position.  Note that the paper's expressions
+    raise lengths to powers (``d_max^{2N}``...), so they depend on the unit of
+    length; they are evaluated in metres, as everything in nudge.
+    """
+    from planning.tumble_paper import paper_bounds
+    from planning.tumble_planner import analyze_polyhedron
+
+    if not (math.isfinite(tau_v) and tau_v >= 0):
+        raise ValueError(f"tau_v: tolerance must be a finite number >= 0, got {tau_v!r}")
+    analysis = analyze_polyhedron(plan.vertices, plan.com, tau_v=tau_v,
+                                  tau_g=plan.tau_g if tau_g is None else tau_g,
+                                  start_face=int(plan.start[3]))
+    d_f = math.hypot(plan.goal[0] - plan.start[0], plan.goal[1] - plan.start[1])
+    return paper_bounds(analysis, d_f)

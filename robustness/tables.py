@@ -136,6 +136,9 @@ SUMMARY_SCHEMA = pa.schema(
         pa.field("emp_max_pos_in_model_m", F64),
         pa.field("emp_max_theta_in_model_rad", F64),
         pa.field("bound_violated", BOOL),
+        pa.field("paper_bound_position_m", F64),
+        pa.field("paper_bound_theta_rad", F64),
+        pa.field("paper_bound_violated", BOOL),
     ]
     + [pa.field(f"n_{m}", I64) for m in FAILURE_MODES]
     + [

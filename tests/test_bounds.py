@@ -105,3 +105,39 @@ def test_tumble_first_order_bound_vs_monte_carlo():
     assert dpos.max() <= b["position_m"] * (1 + 1e-3)
     assert dth.max() <= b["theta_rad"] * (1 + 1e-3)
     assert dpos.max() >= 0.2 * b["position_m"]
+
+
+def test_paper_bounds_confronted_with_monte_carlo():
+    """The Marigo-Bicchi bounds (eqs. 5, 6) against the Monte-Carlo maximum on the same part,
+    plan and vertex tolerance.  Findings, asserted so that a change shows up:
+    on the 10 cm cube both hold; on the irregular polyhedron eq. (5) holds (vacuously, ~1e10 rad)
+    but eq. (6) evaluated in metres (d_max < 1 raised to the power 2N) collapses to ~1e-140 m and
+    is violated by the real error; the first-order bound holds on both."""
+    import warnings
+
+    from planning.tumble_planner import plan_tumble
+    from robustness.bounds import tumble_plan_paper_bounds
+    from robustness.evaluate import BoundViolation, ExecutionTolerance, FrictionRange, \
+        GeometryTolerance, Sampler, evaluate
+    from tests.polyhedra import example
+
+    tau = 1e-5
+    sampler = Sampler(GeometryTolerance(tau_v=tau), FrictionRange(), ExecutionTolerance())
+    cases = {"cube": ((0.2, 0.0, 0.0, 0), True), "irregular_polyhedron": ((0.1, 0.05, 1.0, 2), False)}
+    for name, (goal, paper_holds) in cases.items():
+        v, com = example(name)
+        plan = plan_tumble(v, goal, com=com, eps=1e-3)
+        assert plan.verdict == "solved"
+        pb = tumble_plan_paper_bounds(plan, tau)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            ev = evaluate(plan, sampler, 256, jax.random.PRNGKey(0), model="exact",
+                          pos_eps_m=1e-2, theta_eps_rad=1e-2)
+        s = ev.summary
+        assert s["paper_bound_position_m"] == pytest.approx(pb["Delta_C_f"])
+        assert s["bound_violated"] is False          # first order holds
+        assert s["paper_bound_violated"] is (not paper_holds)
+        loud = [w for w in caught if issubclass(w.category, BoundViolation)]
+        assert bool(loud) is (not paper_holds)
+        if not paper_holds:
+            assert "eq. 6" in str(loud[0].message)
