@@ -91,10 +91,10 @@ class PushTolerances:
     distance_rel: float = 0.0
 
     def __post_init__(self):
+        from robustness.samplers import check_nonneg
+
         for f in dataclasses.fields(self):
-            v = getattr(self, f.name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"{f.name}: tolerance must be a finite number >= 0, got {v!r}")
+            check_nonneg(self, f.name)
 
 
 def push_final_pose_fn(plan: PushPlan):

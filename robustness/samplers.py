@@ -62,7 +62,8 @@ GEOMETRY, FRICTION, EXECUTION = 0, 1, 2
 # --------------------------------------------------------------------------
 # Settings (host-side, validated)
 # --------------------------------------------------------------------------
-def _nonneg(obj, name: str, fix: str = "") -> None:
+def check_nonneg(obj, name: str, fix: str = "") -> None:
+    """Raise ValueError naming ``name`` unless ``obj.name`` is a finite number >= 0."""
     v = getattr(obj, name)
     ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
     if not ok:
@@ -103,14 +104,14 @@ class GeometryTolerance:
     com_shape: str = "disc"
 
     def __post_init__(self):
-        _nonneg(self, "tau_v")
-        _nonneg(self, "tau_com")
+        check_nonneg(self, "tau_v")
+        check_nonneg(self, "tau_com")
         if self.distribution not in DISTRIBUTIONS:
             raise ValueError(f"distribution: expected one of {DISTRIBUTIONS}, got {self.distribution!r}")
         if self.com_shape not in COM_SHAPES:
             raise ValueError(f"com_shape: expected one of {COM_SHAPES}, got {self.com_shape!r}")
         if self.sigma_v is not None:
-            _nonneg(self, "sigma_v")
+            check_nonneg(self, "sigma_v")
 
     @property
     def sigma(self) -> float:
@@ -185,7 +186,7 @@ class ExecutionTolerance:
     def __post_init__(self):
         for f in dataclasses.fields(self):
             if f.name != "distribution":
-                _nonneg(self, f.name)
+                check_nonneg(self, f.name)
         if self.distribution not in DISTRIBUTIONS:
             raise ValueError(f"distribution: expected one of {DISTRIBUTIONS}, got {self.distribution!r}")
 
