@@ -116,22 +116,27 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance) -> PushOutcome
         theta_new = theta + sigma * rot
         vw = pos + rot2(theta) @ v
         pos_rot = vw + s_used * d - rot2(theta_new) @ v
+        # landing on a stable edge: the rest of the push translates, in the same pass
+        settles = full & geom.stable[target]
+        pos_rot = pos_rot + jnp.where(settles, s_rem - s_used, 0.0) * d
         # translating branch (stable edge flush, or divergent equilibrium)
         translate = stable_now | divergent
         pos_tr = pos + s_rem * d
         active = ~done
         new_pos = jnp.where(active, jnp.where(translate, pos_tr, pos_rot), pos)
         new_theta = jnp.where(active & ~translate, theta_new, theta)
-        new_s = jnp.where(active, jnp.where(translate, 0.0, s_rem - s_used), s_rem)
+        new_s = jnp.where(active, jnp.where(translate | settles, 0.0, s_rem - s_used), s_rem)
         new_flush = jnp.where(active & ~translate, jnp.where(full, target, -1), flush)
-        new_done = done | translate | ~full
+        new_done = done | translate | ~full | settles
         new_rot = rot_tot + jnp.where(active & ~translate, sigma * rot, 0.0)
         new_land = landings + jnp.where(active & ~translate & full, 1, 0)
-        new_final = jnp.where(active, jnp.where(stable_now, fl, -1), final_edge)
+        new_final = jnp.where(active, jnp.where(stable_now, fl, jnp.where(~translate & settles, target, -1)),
+                              final_edge)
         return (it + 1, new_pos, new_theta, new_s, new_flush, new_done, new_rot, new_land, new_final)
 
-    # Each pass rotates to the next landing or finishes; a convex polygon lands at most n
-    # edges before a stable one, so n + 2 passes always suffice.
+    # Each pass rotates to the next landing (and translates on if it is a stable edge) or
+    # finishes; a convex polygon lands at most n edges before a stable one, so n + 2 passes
+    # always suffice.
     init = (jnp.asarray(0), pose[:2], pose[2], jnp.asarray(distance, dtype), jnp.asarray(-1),
             jnp.asarray(False), jnp.asarray(0.0, dtype), jnp.asarray(0), jnp.asarray(-1))
     _, pos, theta, _, _, _, rot_tot, landings, final_edge = jax.lax.while_loop(
