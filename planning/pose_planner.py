@@ -522,7 +522,8 @@ def _progression_deltas(a, sigma, count, psi):
     """
     sg = jnp.sign(sigma)
     st = jnp.abs(sigma)
-    y0 = jnp.remainder(sg * (a + sigma - psi), 2 * jnp.pi)   # term t = 1, mirrored to increase
+    y0 = sg * (a + sigma - psi)                               # term t = 1, mirrored to increase
+    y0 = y0 - 2 * jnp.pi * jnp.floor(y0 / (2 * jnp.pi))       # in [0, 2 pi) (cheaper than remainder)
     c1 = jnp.ceil((2 * jnp.pi - y0) / st)
     c2 = jnp.ceil((4 * jnp.pi - y0) / st)
     last = jnp.maximum(count - 1, 0).astype(y0.dtype)
@@ -534,6 +535,12 @@ def _progression_deltas(a, sigma, count, psi):
 
 def _wrap(a):
     return -jnp.remainder(-a + jnp.pi, 2 * jnp.pi) + jnp.pi
+
+
+def _wrap_near(a):
+    """Wrap angles of a few turns to [-pi, pi] with a rounding instead of a
+    remainder (the hot loop's column angles; ties at +-pi are immaterial there)."""
+    return a - 2 * jnp.pi * jnp.round(a / (2 * jnp.pi))
 
 
 @functools.lru_cache(maxsize=32)
@@ -594,8 +601,9 @@ def _plan_fn(part: PushPart, objective: str, singular: bool):
         t_prog, d_prog = jax.vmap(lambda w: _progression_deltas(base + w, sig, n - 1, psi))(omega)
         rows = jnp.concatenate([jnp.zeros((ns, 1), jnp.int32), jnp.ones((ns, 1), jnp.int32),
                                 jnp.broadcast_to(r, (ns, 1)).astype(jnp.int32), sing + t_prog], 1)
-        dlt = jnp.concatenate([_wrap(theta0 + omega - psi)[:, None], _wrap(th1 + omega - psi)[:, None],
-                               _wrap(thf + omega - psi)[:, None], d_prog], 1)
+        dlt = jnp.concatenate([_wrap_near(theta0 + omega - psi)[:, None],
+                               _wrap_near(th1 + omega - psi)[:, None],
+                               _wrap_near(thf + omega - psi)[:, None], d_prog], 1)
         valid = jnp.concatenate([jnp.ones((ns, 1), bool), jnp.broadcast_to(sing == 1, (ns, 1)),
                                  jnp.broadcast_to(~trans, (ns, 1)),
                                  jnp.broadcast_to((n >= 2) & ~trans, (ns, 6))], 1)
