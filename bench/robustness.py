@@ -62,6 +62,7 @@ from kernels import polygon as pg  # noqa: E402
 from planning.partfile import load_part  # noqa: E402
 from planning.pose_planner import plan_pose  # noqa: E402
 from robustness import evaluate as ev_mod  # noqa: E402
+from timing import best_of  # noqa: E402
 from robustness.samplers import (ExecutionTolerance, FrictionRange, GeometryTolerance,  # noqa: E402
                                  Sampler, broadcast)
 
@@ -75,15 +76,6 @@ PUSH_SAMPLER = Sampler(
                        distance_rel=0.005))
 TUMBLE_SAMPLER = Sampler(GeometryTolerance(tau_v=1e-4),
                          execution=ExecutionTolerance(tumble_slip_xy=1e-5, tumble_slip_theta=1e-5))
-
-
-def _best(fn, repeat: int) -> float:
-    best = math.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 # --------------------------------------------------------------------------
@@ -137,7 +129,7 @@ def push_bench(n: int, n_np: int, steps: int, repeat: int) -> dict:
         t0 = time.perf_counter()
         _, _, res = kernel()
         first = time.perf_counter() - t0
-        t = _best(kernel, repeat)
+        t = best_of(kernel, repeat)
         finals[name] = np.stack([res["x"], res["y"], res["theta"]], 1).astype(np.float64)
         rows.append(dict(method=f"jax vmap kernel {name}", n=n, seconds=t, rate=n / t, first=first))
 
@@ -146,7 +138,7 @@ def push_bench(n: int, n_np: int, steps: int, repeat: int) -> dict:
                                    dtype=dtype, n_steps=steps, chunk=n, bound=False)
 
         full()
-        t = _best(full, max(1, repeat - 1))
+        t = best_of(full, max(1, repeat - 1))
         rows.append(dict(method=f"jax evaluate() {name}", n=n, seconds=t, rate=n / t,
                          first=math.nan))
     # numpy loop on a subset: the quasi-static oracle (adaptive DOP853, rtol 1e-8)
@@ -230,7 +222,7 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
         t0 = time.perf_counter()
         _, res = kernel()
         first = time.perf_counter() - t0
-        t = _best(kernel, repeat)
+        t = best_of(kernel, repeat)
         finals[name] = np.stack([res["x"], res["y"], res["theta"]], 1).astype(np.float64)
         rows.append(dict(method=f"jax vmap kernel {name}", n=n, seconds=t, rate=steps / t,
                          first=first))

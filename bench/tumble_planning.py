@@ -65,6 +65,7 @@ import numpy as np  # noqa: E402
 from kernels.polyhedron import PartWarning, make_polyhedron, tumble_geometry  # noqa: E402
 from kernels.tumble import make_config, replay, wrap_angle  # noqa: E402
 from polyhedra_set import polyhedra_set  # noqa: E402
+from timing import best_of  # noqa: E402
 
 EPS_REL = 1e-2          # eps = EPS_REL * part diameter
 GOAL_RADIUS_DIAM = 3.0  # goal positions within this many diameters of the start
@@ -76,16 +77,6 @@ def _poly(vertices, com=None):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PartWarning)
         return make_polyhedron(vertices, com)
-
-
-def _timeit(fn, repeat: int) -> float:
-    """Best wall time of ``repeat`` calls of ``fn`` (already warmed up)."""
-    best = math.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 # --------------------------------------------------------------------------
@@ -129,8 +120,8 @@ def throughput(n_parts: int, n_numpy: int, repeat: int) -> dict:
         t0 = time.perf_counter()
         fin, ok = jax.block_until_ready(run(geoms, cfg, seqd))
         t_run_first = time.perf_counter() - t0
-        t_build = _timeit(lambda: jax.block_until_ready(build(Vd)), repeat)
-        t_run = _timeit(lambda: jax.block_until_ready(run(geoms, cfg, seqd)), repeat)
+        t_build = best_of(lambda: jax.block_until_ready(build(Vd)), repeat)
+        t_run = best_of(lambda: jax.block_until_ready(run(geoms, cfg, seqd)), repeat)
         assert bool(jnp.all(ok)), "replay reported an invalid tumble"
         finals[dtype] = (np.asarray(fin.xy, dtype=np.float64), np.asarray(fin.theta, dtype=np.float64))
         name = jnp.dtype(dtype).name

@@ -30,6 +30,8 @@ import math
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from tests.oracles.push_numpy import wrap  # the same angle wrap as the push oracle
+
 
 @dataclasses.dataclass
 class SimResult:
@@ -40,15 +42,6 @@ class SimResult:
     slip: float          # int |slip velocity| ds (m)
     landings: int
     fence: float         # final fence offset along d
-
-
-def wrap(a: float) -> float:
-    a = math.fmod(a, 2 * math.pi)
-    if a <= -math.pi:
-        a += 2 * math.pi
-    elif a > math.pi:
-        a -= 2 * math.pi
-    return a
 
 
 def _rot(t):
