@@ -475,6 +475,14 @@ def _plan_tumble(part, start, goal, cfg):
                        tau_v=cfg.planner.tumble_tau_v, tau_g=cfg.planner.tau_g)
 
 
+def _no_plan_fields(reason: str) -> dict:
+    """Certificate fields of a task the planner could not serve (nothing sampled)."""
+    return dict(n_samples=0, success_rate=math.nan, ci_low=math.nan, ci_high=math.nan,
+                bound_position_m=math.nan, bound_theta_rad=math.nan, bound_within_eps=False,
+                bound_violated=None, verdict="not certified", dominant_failure_mode="no_plan",
+                note=f"planner: {reason}")
+
+
 def run(cfg: CertifyConfig, config_path: pathlib.Path, config_text: str, out: pathlib.Path,
         quiet: bool = False) -> tuple[int, list]:
     """Run a certification; returns (exit status, certificate rows)."""
@@ -532,10 +540,7 @@ def run(cfg: CertifyConfig, config_path: pathlib.Path, config_text: str, out: pa
                                                  and not isinstance(exc, PlanningError)):
                 raise ConfigError(f"tasks[{ti}] ({task.name}): {reason}") from None
             row.update(plan_steps=0, plan_distance_m=math.nan, plan_verdict="no_plan",
-                       n_samples=0, success_rate=math.nan, ci_low=math.nan, ci_high=math.nan,
-                       bound_position_m=math.nan, bound_theta_rad=math.nan,
-                       bound_within_eps=False, bound_violated=None, verdict="not certified",
-                       dominant_failure_mode="no_plan", note=f"planner: {reason}")
+                       **_no_plan_fields(reason))
             certs.append(row)
             log(f"[{task.name}] no plan: {reason}")
             continue
@@ -547,10 +552,7 @@ def run(cfg: CertifyConfig, config_path: pathlib.Path, config_text: str, out: pa
                        plan_verdict=plan.verdict)
             if plan.verdict != "solved":
                 reason = " ".join(str(plan.reason).split())
-                row.update(n_samples=0, success_rate=math.nan, ci_low=math.nan, ci_high=math.nan,
-                           bound_position_m=math.nan, bound_theta_rad=math.nan,
-                           bound_within_eps=False, bound_violated=None, verdict="not certified",
-                           dominant_failure_mode="no_plan", note=f"planner: {reason}")
+                row.update(**_no_plan_fields(reason))
                 certs.append(row)
                 log(f"[{task.name}] not solvable: {reason}")
                 continue
