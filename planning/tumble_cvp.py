@@ -16,7 +16,6 @@ caller recomputes the achieved translation.
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
 from scipy.spatial import cKDTree

@@ -307,7 +307,6 @@ def build_analysis(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[float
     geom = P.geometry()
     table = TumbleTable.from_polyhedron(P, geom)
     corners = np.asarray(geom.corners_2d)
-    m_all = P.n_vertices
     l = P.n_faces
 
     paths = _bfs(table, F)

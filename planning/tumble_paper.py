@@ -114,7 +114,6 @@ def paper_plan(A: TumbleAnalysis, M: Motion, goal_face: int, eps: float) -> Pape
     """Steps 1-5 of the paper for target motion ``M`` (start frame) ending on
     ``goal_face``; see the module docstring."""
     F = A.start_face
-    P = A.polyhedron
     L = A.transit_paths[goal_face]
     E_L = A.table.word_motion(F, L)
     loop = compose(M, inverse_motion(E_L))

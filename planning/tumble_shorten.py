@@ -57,7 +57,7 @@ from scipy.spatial import cKDTree
 from planning.lattice import closest_lattice_point, lagrange_gauss_reduce
 from planning.tumble_cvp import CVPSolver, Sumset
 from planning.tumble_generators import TumbleAnalysis
-from planning.tumble_motions import Motion, TumbleTable, wrap
+from planning.tumble_motions import Motion, wrap
 from planning.tumble_walks import Walks, akey as _akey, enumerate_walks
 from planning.words import concat, inverse, power, purge
 
