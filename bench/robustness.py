@@ -59,8 +59,8 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from kernels import polygon as pg  # noqa: E402
-from planning.partfile import load_part  # noqa: E402
-from planning.pose_planner import plan_pose  # noqa: E402
+from sweeps.partfile import load_part  # noqa: E402
+from planning.pushing.planner import plan_pose  # noqa: E402
 from robustness import evaluate as ev_mod  # noqa: E402
 from timing import best_of  # noqa: E402
 from robustness.samplers import (ExecutionTolerance, FrictionRange, GeometryTolerance,  # noqa: E402
@@ -142,7 +142,7 @@ def push_bench(n: int, n_np: int, steps: int, repeat: int) -> dict:
         rows.append(dict(method=f"jax evaluate() {name}", n=n, seconds=t, rate=n / t,
                          first=math.nan))
     # numpy loop on a subset: the quasi-static oracle (adaptive DOP853, rtol 1e-8)
-    from tests.oracles import quasistatic_numpy as oracle
+    from oracles import quasistatic_numpy as oracle
 
     p = broadcast(params64, ax64, n)
     angles = [math.atan2(q.direction[1], q.direction[0]) for q in plan.pushes]
@@ -177,7 +177,7 @@ def tumble_plan_200():
 
     from kernels.polyhedron import PartWarning, make_polyhedron
     from kernels.tumble import make_config, replay
-    from planning.tumble_plan import Tumble, TumblePlan
+    from planning.tumbling.plan import Tumble, TumblePlan
 
     doc = yaml.safe_load((ROOT / "examples" / "irregular_polyhedron.yaml").read_text())
     with warnings.catch_warnings():
@@ -204,7 +204,7 @@ def tumble_plan_200():
 
 def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
     from robustness.samplers import face_merge_tol, polyhedron_combinatorics_changed
-    from tests.oracles import tumble_numpy as oracle
+    from oracles import tumble_numpy as oracle
 
     P, plan = tumble_plan_200()
     rows, finals = [], {}

@@ -94,7 +94,7 @@ def random_walk(poly, rng, start_face: int, length: int) -> list[int]:
 def throughput(n_parts: int, n_numpy: int, repeat: int) -> dict:
     import yaml
 
-    from tests.oracles import tumble_numpy as oracle
+    from oracles import tumble_numpy as oracle
 
     doc = yaml.safe_load((ROOT / "examples" / "irregular_polyhedron.yaml").read_text())
     P = _poly(doc["vertices"], doc.get("com"))
@@ -241,7 +241,7 @@ def _reason_key(reason: str) -> str:
 
 def plan_part(task) -> dict:
     """Plan all goals of one part (runs in a worker process)."""
-    from planning.tumble_planner import plan_tumble
+    from planning.tumbling.planner import plan_tumble
 
     part, n_goals, n_walk, seed = task
     poly = _poly(part.vertices, part.com)
@@ -415,9 +415,9 @@ def main(argv=None) -> int:
     shortening = None
     if args.only in (None, "planning"):
         try:
-            import planning.tumble_planner  # noqa: F401
+            import planning.tumbling.planner  # noqa: F401
         except ImportError as exc:
-            print(f"\n## Planning: skipped (planning.tumble_planner not importable: {exc})")
+            print(f"\n## Planning: skipped (planning.tumbling.planner not importable: {exc})")
         else:
             res = run_planning(parts, n_goals, n_walk, args.seed, jobs)
             print_planning(res, n_goals, n_walk)

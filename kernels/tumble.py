@@ -274,7 +274,7 @@ def tumble_sequence_effect(geom: TumbleGeometry, start_face, word):
       geom: :class:`TumbleGeometry` (unbatched).
       start_face: () int, the face ``F`` on the plane before the word.
       word: (L,) int, the faces that land, in order (the convention of
-        :func:`replay` and :mod:`planning.words`: ``F`` itself is not part of
+        :func:`replay` and :mod:`planning.tumbling.words`: ``F`` itself is not part of
         the word), ending on ``F`` again, e.g. the paper's ``S_j`` without its
         leading ``j_1``; ``-1`` entries are no-op padding.
 

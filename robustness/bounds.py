@@ -62,8 +62,8 @@ import numpy as np
 
 from kernels import polygon as pg
 from kernels.push import replay_pushes
-from planning.pose_planner import prepare_part
-from planning.push_plan import PushPlan
+from planning.pushing.planner import prepare_part
+from planning.pushing.plan import PushPlan
 
 jax.config.update("jax_enable_x64", True)
 
@@ -132,7 +132,7 @@ def push_plan_bound(plan: PushPlan, tol: PushTolerances) -> dict:
     """First-order worst-case bound on a push plan's final pose error.
 
     Args:
-      plan: a verified :class:`~planning.push_plan.PushPlan`.
+      plan: a verified :class:`~planning.pushing.plan.PushPlan`.
       tol: box tolerances (:class:`PushTolerances`).
 
     Returns:
@@ -211,8 +211,8 @@ def tumble_plan_paper_bounds(plan, tau_v: float, tau_g=None) -> dict:
     raise lengths to powers (``d_max^{2N}``...), so they depend on the unit of
     length; they are evaluated in metres, as everything in nudge.
     """
-    from planning.tumble_paper import paper_bounds
-    from planning.tumble_planner import analyze_polyhedron
+    from planning.tumbling.paper import paper_bounds
+    from planning.tumbling.planner import analyze_polyhedron
 
     if not (math.isfinite(tau_v) and tau_v >= 0):
         raise ValueError(f"tau_v: tolerance must be a finite number >= 0, got {tau_v!r}")

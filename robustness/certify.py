@@ -61,7 +61,7 @@ import yaml
 from pydantic import (BaseModel, ConfigDict, Field, StrictBool, ValidationError, field_validator,
                       model_validator)
 
-from planning.cli import Parser, angle_value, fail, run_main
+from sweeps.terminal import Parser, angle_value, fail, run_main
 
 EXIT_OK, EXIT_NOT_CERTIFIED, EXIT_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
 
@@ -421,7 +421,7 @@ def _sampler(cfg: CertifyConfig):
 
 
 def _load_part(cfg: CertifyConfig, config_path: pathlib.Path):
-    from planning.partfile import load_part, parse_part
+    from sweeps.partfile import load_part, parse_part
 
     if isinstance(cfg.part, str):
         p = pathlib.Path(cfg.part)
@@ -453,7 +453,7 @@ def _verdict(summary: dict, bound_ok: bool, required: float):
 
 
 def _plan_push(part, task_start, task_goal, cfg, margin_deg=None, safety_factor=None):
-    from planning.pose_planner import plan_pose
+    from planning.pushing.planner import plan_pose
 
     return plan_pose(part.vertices, task_start, task_goal, com=part.com,
                      margin_deg=cfg.planner.margin_deg if margin_deg is None else margin_deg,
@@ -462,7 +462,7 @@ def _plan_push(part, task_start, task_goal, cfg, margin_deg=None, safety_factor=
 
 
 def _plan_tumble(part, start, goal, cfg):
-    from planning.tumble_planner import plan_tumble
+    from planning.tumbling.planner import plan_tumble
 
     eps = cfg.planner.tumble_eps
     if eps is None:
@@ -491,7 +491,7 @@ def run(cfg: CertifyConfig, config_path: pathlib.Path, config_text: str, out: pa
     import pandas as pd
 
     from kernels.polygon import PartError
-    from planning.pose_planner import PlanningError
+    from planning.pushing.planner import PlanningError
     from robustness import tables
     from robustness.evaluate import BoundViolation, evaluate
 
@@ -619,7 +619,7 @@ def run(cfg: CertifyConfig, config_path: pathlib.Path, config_text: str, out: pa
 def _margin_search(part, start, goal, cfg, sampler, key, dtype, log):
     """Smallest (margin_deg, safety_factor) of the grid whose plan certifies
     empirically (or analytically); None if none does."""
-    from planning.pose_planner import PlanningError
+    from planning.pushing.planner import PlanningError
     from robustness.evaluate import evaluate
 
     ms = cfg.margin_search
@@ -710,7 +710,7 @@ def main(argv=None) -> int:
             upd["seed"] = args.seed
         if upd:
             cfg = cfg.model_copy(update=upd)
-        from planning.partfile import PartFileError
+        from sweeps.partfile import PartFileError
         try:
             part = _load_part(cfg, path)
         except PartFileError as exc:

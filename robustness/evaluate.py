@@ -5,7 +5,7 @@
 jit-compiled, vmapped batch, and returns an :class:`Evaluation`: a per-sample
 table and a summary.
 
-Push plans (:class:`planning.push_plan.PushPlan`)
+Push plans (:class:`planning.pushing.plan.PushPlan`)
 -------------------------------------------------
 Per sample: the caller's vertices and the centre of mass are offset, the
 hull (in the NOMINAL order) is re-expressed about the perturbed centre of mass
@@ -26,7 +26,7 @@ starts at ``start_xy + R(theta0) dcom`` and the reported final position is the
 simulated centre of mass minus ``R(theta_f) dcom``.  With zero tolerances the
 reported pose is exactly the plan's prediction.
 
-Tumble plans (:class:`planning.tumble_plan.TumblePlan`)
+Tumble plans (:class:`planning.tumbling.plan.TumblePlan`)
 -------------------------------------------------------
 Per sample: :func:`kernels.polyhedron.tumble_geometry` on the perturbed
 vertices and centre of mass (``jax.vmap``), then the tumbles are replayed one
@@ -445,8 +445,8 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
     """Evaluate a plan on ``n`` perturbed samples.
 
     Args:
-      plan: a :class:`~planning.push_plan.PushPlan` or a
-        :class:`~planning.tumble_plan.TumblePlan`.
+      plan: a :class:`~planning.pushing.plan.PushPlan` or a
+        :class:`~planning.tumbling.plan.TumblePlan`.
       sampler: the :class:`~robustness.samplers.Sampler` (tolerances).
       n: number of samples (>= 1).
       key: a ``jax.random`` key.

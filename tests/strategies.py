@@ -3,7 +3,7 @@
 A part is ``(vertices (m, 2), com (2,))`` in the caller's frame (metres), with
 the centre of mass strictly inside.  The class of a part (uni-, biplus-,
 nice-stable) is decided here independently of the library
-(:func:`tests.oracles.push_numpy.object_class`), so tests can use it as an
+(:func:`oracles.push_numpy.object_class`), so tests can use it as an
 expectation.
 
 How each class is hit:
@@ -33,7 +33,7 @@ import numpy as np
 from hypothesis import assume, strategies as st
 from scipy.spatial import ConvexHull
 
-from tests.oracles import push_numpy as oracle
+from oracles import push_numpy as oracle
 
 UNI, BIPLUS, NICE = 0, 1, 2
 MIN_EXTERIOR = math.radians(12.0)

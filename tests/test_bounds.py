@@ -9,7 +9,7 @@ import pytest
 from kernels.polyhedron import make_polyhedron
 from kernels.tumble import make_config, replay
 from kernels.polyhedron import tumble_geometry
-from planning.pose_planner import plan_pose
+from planning.pushing.planner import plan_pose
 from robustness.bounds import (PushTolerances, push_final_pose_fn, push_plan_bound,
                                tumble_first_order_bound)
 
@@ -115,7 +115,7 @@ def test_paper_bounds_confronted_with_monte_carlo():
     is violated by the real error; the first-order bound holds on both."""
     import warnings
 
-    from planning.tumble_planner import plan_tumble
+    from planning.tumbling.planner import plan_tumble
     from robustness.bounds import tumble_plan_paper_bounds
     from robustness.evaluate import BoundViolation, ExecutionTolerance, FrictionRange, \
         GeometryTolerance, Sampler, evaluate

@@ -8,8 +8,8 @@ import pytest
 
 from kernels.polyhedron import PartWarning, make_polyhedron
 from kernels.tumble import make_config, replay
-from planning.pose_planner import plan_pose
-from planning.tumble_plan import Tumble, TumblePlan
+from planning.pushing.planner import plan_pose
+from planning.tumbling.plan import Tumble, TumblePlan
 from robustness import evaluate as ev_mod
 from robustness.evaluate import BoundViolation, evaluate
 from robustness.samplers import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler

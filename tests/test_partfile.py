@@ -1,4 +1,4 @@
-"""Tests for planning.partfile: the YAML part-file loader."""
+"""Tests for sweeps.partfile: the YAML part-file loader."""
 from __future__ import annotations
 
 import pathlib
@@ -6,7 +6,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from planning.partfile import ALLOWED_KEYS, PartFile, PartFileError, load_part, parse_part
+from sweeps.partfile import ALLOWED_KEYS, PartFile, PartFileError, load_part, parse_part
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 POLYGONS = ["rectangle", "unistable", "biplus_stable", "nice_stable"]

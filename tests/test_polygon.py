@@ -15,7 +15,7 @@ from hypothesis import given, settings, strategies as st
 from kernels import polygon as pg
 from kernels.push import replay_push
 from tests import strategies as S
-from tests.oracles import push_numpy as oracle
+from oracles import push_numpy as oracle
 
 geometry = jax.jit(pg.polygon_geometry)
 reorient_table = jax.jit(pg.max_reorient_table)

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from planning import pose_lp
+from planning.pushing import pose_lp
 
 K_MAX = 12
 REL = 1e-7

@@ -14,11 +14,11 @@ import pytest
 from hypothesis import event, given, settings, strategies as st
 
 from kernels import polygon as pg
-from planning import pose_lp
-from planning import pose_planner as pp
-from planning.push_plan import PLAN_CLASSES, Push, PushPlan
+from planning.pushing import pose_lp
+from planning.pushing import planner as pp
+from planning.pushing.plan import PLAN_CLASSES, Push, PushPlan
 from tests import strategies as S
-from tests.oracles import push_numpy as oracle
+from oracles import push_numpy as oracle
 
 POS_TOL = 1e-9
 ANG_TOL = 1e-9

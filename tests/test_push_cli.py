@@ -1,4 +1,4 @@
-"""Tests for the pushing CLI (python -m planning.push) and its figures.
+"""Tests for the pushing CLI (python -m sweeps.plan_push) and its figures.
 
 Every CLI run is a subprocess (Python + JAX start-up, a few seconds of CPU
 each), so an autouse module fixture starts them all on a thread pool (at
@@ -18,8 +18,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from planning.push import _join_pose_args, parse_pose, InputError
-from planning.push_plan import PushPlan
+from sweeps.plan_push import _join_pose_args, parse_pose, InputError
+from planning.pushing.plan import PushPlan
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -70,7 +70,7 @@ def cli(tmp_path_factory):
     env = dict(os.environ, JAX_PLATFORMS="cpu")
 
     def run(argv):
-        p = subprocess.run([sys.executable, "-m", "planning.push", *argv], cwd=ROOT, env=env,
+        p = subprocess.run([sys.executable, "-m", "sweeps.plan_push", *argv], cwd=ROOT, env=env,
                            capture_output=True, text=True, timeout=600)
         return p.returncode, p.stdout, p.stderr
 
@@ -118,7 +118,8 @@ def test_negative_pose_values_are_joined():
 
 
 def test_planning_error_exits_1(monkeypatch, capsys):
-    from planning import pose_planner, push
+    from planning.pushing import planner as pose_planner
+    from sweeps import plan_push as push
 
     def fail(*a, **k):
         raise pose_planner.PlanningError("no feasible pose plan (test)")
@@ -132,7 +133,7 @@ def test_planning_error_exits_1(monkeypatch, capsys):
 
 
 def test_psd_only_mode(tmp_path, capsys):
-    from planning import push
+    from sweeps import plan_push as push
     rc = push.main([str(EXAMPLES / "unistable.yaml"), "--psd", str(tmp_path / "u.png")])
     cap = capsys.readouterr()
     assert rc == 0
@@ -143,9 +144,9 @@ def test_psd_only_mode(tmp_path, capsys):
 @pytest.mark.parametrize("name", ["unistable", "biplus_stable"])  # each new part costs ~3 s CPU
 def test_push_stability_matches_tables(name):
     """The replayed capture ranges agree with the planner's tables."""
-    from planning.partfile import load_part
-    from planning.pose_planner import prepare_part
-    from planning.push_plots import push_stability
+    from sweeps.partfile import load_part
+    from planning.pushing.planner import prepare_part
+    from sweeps.figures.push import push_stability
 
     pf = load_part(EXAMPLES / f"{name}.yaml")
     part = prepare_part(pf.vertices, pf.com)

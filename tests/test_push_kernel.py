@@ -13,7 +13,7 @@ from scipy.integrate import solve_ivp
 from kernels.polygon import polygon_geometry
 from kernels.push import replay_push, replay_pushes
 from tests import strategies as S
-from tests.oracles import push_numpy as oracle
+from oracles import push_numpy as oracle
 
 TOL = 1e-9
 

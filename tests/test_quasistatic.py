@@ -19,8 +19,8 @@ from kernels.push import replay_push
 from kernels.quasistatic import (SimOutcome, contact_rates, limit_surface_ratio, simulate_push,
                                  simulate_pushes)
 from tests import strategies as S
-from tests.oracles import push_numpy as push_oracle
-from tests.oracles import quasistatic_numpy as qs_oracle
+from oracles import push_numpy as push_oracle
+from oracles import quasistatic_numpy as qs_oracle
 
 N_STEPS = 200
 BATCH = 32

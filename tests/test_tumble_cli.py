@@ -1,5 +1,5 @@
-"""Tests for the tumble command line (``python -m planning.tumble``), its figures
-(:mod:`planning.tumble_plots`) and the benchmark script's quick mode."""
+"""Tests for the tumble command line (``python -m sweeps.plan_tumble``), its figures
+(:mod:`sweeps.figures.tumble`) and the benchmark script's quick mode."""
 from __future__ import annotations
 
 import json
@@ -17,8 +17,8 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from kernels.polyhedron import make_polyhedron  # noqa: E402
-from planning.partfile import load_part  # noqa: E402
-from planning import tumble_plots  # noqa: E402
+from sweeps.partfile import load_part  # noqa: E402
+from sweeps.figures import tumble as tumble_plots  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
@@ -31,7 +31,7 @@ def run_cli(*args, timeout=300):
     env = dict(os.environ)
     env.pop("NUDGE_DEBUG", None)
     env.setdefault("JAX_PLATFORMS", "cpu")
-    return subprocess.run([sys.executable, "-m", "planning.tumble", *map(str, args)],
+    return subprocess.run([sys.executable, "-m", "sweeps.plan_tumble", *map(str, args)],
                           cwd=ROOT, capture_output=True, text=True, timeout=timeout, env=env)
 
 
@@ -47,7 +47,7 @@ def load_poly(name: str):
 
 
 def planner():
-    return pytest.importorskip("planning.tumble_planner")
+    return pytest.importorskip("planning.tumbling.planner")
 
 
 # ---------------------------------------------------------------- plots, direct
@@ -141,7 +141,7 @@ def test_sample_reached_positions_cube_on_grid():
 # ---------------------------------------------------------------- CLI, good input
 def test_cli_cube_exact_goal_json_and_plots(tmp_path):
     planner()
-    from planning.tumble_plan import TumblePlan
+    from planning.tumbling.plan import TumblePlan
 
     plot, dev, lat = tmp_path / "plan.png", tmp_path / "dev.png", tmp_path / "lat.png"
     r = run_cli(CUBE, "--goal", f"{2 * A},0,0,0", "--eps", "1e-3", "--json",

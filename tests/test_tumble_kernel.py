@@ -28,7 +28,7 @@ from kernels.tumble import (  # noqa: E402
     tumble_sequence_effect,
     wrap_angle,
 )
-from tests.oracles import tumble_numpy as oracle  # noqa: E402
+from oracles import tumble_numpy as oracle  # noqa: E402
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 EXAMPLE_NAMES = ["cube", "tetrahedron", "octahedron", "truncated_pyramid", "irregular_polyhedron"]

@@ -20,8 +20,8 @@ import pytest  # noqa: E402
 
 from kernels.polyhedron import make_polyhedron  # noqa: E402
 from kernels.tumble import make_config, replay  # noqa: E402
-from planning.tumble_plan import Tumble, TumblePlan, config_error  # noqa: E402
-from planning.tumble_planner import analyze_polyhedron, plan_tumble  # noqa: E402
+from planning.tumbling.plan import Tumble, TumblePlan, config_error  # noqa: E402
+from planning.tumbling.planner import analyze_polyhedron, plan_tumble  # noqa: E402
 
 from tests.polyhedra import box, example, random_polyhedron
 A_CUBE = 0.1

@@ -34,9 +34,9 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from kernels.tumble import make_config, replay_trajectory  # noqa: E402
-from planning.tumble_motions import Motion, wrap  # noqa: E402
-from planning.tumble_paper import paper_plan  # noqa: E402
-from planning.tumble_planner import analyze_polyhedron, replay_faces  # noqa: E402
+from planning.tumbling.motions import Motion, wrap  # noqa: E402
+from planning.tumbling.paper import paper_plan  # noqa: E402
+from planning.tumbling.planner import analyze_polyhedron, replay_faces  # noqa: E402
 
 from tests.polyhedra import box, example, random_polyhedron
 TWO_PI = 2 * math.pi

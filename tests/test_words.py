@@ -1,4 +1,4 @@
-"""Tests of planning.words: tumble sequences and their free reduction."""
+"""Tests of planning.tumbling.words: tumble sequences and their free reduction."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planning.words import concat, end_face, inverse, is_walk, power, purge
+from planning.tumbling.words import concat, end_face, inverse, is_walk, power, purge
 
 SETTINGS = settings(derandomize=True, max_examples=200, deadline=None)
 

@@ -31,8 +31,8 @@ from matplotlib.patches import Patch, Polygon as PolyPatch  # noqa: E402
 
 from kernels import polygon as pg  # noqa: E402
 from kernels.push import replay_push  # noqa: E402
-from planning.pose_planner import PushPart, prepare_part  # noqa: E402
-from planning.push_plan import PushPlan  # noqa: E402
+from planning.pushing.planner import PushPart, prepare_part  # noqa: E402
+from planning.pushing.plan import PushPlan  # noqa: E402
 
 START_COLOR = "tab:blue"
 GOAL_COLOR = "tab:green"
@@ -83,7 +83,7 @@ def plot_plan(plan: PushPlan, path, title: Optional[str] = None, name: Optional[
     so its tip lies on the fence's final position.
 
     Args:
-      plan: a :class:`~planning.push_plan.PushPlan`.
+      plan: a :class:`~planning.pushing.plan.PushPlan`.
       path: PNG (or any matplotlib format) to write.
       title: optional title; default: part class, plan class, pushes, distance.
       name: the part's name, put in front of the default title.
@@ -248,8 +248,8 @@ def push_stability(part_or_vertices, margin_deg: float = 7.0, com=None,
     :func:`kernels.push.replay_push`, vmapped.
 
     Args:
-      part_or_vertices: a :class:`~planning.pose_planner.PushPart`, a
-        :class:`~planning.partfile.PartFile`, a :class:`kernels.polygon.Polygon`
+      part_or_vertices: a :class:`~planning.pushing.planner.PushPart`, a
+        :class:`~sweeps.partfile.PartFile`, a :class:`kernels.polygon.Polygon`
         or an (m, 2) vertex array (metres).
       margin_deg: margin angle (degrees) for the step angles (ignored for a PushPart).
       com: centre of mass (m), default the file's or the area centroid.

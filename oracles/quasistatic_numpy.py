@@ -30,7 +30,7 @@ import math
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from tests.oracles.push_numpy import wrap  # the same angle wrap as the push oracle
+from oracles.push_numpy import wrap  # the same angle wrap as the push oracle
 
 
 @dataclasses.dataclass

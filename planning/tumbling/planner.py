@@ -4,15 +4,15 @@
 tau_g) the paper's structure of the part: plane development, transit paths,
 rotations ``R_j``, GCD of the defect angles, ``R_bar``, the translation
 generators ``t_jk``, their lattice (HNF) and the class of the reachable set
-(:mod:`planning.tumble_generators`).
+(:mod:`planning.tumbling.generators`).
 
 ``plan_tumble`` plans one goal:
 
-1. the paper's algorithm (steps 1-5, :mod:`planning.tumble_paper`): its
+1. the paper's algorithm (steps 1-5, :mod:`planning.tumbling.paper`): its
    residuals, verdict checks, analytic bounds and tumble count
    (``n_tumbles_paper``, never materialised when huge);
 2. with ``shorten=True`` (default) a short plan
-   (:mod:`planning.tumble_shorten`): meet-in-the-middle cores plus short
+   (:mod:`planning.tumbling.shorten`): meet-in-the-middle cores plus short
    translation loops (and, for irrational defect angles, short rotation loops);
 3. every candidate plan (the short plan; the paper's own plan when it is
    small enough to build, at most ``PAPER_MATERIALISE_CAP`` tumbles, and
@@ -22,7 +22,7 @@ generators ``t_jk``, their lattice (HNF) and the class of the reachable set
    (verdict ``not_solvable``).
 
 ``plan.bounds`` holds the paper's bounds (keys of
-:data:`planning.tumble_plan.BOUND_KEYS`) plus ``orientation_residual`` (rad)
+:data:`planning.tumbling.plan.BOUND_KEYS`) plus ``orientation_residual`` (rad)
 and ``position_residual`` (m) of the paper's steps 3 and 4 (exact for a
 discrete reachable set).
 
@@ -42,12 +42,12 @@ import numpy as np
 
 from kernels.polyhedron import make_polyhedron
 from kernels.tumble import make_config, replay
-from planning.tumble_generators import TumbleAnalysis, build_analysis
-from planning.tumble_motions import Motion, compose, inverse_motion, wrap
-from planning.tumble_paper import paper_plan
-from planning.tumble_plan import Tumble, TumblePlan, config_error
-from planning.tumble_shorten import ShortPlanner
-from planning.words import purge
+from planning.tumbling.generators import TumbleAnalysis, build_analysis
+from planning.tumbling.motions import Motion, compose, inverse_motion, wrap
+from planning.tumbling.paper import paper_plan
+from planning.tumbling.plan import Tumble, TumblePlan, config_error
+from planning.tumbling.shorten import ShortPlanner
+from planning.tumbling.words import purge
 
 __all__ = ["analyze_polyhedron", "plan_tumble", "TumbleAnalysis", "replay_faces", "clear_cache"]
 
@@ -115,7 +115,7 @@ def analyze_polyhedron(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[f
         the coefficients are rational (discrete case), else ``DEFAULT_TAU_G``.
       start_face: the paper's ``F_1``.
 
-    Returns a :class:`~planning.tumble_generators.TumbleAnalysis`.
+    Returns a :class:`~planning.tumbling.generators.TumbleAnalysis`.
     Raises ValueError naming the bad argument (part errors come from
     :func:`kernels.polyhedron.make_polyhedron`).
     """
@@ -202,7 +202,7 @@ def plan_tumble(vertices, goal, start=None, com=None, eps: float = 1e-3, tau_v: 
       shorten: False returns the paper's own construction (when it is small
         enough to build).
 
-    Returns a :class:`~planning.tumble_plan.TumblePlan`.
+    Returns a :class:`~planning.tumbling.plan.TumblePlan`.
     Raises ValueError naming the bad field and how to fix it.
     """
     if isinstance(eps, bool) or not isinstance(eps, numbers.Real) or not (float(eps) > 0) \

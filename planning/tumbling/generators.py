@@ -26,7 +26,7 @@ Implements Sec. II-B and the first half of Sec. III of Marigo & Bicchi,
   ``dense``, ``dense_lines``).
 
 Sign convention verified here (and in the tests): with effects composed
-frame-relatively (:mod:`planning.tumble_motions`),
+frame-relatively (:mod:`planning.tumbling.motions`),
 ``t_jk = (C_j - C_bar)(e^{i beta_j} - 1) e^{-i k beta_bar}``; the paper prints
 ``e^{+i k beta_bar}``, the same set of vectors since ``k`` ranges over
 ``-q < k < q``.
@@ -48,7 +48,7 @@ import numpy as np
 from kernels.polyhedron import Polyhedron, make_polyhedron
 from planning.lattice import lagrange_gauss_reduce, lattice_basis
 from planning.rationals import best_rational_within, extended_gcd_coeffs, rotation_step
-from planning.tumble_motions import (
+from planning.tumbling.motions import (
     Motion,
     TumbleTable,
     compose,
@@ -57,7 +57,7 @@ from planning.tumble_motions import (
     rotation_about,
     wrap,
 )
-from planning.words import concat, inverse, purge
+from planning.tumbling.words import concat, inverse, purge
 
 __all__ = [
     "TumbleAnalysis",
@@ -144,7 +144,7 @@ class TumbleAnalysis:
 
     Main attributes (see the module docstring; Fractions are in units of pi):
       polyhedron: the validated :class:`~kernels.polyhedron.Polyhedron`.
-      table: its :class:`~planning.tumble_motions.TumbleTable` (numpy effects
+      table: its :class:`~planning.tumbling.motions.TumbleTable` (numpy effects
         of words, checked against the kernel in the tests).
       start_face, tau_v, tau_g (as given; None = automatic), tau_g_used.
       development: face -> ``(x, y, theta)`` pose of its polygon in the plane
@@ -300,7 +300,7 @@ def _cz(m: Motion, p: complex) -> complex:
 def build_analysis(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[float] = None,
                    start_face: int = 0, polyhedron: Optional[Polyhedron] = None) -> TumbleAnalysis:
     """Compute the :class:`TumbleAnalysis` (uncached; see
-    :func:`planning.tumble_planner.analyze_polyhedron`).  ``polyhedron``: an
+    :func:`planning.tumbling.planner.analyze_polyhedron`).  ``polyhedron``: an
     already validated part for ``(vertices, com)`` (skips rebuilding it)."""
     P = polyhedron if polyhedron is not None else make_polyhedron(vertices, com)
     F = int(start_face)

@@ -166,7 +166,7 @@ def plot_development(polyhedron_or_analysis, path, root: Optional[int] = None,
 
     Every face's polygon is drawn at the planar pose of its copy in the
     development: taken from ``analysis.development`` when an analysis of
-    :mod:`planning.tumble_planner` is given (rooted at its start face),
+    :mod:`planning.tumbling.planner` is given (rooted at its start face),
     otherwise computed here by :func:`development_poses`.  Each polygon is
     labelled with its face number at its centroid, its corners with the
     caller's vertex indices (inside the polygon, near the corner); the root
@@ -177,7 +177,7 @@ def plot_development(polyhedron_or_analysis, path, root: Optional[int] = None,
     Args:
       polyhedron_or_analysis: a ``TumbleAnalysis``, a
         :class:`~kernels.polyhedron.Polyhedron`, a
-        :class:`~planning.partfile.PartFile` or an (m, 3) vertex array.
+        :class:`~sweeps.partfile.PartFile` or an (m, 3) vertex array.
       path: file to write (PNG or any matplotlib format).
       root: root face (default: the analysis' start face, else 0).
       title: optional title.

@@ -7,7 +7,7 @@ pushes land that edge, the angle-eating heuristic splits the rotation into
 step-angle reorientations and a final smaller one); when none of these is
 feasible, the *singularity handlers*: a reorient in the opposite sense by the
 smaller of the edge's two step angles, then the main sequence.  For each
-candidate the pose-vector LP (:mod:`planning.pose_lp`) fixes the push lengths;
+candidate the pose-vector LP (:mod:`planning.pushing.pose_lp`) fixes the push lengths;
 the best candidate by the objective is the plan.  Every plan is replayed by
 the exact kinematics (:func:`kernels.push.replay_pushes`) before it is
 returned.
@@ -33,8 +33,8 @@ import numpy as np
 
 from kernels import polygon as pg
 from kernels.push import replay_pushes
-from planning import pose_lp
-from planning.push_plan import PLAN_CLASSES, Push, PushPlan, angle_error
+from planning.pushing import pose_lp
+from planning.pushing.plan import PLAN_CLASSES, Push, PushPlan, angle_error
 
 jax.config.update("jax_enable_x64", True)
 
@@ -314,7 +314,7 @@ def plan_pose(vertices, start, goal, com=None, margin_deg: float = 7.0,
       solver: ``"closed_form"`` or ``"cvxpy"`` (reference) for each LP.
 
     Returns:
-      A :class:`~planning.push_plan.PushPlan` whose exact replay reaches the
+      A :class:`~planning.pushing.plan.PushPlan` whose exact replay reaches the
       goal within 1e-9 m and 1e-9 rad.
 
     Raises:

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m planning.tumble PART.yaml --goal X,Y,THETA,FACE --eps E
+    python -m sweeps.plan_tumble PART.yaml --goal X,Y,THETA,FACE --eps E
         [--start X,Y,THETA,FACE] [--tau-v T] [--tau-g T] [--no-shorten]
         [--json] [--plot FILE.png] [--development FILE.png]
         [--lattice FILE.png] [--lattice-radius R]
@@ -22,7 +22,7 @@ generators (default: the planner's choice from eps).
 plane development (Fig. 3) and the reachable lattice (Fig. 2).
 
 Output: the plan's summary, or with ``--json`` the plan as JSON
-(:meth:`planning.tumble_plan.TumblePlan.to_dict`) and nothing else on stdout.
+(:meth:`planning.tumbling.plan.TumblePlan.to_dict`) and nothing else on stdout.
 Messages go to stderr.  Exit status: 0 solved, 1 not solvable (the plan is
 printed with its reason), 2 bad input (one line ``error: ...`` naming the
 field).
@@ -37,7 +37,7 @@ import warnings
 from fractions import Fraction
 from typing import Optional, Sequence
 
-from planning.cli import (InputError, Parser, fail, join_negative_values, load_part_of_kind,
+from sweeps.terminal import (InputError, Parser, fail, join_negative_values, load_part_of_kind,
                           parse_pose, report_warnings)
 
 EXIT_OK, EXIT_NOT_SOLVABLE, EXIT_INPUT = 0, 1, 2
@@ -67,7 +67,7 @@ def _number(text: str, field: str, *, positive: bool, allow_zero: bool = False) 
 
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(
-        prog="python -m planning.tumble",
+        prog="python -m sweeps.plan_tumble",
         description="Plan a sequence of tumbles (rotations about edges on the plane, Marigo & "
                     "Bicchi) that takes a convex polyhedral part from a start configuration to "
                     "within eps of a goal, and optionally draw it.",
@@ -75,7 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
                "the face lies on the plane with its frame at (x, y), heading theta. "
                "Exit status: 0 solved, 1 not solvable, 2 bad input.")
     p.add_argument("part", metavar="PART.yaml", help="part file with kind: polyhedron "
-                   "(see planning.partfile)")
+                   "(see sweeps.partfile)")
     p.add_argument("--goal", metavar="X,Y,THETA,FACE", help="goal configuration")
     p.add_argument("--start", metavar="X,Y,THETA,FACE", default=None,
                    help="start configuration (default 0,0,0,0)")
@@ -146,7 +146,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return fail(str(exc))
 
     try:
-        part = load_part_of_kind(args.part, "polyhedron", "python -m planning.push for polygons")
+        part = load_part_of_kind(args.part, "polyhedron", "python -m sweeps.plan_push for polygons")
     except InputError as exc:
         return fail(str(exc))
 
@@ -175,13 +175,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         analysis = None
         try:
             if goal is not None:
-                from planning.tumble_planner import plan_tumble
+                from planning.tumbling.planner import plan_tumble
                 plan = plan_tumble(part.vertices, goal, start=start, com=part.com, eps=eps,
                                    tau_v=tau_v, tau_g=tau_g, shorten=not args.no_shorten)
             if args.lattice or (args.development and plan is not None):
                 # the planner's own analysis (cached by plan_tumble: same part, tolerances
                 # and start face), so the figures show what the plan was built from
-                from planning.tumble_planner import analyze_polyhedron
+                from planning.tumbling.planner import analyze_polyhedron
                 analysis = analyze_polyhedron(part.vertices, com=part.com, tau_v=tau_v,
                                               tau_g=tau_g, start_face=int(start[3]))
         except (ValueError, TypeError, ZeroDivisionError, ArithmeticError) as exc:
@@ -203,7 +203,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                          f"vertices, {poly.n_edges} edges\n")
 
     if args.plot or args.development or args.lattice:
-        from planning import tumble_plots
+        from sweeps.figures import tumble as tumble_plots
         import numpy as np
         diam = float(np.max(np.linalg.norm(poly.vertices[:, None] - poly.vertices[None], axis=-1)))
         for flag, path in (("--plot", args.plot), ("--development", args.development),
@@ -230,6 +230,6 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
 
 if __name__ == "__main__":
-    from planning.cli import run_main
+    from sweeps.terminal import run_main
 
     run_main(main)

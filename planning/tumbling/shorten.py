@@ -31,13 +31,13 @@ A plan from face ``F`` to face ``G`` is built as ``T . R . A . B^-1``:
     plus a Dijkstra table of the cheapest representation of every small
     lattice vector;
   - **dense** translations: Babai rounding over an LLL-reduced embedding that
-    weighs tumbles against error (:mod:`planning.tumble_cvp`, a few weights),
+    weighs tumbles against error (:mod:`planning.tumbling.cvp`, a few weights),
     and a real pair decomposition, each remainder refined by a sumset
     meet-in-the-middle (two groups of loops with counts in ``-2..2``, a
     KD-tree on the larger) and then by near-zero combinations of those.
 
 Several cores are tried; each candidate word is purged and its effect is
-computed exactly with :class:`~planning.tumble_motions.TumbleTable`; the
+computed exactly with :class:`~planning.tumbling.motions.TumbleTable`; the
 shortest one within ``eps`` wins (the planner then verifies it with the JAX
 kernel).  :class:`ShortPlanner` holds the per-analysis tables (walks from the
 start face, loops, lattice / LLL / sumset structures, heading tables, walks
@@ -55,11 +55,11 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from planning.lattice import closest_lattice_point, lagrange_gauss_reduce
-from planning.tumble_cvp import CVPSolver, Sumset
-from planning.tumble_generators import TumbleAnalysis
-from planning.tumble_motions import Motion, wrap
-from planning.tumble_walks import Walks, akey as _akey, enumerate_walks
-from planning.words import concat, inverse, power, purge
+from planning.tumbling.cvp import CVPSolver, Sumset
+from planning.tumbling.generators import TumbleAnalysis
+from planning.tumbling.motions import Motion, wrap
+from planning.tumbling.walks import Walks, akey as _akey, enumerate_walks
+from planning.tumbling.words import concat, inverse, power, purge
 
 TWO_PI = 2.0 * math.pi
 
@@ -402,7 +402,7 @@ class ShortPlanner:
     def decompose_dense(self, t: complex, tol: float) -> tuple[dict, float, float]:
         """Counts over the loops with ``|sum c_i t_i - t| <= tol`` if possible:
         ``(coef, cost, error)``.  Candidates: Babai rounding over an
-        LLL-reduced embedding at a few error weights (:mod:`planning.tumble_cvp`),
+        LLL-reduced embedding at a few error weights (:mod:`planning.tumbling.cvp`),
         and a real pair decomposition; each remainder refined by the sumset
         levels; the cheapest within ``tol`` wins (else the most accurate)."""
         gens = self.gens

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m planning.push PART.yaml --start X,Y,THETA --goal X,Y,THETA
+    python -m sweeps.plan_push PART.yaml --start X,Y,THETA --goal X,Y,THETA
         [--margin-deg 7] [--safety-factor 1.15] [--objective distance|pushes]
         [--solver closed_form|cvxpy] [--json] [--plot FILE.png] [--psd FILE.png]
 
@@ -13,9 +13,9 @@ centre of mass); ``theta`` may carry a ``deg`` suffix (``0.1,0,90deg``) or a
 stability diagram.
 
 Output: the plan's summary table, or with ``--json`` the plan as JSON
-(:meth:`planning.push_plan.PushPlan.to_dict`) and nothing else on stdout.
+(:meth:`planning.pushing.plan.PushPlan.to_dict`) and nothing else on stdout.
 Messages go to stderr.  Exit status: 0 success, 1 no plan found
-(:class:`~planning.pose_planner.PlanningError`), 2 bad input (one line
+(:class:`~planning.pushing.planner.PlanningError`), 2 bad input (one line
 ``error: ...`` naming the field).
 """
 from __future__ import annotations
@@ -27,9 +27,9 @@ import sys
 import warnings
 from typing import Optional, Sequence
 
-from planning.cli import (InputError, Parser, fail, join_negative_values, load_part_of_kind,
+from sweeps.terminal import (InputError, Parser, fail, join_negative_values, load_part_of_kind,
                           report_warnings)
-from planning.cli import parse_pose as _parse_pose
+from sweeps.terminal import parse_pose as _parse_pose
 
 EXIT_OK, EXIT_PLANNING, EXIT_INPUT = 0, 1, 2
 
@@ -45,14 +45,14 @@ def parse_pose(text: str, field: str) -> tuple[float, float, float]:
 
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(
-        prog="python -m planning.push",
+        prog="python -m sweeps.plan_push",
         description="Plan normal fence pushes (Akella & Mason 1992) that take a polygonal part "
                     "from a start pose to a goal pose, and optionally draw the plan and the "
                     "part's push stability diagram.",
         epilog="Poses: x,y,theta in metres and radians, world frame, (x, y) = centre of mass; "
                "theta may end in 'deg' (e.g. 0.1,0,90deg). Exit status: 0 ok, 1 no plan, "
                "2 bad input.")
-    p.add_argument("part", metavar="PART.yaml", help="part file (see planning.partfile)")
+    p.add_argument("part", metavar="PART.yaml", help="part file (see sweeps.partfile)")
     p.add_argument("--start", metavar="X,Y,THETA", help="start pose (m, m, rad or ...deg)")
     p.add_argument("--goal", metavar="X,Y,THETA", help="goal pose (m, m, rad or ...deg)")
     p.add_argument("--margin-deg", type=float, default=7.0, metavar="DEG",
@@ -105,13 +105,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return fail(str(exc))
 
     try:
-        part = load_part_of_kind(args.part, "polygon", "python -m planning.tumble for polyhedra")
+        part = load_part_of_kind(args.part, "polygon", "python -m sweeps.plan_tumble for polyhedra")
     except InputError as exc:
         return fail(str(exc))
 
     # heavy imports (JAX) only after the cheap checks
     from kernels.polygon import PartError
-    from planning.pose_planner import PlanningError, plan_pose, prepare_part
+    from planning.pushing.planner import PlanningError, plan_pose, prepare_part
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -146,7 +146,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         sys.stdout.write(f"{part.name}: {prepared.class_name} part, stable edges {stable}\n")
 
     if args.plot or args.psd:
-        from planning import push_plots
+        from sweeps.figures import push as push_plots
         for flag, path in (("--plot", args.plot), ("--psd", args.psd)):
             if not path:
                 continue
@@ -162,6 +162,6 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
 
 if __name__ == "__main__":
-    from planning.cli import run_main
+    from sweeps.terminal import run_main
 
     run_main(main)

@@ -1,9 +1,9 @@
 """The paper's planning algorithm (Marigo-Bicchi Sec. III steps 1-5, III-A, IV)
-for one goal, on a :class:`~planning.tumble_generators.TumbleAnalysis`.
+for one goal, on a :class:`~planning.tumbling.generators.TumbleAnalysis`.
 
 Everything is expressed in the start face's frame at the start (the analysis
 is rooted there): the goal is the target motion ``M = T_start^-1 o T_goal``
-(:mod:`planning.tumble_motions`).  With ``E_L`` the effect of the transit path
+(:mod:`planning.tumbling.motions`).  With ``E_L`` the effect of the transit path
 ``L_f`` the loop before it must do ``M o E_L^-1 = (gamma_1, z_1)``; step 3
 picks ``R_bar^k`` (rotation ``k beta_bar`` about ``C_bar``), step 4 the lattice
 point ``k1 X1 + k2 X2`` closest to the remaining translation, and step 5 the
@@ -34,9 +34,9 @@ from fractions import Fraction
 from typing import Optional
 
 from planning.lattice import closest_lattice_point
-from planning.tumble_generators import TumbleAnalysis, loop_power_length
-from planning.tumble_motions import Motion, compose, inverse_motion, wrap
-from planning.words import power, purge
+from planning.tumbling.generators import TumbleAnalysis, loop_power_length
+from planning.tumbling.motions import Motion, compose, inverse_motion, wrap
+from planning.tumbling.words import power, purge
 
 PAPER_MATERIALISE_CAP = 200_000
 

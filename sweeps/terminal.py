@@ -1,5 +1,5 @@
-"""Pieces shared by nudge's command lines (``planning.push``,
-``planning.tumble``, ``robustness.certify``): one-line errors with exit
+"""Pieces shared by nudge's command lines (``sweeps.plan_push``,
+``sweeps.plan_tumble``, ``robustness.certify``): one-line errors with exit
 status 2, pose parsing with ``deg`` suffixes, negative values after flags,
 warnings on stderr, and a ``__main__`` guard that reports instead of dumping
 a traceback.
@@ -134,14 +134,14 @@ def run_main(main: Callable[[], int]) -> None:
 
 
 def load_part_of_kind(path, kind: str, other_tool: str):
-    """Read a part file (:func:`planning.partfile.load_part`) and check that it
+    """Read a part file (:func:`sweeps.partfile.load_part`) and check that it
     holds a ``kind`` part (``polygon`` or ``polyhedron``).
 
     Raises:
       InputError: a bad file (the message names the field), or the other kind
         (the message names ``other_tool``, the command for that kind).
     """
-    from planning.partfile import PartFileError, load_part
+    from sweeps.partfile import PartFileError, load_part
 
     try:
         part = load_part(path)

@@ -1,9 +1,9 @@
 """Breadth-first enumeration of tumble walks from a face (numpy).
 
-Used by :mod:`planning.tumble_shorten` for its meet-in-the-middle cores and
+Used by :mod:`planning.tumbling.shorten` for its meet-in-the-middle cores and
 to find loops: a walk is a word of landing faces from a root face; its end
 configuration (face, heading, position of the face frame, in the root face's
-frame at the start) is computed with a :class:`~planning.tumble_motions.TumbleTable`.
+frame at the start) is computed with a :class:`~planning.tumbling.motions.TumbleTable`.
 """
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planning.tumble_motions import TumbleTable, wrap
+from planning.tumbling.motions import TumbleTable, wrap
 
 TWO_PI = 2.0 * math.pi
 AKEY_BITS = 32
