@@ -23,7 +23,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from planning.pushing.planner import plan_pose, plan_pose_batch, prepare_part  # noqa: E402
+from planning import plan_pose, plan_pose_batch, prepare_part  # noqa: E402
 from timing import best_of  # noqa: E402
 
 # A nice-stable, irregular pentagon (metres), a few centimetres across like the paper's parts.

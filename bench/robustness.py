@@ -17,7 +17,7 @@ plain-numpy per-sample loop in the same run:
    :func:`kernels.quasistatic.simulate_pushes` vmapped over the samples
    (``--steps`` integration steps per push), float64 and float32; "kernel"
    times the compiled batch on pre-drawn parameters, "evaluate()" the whole
-   :func:`robustness.evaluate.evaluate` call (sampling, kernel, table and
+   :func:`robustness.evaluation.evaluate` call (sampling, kernel, table and
    summary; the analytic bound excluded).  numpy: the quasi-static oracle
    ``tests/oracles/quasistatic_numpy.py`` (world-frame mechanics integrated by
    ``scipy.integrate.solve_ivp`` DOP853, rtol 1e-8, with landing events) per
@@ -27,7 +27,7 @@ plain-numpy per-sample loop in the same run:
 2. **Tumble plan**: a 200-tumble face sequence (seeded random walk) on
    ``examples/irregular_polyhedron.yaml``, vertices perturbed by +-0.1 mm and a
    planar slip after every tumble.  JAX: the vmapped replay of
-   :mod:`robustness.evaluate` (``jax.vmap(tumble_geometry)`` + a scan of
+   :mod:`robustness.evaluation` (``jax.vmap(tumble_geometry)`` + a scan of
    :func:`kernels.tumble.tumble` with slip and the nominal-frame conversion),
    float64 and float32, in tumble-steps/s (samples x 200 / s).  numpy: the
    oracle ``tests/oracles/tumble_numpy.py`` (3-D rotations, no slip) per sample
@@ -59,12 +59,13 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from kernels import polygon as pg  # noqa: E402
+from kernels.planar import rot2_np, wrap_angle_np  # noqa: E402
+from planning import plan_pose  # noqa: E402
+from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler  # noqa: E402
+from robustness import evaluation as ev_mod  # noqa: E402
+from robustness.samplers import broadcast  # noqa: E402
 from sweeps.partfile import load_part  # noqa: E402
-from planning.pushing.planner import plan_pose  # noqa: E402
-from robustness import evaluate as ev_mod  # noqa: E402
 from timing import best_of  # noqa: E402
-from robustness.samplers import (ExecutionTolerance, FrictionRange, GeometryTolerance,  # noqa: E402
-                                 Sampler, broadcast)
 
 TUMBLE_LEN = 200
 PUSH_START, PUSH_GOAL = (0.0, 0.0, 0.0), (0.08, 0.03, 0.0)
@@ -81,27 +82,22 @@ TUMBLE_SAMPLER = Sampler(GeometryTolerance(tau_v=1e-4),
 # --------------------------------------------------------------------------
 # numpy reference: the quasi-static oracle, per sample
 # --------------------------------------------------------------------------
-def _rot(t):
-    c, s = math.cos(t), math.sin(t)
-    return np.array([[c, -s], [s, c]])
-
-
 def numpy_push_plan(oracle, V0, com0, hull, start, angles, dists, dv, dc, dstart, dfence, drel,
                     dabs, c, mu, rtol):
     """A whole perturbed push plan with the numpy oracle (same conventions as
-    :mod:`robustness.evaluate`): returns the reference pose (3,)."""
+    :mod:`robustness.evaluation`): returns the reference pose (3,)."""
     V = V0 + dv
     com = com0 + dc
     body = V[hull] - com
     th0 = start[2] + dstart[2]
-    pose = np.array([*(start[:2] + dstart[:2] + _rot(th0) @ dc), th0])
+    pose = np.array([*(start[:2] + dstart[:2] + rot2_np(th0) @ dc), th0])
     for ang, dist, fa, rel, ab in zip(angles, dists, dfence, drel, dabs):
         a = ang + fa
         r = oracle.simulate_push(body, pose, (math.cos(a), math.sin(a)),
                                  max(dist * (1 + rel) + ab, 0.0), c, mu, rtol=rtol,
                                  atol=rtol * 1e-3)
         pose = np.asarray(r.pose, float)
-    ref = pose[:2] - _rot(pose[2]) @ dc
+    ref = pose[:2] - rot2_np(pose[2]) @ dc
     return np.array([ref[0], ref[1], pose[2]])
 
 
@@ -162,7 +158,7 @@ def push_bench(n: int, n_np: int, steps: int, repeat: int) -> dict:
     rows.append(dict(method="numpy oracle loop", n=k, seconds=t_np, rate=k / t_np, first=math.nan))
     out = np.array(out)
     f64 = finals["float64"]
-    dth = (out[:, 2] - f64[:k, 2] + math.pi) % (2 * math.pi) - math.pi
+    dth = wrap_angle_np(out[:, 2] - f64[:k, 2])
     return dict(rows=rows, steps=steps,
                 err_np_xy=float(np.max(np.abs(out[:, :2] - f64[:k, :2]))),
                 err_np_th=float(np.max(np.abs(dth))),
@@ -203,7 +199,7 @@ def tumble_plan_200():
 
 
 def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
-    from robustness.samplers import face_merge_tol, polyhedron_combinatorics_changed
+    from robustness.hulls import face_merge_tol, polyhedron_combinatorics_changed
     from oracles import tumble_numpy as oracle
 
     P, plan = tumble_plan_200()

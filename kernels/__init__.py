@@ -1,0 +1,29 @@
+"""nudge kernels (the public API of ``kernels``): pure JAX functions, written
+for one part and lifted with ``jax.vmap`` at the call site.
+
+* Polygons: :func:`make_polygon` (host-side validation), :func:`polygon_geometry`
+  (the push geometry as a pytree), :func:`replay_push` / :func:`replay_pushes`
+  (the exact push kinematics of Akella & Mason), :func:`simulate_push` /
+  :func:`simulate_pushes` (quasi-static pusher-slider with an ellipsoidal limit
+  surface and fence friction).
+* Polyhedra: :func:`make_polyhedron`, :func:`tumble_geometry`, :func:`tumble`,
+  :func:`replay` (exact tumble kinematics of Marigo & Bicchi).
+* Shared formulas: :mod:`kernels.planar` (angle wraps, rotations).
+
+Kernels take the dtype of their inputs (float32 or float64); planners and
+bounds run them under :func:`kernels.precision.float64`.  Units: metres,
+radians, CCW positive.
+"""
+from kernels.planar import rot2, wrap_angle
+from kernels.polygon import PartError, PartWarning, Polygon, PolygonGeometry, make_polygon, polygon_geometry
+from kernels.polyhedron import Polyhedron, TumbleGeometry, make_polyhedron, tumble_geometry
+from kernels.push import PushOutcome, replay_push, replay_pushes
+from kernels.quasistatic import SimOutcome, limit_surface_ratio, simulate_push, simulate_pushes
+from kernels.tumble import TumbleConfig, make_config, replay, tumble
+
+__all__ = [
+    "wrap_angle", "rot2", "PartError", "PartWarning", "Polygon", "PolygonGeometry", "make_polygon",
+    "polygon_geometry", "Polyhedron", "TumbleGeometry", "make_polyhedron", "tumble_geometry",
+    "PushOutcome", "replay_push", "replay_pushes", "SimOutcome", "limit_surface_ratio",
+    "simulate_push", "simulate_pushes", "TumbleConfig", "make_config", "replay", "tumble",
+]

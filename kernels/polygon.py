@@ -30,21 +30,14 @@ import jax.numpy as jnp
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-TWO_PI = 2.0 * math.pi
+from kernels.errors import PartError, PartWarning
+from kernels.planar import TWO_PI, cross2, mod_2pi, wrap_angle
 
 UNI_STABLE, BIPLUS_STABLE, NICE_STABLE = 0, 1, 2
 OBJECT_CLASS_NAMES = ("uni-stable", "biplus-stable", "nice-stable")
 
 CW, CCW = 0, 1
 SENSE_NAMES = ("cw", "ccw")
-
-
-class PartWarning(UserWarning):
-    """A part was accepted after a change the caller should know about."""
-
-
-class PartError(ValueError):
-    """A part description that cannot be used; the message names the field and the fix."""
 
 
 # --------------------------------------------------------------------------
@@ -212,27 +205,6 @@ class PolygonGeometry:
     radius: jax.Array
 
 
-def wrap_angle(a):
-    """Wrap angles (rad) to (-pi, pi]."""
-    return -jnp.remainder(-a + jnp.pi, TWO_PI) + jnp.pi
-
-
-def mod_2pi(a):
-    """Angles (rad) reduced to [0, 2 pi)."""
-    return jnp.remainder(a, TWO_PI)
-
-
-def cross2(a, b):
-    """z-component of the cross product of 2-D vectors (last axis)."""
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-
-
-def rot2(theta):
-    """2x2 rotation matrix (CCW by ``theta`` rad)."""
-    c, s = jnp.cos(theta), jnp.sin(theta)
-    return jnp.stack([jnp.stack([c, -s]), jnp.stack([s, c])])
-
-
 def polygon_geometry(body) -> PolygonGeometry:
     """Push geometry of a convex polygon from its CCW body-frame vertices.
 
@@ -331,29 +303,58 @@ def step_angle(max_reorient, margin):
 
 def peshkin_distance(geom: PolygonGeometry, edge, sense, alpha, safety_factor=1.0):
     """Push distance (m) guaranteed to complete a reorient push of ``alpha``
-    rad onto ``edge`` rotating in ``sense``, times ``safety_factor``.
+    rad onto ``edge`` rotating in ``sense``, times ``safety_factor``
+    (:func:`peshkin_length` with the pivot's constants)."""
+    n = geom.body.shape[0]
+    v = geom.body[pivot_vertex(n, edge, sense)]
+    beta2 = alignment_angle(geom, edge, sense)
+    return peshkin_length(safety_factor * peshkin_gain(geom.radius, jnp.linalg.norm(v)),
+                          beta2 - alpha, beta2)
+
+
+def peshkin_gain(radius, rho):
+    """``k = (a^2 + rho^2) / rho`` (m) of :func:`peshkin_length`: ``a`` the radius
+    of the smallest circle about the centre of mass enclosing the part, ``rho``
+    the distance from the pivot vertex to the centre of mass (m; JAX or numpy)."""
+    return (radius * radius + rho * rho) / rho
+
+
+def peshkin_length(k, beta1, beta2):
+    """Worst-case push distance (m) that turns ``beta`` from ``beta1`` to ``beta2`` (rad).
 
     Derivation (Peshkin & Sanderson 1988, restated for a fence that does not
     slip on the part).  While the fence touches only the pivot vertex P, the
     part rotates about P as P advances with the fence.  Let ``beta`` be the
     angle between the push direction and the line from P to the centre of
-    mass C, ``c = |PC|`` and ``a`` the radius of the smallest circle about C
+    mass C, ``rho = |PC|`` and ``a`` the radius of the smallest circle about C
     enclosing the part.  Whatever the (unknown) support pressure distribution,
     quasi-static equilibrium of the support friction bounds the rotation per
-    unit push from below: ``d beta / d s >= c sin(beta) / (a^2 + c^2)``.
-    Integrating from ``beta1`` (start) to ``beta2`` (edge flush) gives the
-    worst-case distance ``s = (a^2 + c^2) / c * ln(tan(beta2/2) / tan(beta1/2))``,
-    with ``beta1 = beta2 - alpha``.  Assumptions: quasi-static motion, Coulomb
-    friction with uniform coefficient on the support, no slip at the fence,
-    a normal push, and ``0 < alpha < beta2`` (the start is on the convergent
-    side of the divergent orientation).  The distance diverges as ``alpha``
-    approaches ``beta2`` — hence the margin angle.  The paper multiplies it by
-    a safety factor of 1.15.
+    unit push from below: ``d beta / d s >= rho sin(beta) / (a^2 + rho^2)``.
+    Integrating from ``beta1`` to ``beta2`` gives the worst-case distance
+    ``s = k ln(tan(beta2/2) / tan(beta1/2))`` with ``k = (a^2 + rho^2) / rho``
+    (:func:`peshkin_gain`).  For a reorient push of ``alpha`` onto an edge,
+    ``beta2`` is the edge's :func:`alignment_angle` and ``beta1 = beta2 - alpha``.
+    Assumptions: quasi-static motion, Coulomb friction with uniform coefficient
+    on the support, no slip at the fence, a normal push, and
+    ``0 < beta1 <= beta2 < pi`` (the start is on the convergent side of the
+    divergent orientation).  The distance diverges as ``beta1`` approaches 0
+    (the divergent orientation) - hence the margin angle.  The paper multiplies
+    it by a safety factor of 1.15.  JAX; :func:`peshkin_length_np` is its twin.
     """
-    n = geom.body.shape[0]
-    v = geom.body[pivot_vertex(n, edge, sense)]
-    c = jnp.linalg.norm(v)
-    k = (geom.radius ** 2 + c ** 2) / c
-    beta2 = alignment_angle(geom, edge, sense)
-    beta1 = beta2 - alpha
-    return safety_factor * k * (jnp.log(jnp.tan(0.5 * beta2)) - jnp.log(jnp.tan(0.5 * beta1)))
+    return k * (jnp.log(jnp.tan(0.5 * beta2)) - jnp.log(jnp.tan(0.5 * beta1)))
+
+
+def peshkin_length_np(k, beta1, beta2):
+    """numpy / float twin of :func:`peshkin_length`."""
+    return k * (np.log(np.tan(0.5 * beta2)) - np.log(np.tan(0.5 * beta1)))
+
+
+def pivot_constants_np(body: np.ndarray, nu_edge: float, pivot: int) -> tuple[float, float]:
+    """``(k, beta2)`` of a reorient push onto the edge whose outward normal has
+    body-frame angle ``nu_edge`` (rad), pivoting on body vertex ``pivot``:
+    :func:`peshkin_gain` (m) and the :func:`alignment_angle` (rad); numpy, float64."""
+    v = np.asarray(body[pivot], np.float64)
+    u = np.array([math.cos(nu_edge), math.sin(nu_edge)])
+    radius = float(np.max(np.hypot(body[:, 0], body[:, 1])))
+    beta2 = math.atan2(abs(float(cross2(u, v))), float(u @ v))
+    return float(peshkin_gain(radius, math.hypot(v[0], v[1]))), beta2

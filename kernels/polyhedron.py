@@ -52,7 +52,8 @@ import jax.numpy as jnp
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-TWO_PI = 2.0 * math.pi
+from kernels.errors import PartError, PartWarning
+from kernels.planar import TWO_PI
 
 #: Default relative tolerance (times the part's diameter) for merging Qhull's
 #: triangles into maximal planar faces and for dropping collinear corners.
@@ -63,10 +64,6 @@ DEFAULT_MERGE_TOL = 1e-9
 NEARLY_FLAT_RAD = 1e-6
 
 
-class PartWarning(UserWarning):
-    """A part was accepted after a change the caller should know about."""
-
-
 # --------------------------------------------------------------------------
 # Host-side construction (numpy / scipy)
 # --------------------------------------------------------------------------
@@ -74,23 +71,23 @@ def _as_points(vertices) -> np.ndarray:
     try:
         v = np.asarray(vertices, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ValueError(
+        raise PartError(
             f"vertices: could not be read as an (m, 3) array of floats ({exc}); "
             "give a list of [x, y, z] triples in metres"
         ) from None
     if v.ndim != 2 or v.shape[1] != 3:
-        raise ValueError(
+        raise PartError(
             f"vertices: expected an (m, 3) array of [x, y, z] points in metres, "
             f"got shape {v.shape}; give one [x, y, z] triple per vertex"
         )
     bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
     if bad.size:
-        raise ValueError(
+        raise PartError(
             f"vertices: rows {bad.tolist()} are not finite (NaN or inf); "
             "replace them by finite coordinates in metres"
         )
     if v.shape[0] < 4:
-        raise ValueError(
+        raise PartError(
             f"vertices: a polyhedron needs at least 4 non-coplanar points, got "
             f"{v.shape[0]}; add points (or use a polygon part, kind: polygon)"
         )
@@ -105,7 +102,7 @@ def _check_not_flat(v: np.ndarray) -> None:
     centred = v - v.mean(axis=0)
     s = np.linalg.svd(centred, compute_uv=False)
     if s[0] == 0.0 or s[2] <= 1e-10 * s[0]:
-        raise ValueError(
+        raise PartError(
             "vertices: all points are coplanar (or collinear / coincident), so "
             "they span no volume; a polyhedron needs at least 4 non-coplanar "
             "points (for a flat part use kind: polygon)"
@@ -121,7 +118,7 @@ def _merge_hull_faces(v: np.ndarray, tol: float):
     try:
         hull = ConvexHull(v)
     except QhullError as exc:  # pragma: no cover - _check_not_flat catches most
-        raise ValueError(
+        raise PartError(
             f"vertices: Qhull could not build the convex hull ({str(exc).splitlines()[0]}); "
             "check that the points span a volume"
         ) from None
@@ -191,7 +188,7 @@ def _merge_hull_faces(v: np.ndarray, tol: float):
             try:
                 h2 = ConvexHull(xy)
             except QhullError:  # pragma: no cover
-                raise ValueError(
+                raise PartError(
                     "vertices: a face of the hull is degenerate; remove "
                     "near-duplicate or near-collinear points"
                 ) from None
@@ -223,7 +220,7 @@ def _validate_topology(cycles):
         for k in range(s):
             e = (cyc[k], cyc[(k + 1) % s])
             if e in directed:
-                raise ValueError(
+                raise PartError(
                     "vertices: the hull is numerically degenerate (an edge is "
                     "used twice in the same direction); remove near-duplicate "
                     "or nearly coplanar points"
@@ -231,14 +228,14 @@ def _validate_topology(cycles):
             directed[e] = f
     for (a, b) in directed:
         if (b, a) not in directed:
-            raise ValueError(
+            raise PartError(
                 "vertices: the hull is numerically degenerate (faces do not "
                 "close up); remove near-duplicate or nearly coplanar points"
             )
     verts = {i for cyc in cycles for i in cyc}
     n_edges = len(directed) // 2
     if len(verts) - n_edges + len(cycles) != 2:
-        raise ValueError(
+        raise PartError(
             "vertices: the hull is numerically degenerate (Euler characteristic "
             "is not 2); remove near-duplicate or nearly coplanar points"
         )
@@ -403,7 +400,7 @@ class Polyhedron:
         try:
             return self.faces.index(key)
         except ValueError:
-            raise ValueError(f"face: {list(face)} is not a face of this polyhedron; "
+            raise PartError(f"face: {list(face)} is not a face of this polyhedron; "
                              f"faces are {list(self.faces)}") from None
 
     def edge_index(self, a: int, b: int) -> int:
@@ -412,7 +409,7 @@ class Polyhedron:
         try:
             return self.edges.index(key)
         except ValueError:
-            raise ValueError(f"edge: ({a}, {b}) is not an edge of this polyhedron") from None
+            raise PartError(f"edge: ({a}, {b}) is not an edge of this polyhedron") from None
 
     def neighbors(self, face: int) -> tuple[int, ...]:
         """Faces adjacent to ``face``, in edge-slot order (across the edge from
@@ -423,7 +420,7 @@ class Polyhedron:
         """The edge ``(a, b)``, ``a < b``, shared by faces ``f`` and ``g``."""
         row = self.neighbors(f)
         if g not in row:
-            raise ValueError(f"faces {f} and {g} are not adjacent")
+            raise PartError(f"faces {f} and {g} are not adjacent")
         return self.edges[self.topology.edge_index[f][row.index(g)]]
 
     def defect_angle(self, vertex: int) -> float:
@@ -437,7 +434,7 @@ class Polyhedron:
         (``S_j`` in Marigo-Bicchi) rotates the part by ``+defect_angle(vertex)``
         (CCW) about the vertex's position on the plane."""
         if vertex not in self.hull_vertices:
-            raise ValueError(f"vertex: {vertex} is not a hull vertex")
+            raise PartError(f"vertex: {vertex} is not a hull vertex")
         incident = [f for f, c in enumerate(self.face_cycles) if vertex in c]
         start = min(incident)
         order = [start]
@@ -520,19 +517,19 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
         try:
             c = np.asarray(com, dtype=float)
         except (TypeError, ValueError):
-            raise ValueError("com: could not be read as [x, y, z] floats; give "
+            raise PartError("com: could not be read as [x, y, z] floats; give "
                              "the centre of mass in metres or omit it") from None
         if c.shape != (3,):
-            raise ValueError(f"com: expected [x, y, z] (shape (3,)), got shape "
+            raise PartError(f"com: expected [x, y, z] (shape (3,)), got shape "
                              f"{c.shape}; give the centre of mass in metres or omit it")
         if not np.all(np.isfinite(c)):
-            raise ValueError("com: is not finite (NaN or inf); give the centre "
+            raise PartError("com: is not finite (NaN or inf); give the centre "
                              "of mass in metres or omit it for the volume centroid")
     margin = normals @ c - offsets  # > 0 outside
     worst = int(np.argmax(margin))
     if margin[worst] >= -1e-9 * diam:
         where = "outside" if margin[worst] > 1e-9 * diam else "on the boundary of"
-        raise ValueError(
+        raise PartError(
             f"com: {c.tolist()} lies {where} the convex hull (face "
             f"{list(sorted(cycles[worst]))}, distance {margin[worst]:.3g} m beyond "
             "its plane); give a centre of mass strictly inside the part, or omit "
@@ -654,7 +651,7 @@ def combinatorics_changed(vertices, polyhedron: Polyhedron, tol: float = 1e-6) -
     """
     v = _as_points(vertices)
     if v.shape[0] != polyhedron.vertices.shape[0]:
-        raise ValueError(
+        raise PartError(
             f"vertices: expected {polyhedron.vertices.shape[0]} points (a perturbed "
             f"copy of the part), got {v.shape[0]}"
         )

@@ -24,7 +24,8 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 
-from kernels.polygon import PolygonGeometry, TWO_PI, cross2, mod_2pi, rot2, wrap_angle
+from kernels.planar import TWO_PI, cross2, mod_2pi, rot2, wrap_angle
+from kernels.polygon import PolygonGeometry, peshkin_gain, peshkin_length
 
 
 @jax.tree_util.register_dataclass
@@ -79,7 +80,6 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance) -> PushOutcome
     d = jnp.asarray(direction, dtype)
     d = d / jnp.linalg.norm(d)
     ang_u = jnp.arctan2(-d[1], -d[0])  # world angle of the direction from the part to the fence
-    r2 = geom.radius ** 2
 
     def body(st):
         it, pos, theta, s_rem, flush, done, rot_tot, landings, final_edge = st
@@ -104,9 +104,9 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance) -> PushOutcome
         beta_a = jnp.arctan2(jnp.abs(cr), jnp.dot(u, v))
         beta_b = beta_a + delta
         c = jnp.linalg.norm(v)
-        kk = (r2 + c * c) / c
+        kk = peshkin_gain(geom.radius, c)
         safe_a = jnp.where(divergent, 1.0, beta_a)
-        s_need = kk * (jnp.log(jnp.tan(0.5 * beta_b)) - jnp.log(jnp.tan(0.5 * safe_a)))
+        s_need = peshkin_length(kk, safe_a, beta_b)
         s_need = jnp.where(divergent, jnp.inf, s_need)
         # a push of exactly the needed distance completes (relative rounding slack)
         full = s_rem >= s_need * (1.0 - 64.0 * jnp.finfo(dtype).eps)

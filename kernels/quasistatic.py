@@ -126,7 +126,8 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 
-from kernels.polygon import PolygonGeometry, cross2, mod_2pi, rot2, wrap_angle
+from kernels.planar import cross2, mod_2pi, rot2, wrap_angle
+from kernels.polygon import PolygonGeometry
 from kernels.push import contact_vertex
 
 

@@ -29,13 +29,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from kernels.planar import rot2, wrap_angle
 from kernels.polyhedron import TumbleGeometry, TumbleTopology
 
 __all__ = [
     "TumbleConfig",
     "RigidMotion2D",
     "make_config",
-    "wrap_angle",
     "tumble",
     "replay",
     "replay_trajectory",
@@ -77,12 +77,6 @@ class RigidMotion2D(NamedTuple):
     fixed_point: jax.Array
 
 
-def wrap_angle(a):
-    """Wrap angles (rad) to (-pi, pi]."""
-    a = jnp.asarray(a)
-    return jnp.pi - jnp.mod(jnp.pi - a, 2.0 * jnp.pi)
-
-
 def make_config(x, y, theta, face, dtype=None) -> TumbleConfig:
     """Build a :class:`TumbleConfig` (world ``x, y`` in metres, ``theta`` in rad,
     wrapped to (-pi, pi]); ``dtype`` defaults to JAX's default float (kernels
@@ -94,11 +88,6 @@ def make_config(x, y, theta, face, dtype=None) -> TumbleConfig:
         theta=wrap_angle(jnp.asarray(theta, dtype=dtype)),
         face=jnp.asarray(face, dtype=jnp.int32),
     )
-
-
-def _rot(a):
-    c, s = jnp.cos(a), jnp.sin(a)
-    return jnp.stack([jnp.stack([c, -s]), jnp.stack([s, c])])
 
 
 def _cast_config(geom: TumbleGeometry, config: TumbleConfig) -> TumbleConfig:
@@ -144,7 +133,7 @@ def _step(C, xy, theta, face, g, nf, slot_b, g_slot_a, g_slot_b):
     cb = C[f, slot_b[f, k]]
     qa = C[gg, g_slot_a[f, k]]
     qb = C[gg, g_slot_b[f, k]]
-    Rt = _rot(theta)
+    Rt = rot2(theta)
     pa = Rt @ ca + xy
     pb = Rt @ cb + xy
     dp = pb - pa
@@ -152,7 +141,7 @@ def _step(C, xy, theta, face, g, nf, slot_b, g_slot_a, g_slot_b):
     cr = dq[0] * dp[1] - dq[1] * dp[0]
     dt = dq[0] * dp[0] + dq[1] * dp[1]
     phi = jnp.arctan2(cr, dt)  # the rotation taking dq onto dp
-    xy_new = 0.5 * (pa + pb) - _rot(phi) @ (0.5 * (qa + qb))
+    xy_new = 0.5 * (pa + pb) - rot2(phi) @ (0.5 * (qa + qb))
     noop = g < 0
     keep = noop | ~found
     xy_out = jnp.where(keep, xy, xy_new)
@@ -314,7 +303,7 @@ def apply_effect(effect: RigidMotion2D, config: TumbleConfig) -> TumbleConfig:
     """
     dt = jnp.result_type(config.xy)
     t = jnp.asarray(effect.translation, dtype=dt)
-    xy = config.xy + _rot(config.theta) @ t
+    xy = config.xy + rot2(config.theta) @ t
     theta = wrap_angle(config.theta + jnp.asarray(effect.angle, dtype=dt))
     return TumbleConfig(xy=xy, theta=theta, face=config.face)
 
@@ -323,12 +312,12 @@ def apply_effect(effect: RigidMotion2D, config: TumbleConfig) -> TumbleConfig:
 def compose_effects(first: RigidMotion2D, second: RigidMotion2D) -> RigidMotion2D:
     """Effect of word ``first`` followed by word ``second`` (same face ``F``):
     ``E = E_first o E_second``, in ``F``'s frame at the start of ``first``."""
-    t = first.translation + _rot(first.angle) @ second.translation
+    t = first.translation + rot2(first.angle) @ second.translation
     return _motion(first.angle + second.angle, t)
 
 
 @jax.jit
 def invert_effect(effect: RigidMotion2D) -> RigidMotion2D:
     """Effect of the reversed word (the inverse motion ``E^-1``)."""
-    t = -(_rot(-effect.angle) @ effect.translation)
+    t = -(rot2(-effect.angle) @ effect.translation)
     return _motion(-effect.angle, t)

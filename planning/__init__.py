@@ -1,0 +1,27 @@
+"""nudge planners (the public API of ``planning``).
+
+* Fence pushes on convex polygons (Akella & Mason 1992): :func:`plan_pose` (one
+  problem, numpy reference, LP in closed form or by cvxpy) and
+  :func:`plan_pose_batch` (many start/goal pairs of one part, JAX); plans are
+  :class:`PushPlan` values of :class:`Push` steps.
+* Tumbles of convex polyhedra (Marigo & Bicchi): :func:`analyze_polyhedron`
+  (rotations, generators, lattice, reachable class) and :func:`plan_tumble`;
+  plans are :class:`TumblePlan` values of :class:`Tumble` steps.
+
+Every function computes in float64 whatever the caller's JAX setting, and
+every returned plan has been replayed by the exact kinematics of
+:mod:`kernels`.  Units: metres, radians, CCW positive.
+"""
+from planning.pushing.batch import PushPlanBatch, plan_pose_batch
+from planning.pushing.part import PlanningError, PushPart, prepare_part
+from planning.pushing.plan import Push, PushPlan
+from planning.pushing.planner import plan_pose
+from planning.tumbling.generators import TumbleAnalysis
+from planning.tumbling.plan import Tumble, TumblePlan
+from planning.tumbling.planner import analyze_polyhedron, plan_tumble
+
+__all__ = [
+    "plan_pose", "plan_pose_batch", "prepare_part", "PushPart", "PushPlanBatch", "Push",
+    "PushPlan", "PlanningError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
+    "Tumble", "TumblePlan",
+]

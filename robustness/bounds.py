@@ -53,7 +53,6 @@ worst-case (x, y) box corner, ``hypot(bound_x, bound_y)``.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import jax
@@ -61,40 +60,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import polygon as pg
+from kernels.planar import rot2
+from kernels.precision import float64
 from kernels.push import replay_pushes
-from planning.pushing.planner import prepare_part
-from planning.pushing.plan import PushPlan
-
-jax.config.update("jax_enable_x64", True)
-
-
-@dataclasses.dataclass(frozen=True)
-class PushTolerances:
-    """Box tolerances of a push plan's uncertain parameters (all >= 0).
-
-    Attributes:
-      tau_v: each hull vertex coordinate, m.
-      tau_com: each centre-of-mass coordinate, m.
-      start_xy: each start-position coordinate, m.
-      start_theta: start orientation, rad.
-      fence_angle: each push's fence direction, rad.
-      distance_abs: each push's distance, m.
-      distance_rel: each push's distance, as a fraction of it.
-    """
-
-    tau_v: float = 0.0
-    tau_com: float = 0.0
-    start_xy: float = 0.0
-    start_theta: float = 0.0
-    fence_angle: float = 0.0
-    distance_abs: float = 0.0
-    distance_rel: float = 0.0
-
-    def __post_init__(self):
-        from robustness.samplers import check_nonneg
-
-        for f in dataclasses.fields(self):
-            check_nonneg(self, f.name)
+from planning import PushPlan, prepare_part
+from robustness.tolerances import ExecutionTolerance, GeometryTolerance
 
 
 def push_final_pose_fn(plan: PushPlan):
@@ -118,22 +88,28 @@ def push_final_pose_fn(plan: PushPlan):
         body = body0 + dV - dcom[None, :]
         geom = pg.polygon_geometry(body)
         th0 = start[2] + dstart[2]
-        com_w = start[:2] + dstart[:2] + pg.rot2(th0) @ dcom
+        com_w = start[:2] + dstart[:2] + rot2(th0) @ dcom
         ang = ang0 + dfence
         d = jnp.stack([jnp.cos(ang), jnp.sin(ang)], -1)
         final, _ = replay_pushes(geom, jnp.concatenate([com_w, th0[None]]), d, dists + ddist)
-        ref = final[:2] - pg.rot2(final[2]) @ dcom
+        ref = final[:2] - rot2(final[2]) @ dcom
         return jnp.concatenate([ref, final[2:]])
 
     return f, dict(n=part.n, pushes=len(plan.pushes))
 
 
-def push_plan_bound(plan: PushPlan, tol: PushTolerances) -> dict:
+@float64
+def push_plan_bound(plan: PushPlan, geometry: GeometryTolerance = GeometryTolerance(),
+                    execution: ExecutionTolerance = ExecutionTolerance()) -> dict:
     """First-order worst-case bound on a push plan's final pose error.
 
     Args:
       plan: a verified :class:`~planning.pushing.plan.PushPlan`.
-      tol: box tolerances (:class:`PushTolerances`).
+      geometry: part tolerances; ``tau_v`` bounds each vertex coordinate and
+        ``tau_com`` each centre-of-mass coordinate (a disc of radius ``tau_com``
+        lies in that box).
+      execution: robot errors (start pose, fence angle, push distance; the
+        tumble fields do not apply).
 
     Returns:
       dict with ``x_m``, ``y_m``, ``position_m`` (``hypot`` of the two) and
@@ -146,13 +122,14 @@ def push_plan_bound(plan: PushPlan, tol: PushTolerances) -> dict:
     zeros = (jnp.zeros((n, 2)), jnp.zeros(2), jnp.zeros(3), jnp.zeros(P), jnp.zeros(P))
     jac = jax.jit(jax.jacfwd(f, argnums=(0, 1, 2, 3, 4)))(*zeros)  # one compiled call
     jv, jc, js, jf, jd = (np.asarray(j) for j in jac)
+    g, e = geometry, execution
     contrib = {
-        "tau_v": np.abs(jv).reshape(3, -1).sum(1) * tol.tau_v,
-        "tau_com": np.abs(jc).sum(1) * tol.tau_com,
-        "start_xy": np.abs(js[:, :2]).sum(1) * tol.start_xy,
-        "start_theta": np.abs(js[:, 2]) * tol.start_theta,
-        "fence_angle": np.abs(jf).sum(1) * tol.fence_angle,
-        "distance": (np.abs(jd) * (tol.distance_abs + tol.distance_rel * dists)[None, :]).sum(1),
+        "tau_v": np.abs(jv).reshape(3, -1).sum(1) * g.tau_v,
+        "tau_com": np.abs(jc).sum(1) * g.tau_com,
+        "start_xy": np.abs(js[:, :2]).sum(1) * e.start_xy,
+        "start_theta": np.abs(js[:, 2]) * e.start_theta,
+        "fence_angle": np.abs(jf).sum(1) * e.fence_angle,
+        "distance": (np.abs(jd) * (e.distance_abs + e.distance_rel * dists)[None, :]).sum(1),
     }
     total = sum(contrib.values())
     return {
@@ -163,6 +140,7 @@ def push_plan_bound(plan: PushPlan, tol: PushTolerances) -> dict:
     }
 
 
+@float64
 def tumble_first_order_bound(vertices, com, topology, start, faces, tau_v: float) -> dict:
     """First-order worst-case bound on a tumble sequence's final configuration
     error when every vertex coordinate is within ``tau_v`` (m, box).
@@ -197,6 +175,7 @@ def tumble_first_order_bound(vertices, com, topology, start, faces, tau_v: float
             "theta_rad": float(b[2])}
 
 
+@float64
 def tumble_plan_paper_bounds(plan, tau_v: float, tau_g=None) -> dict:
     """The Marigo-Bicchi bounds (section III-A, eqs. 4-6, and the tumble counts
     of section IV) for a tumble plan's part and goal, at vertex tolerance
@@ -212,7 +191,7 @@ def tumble_plan_paper_bounds(plan, tau_v: float, tau_g=None) -> dict:
     length; they are evaluated in metres, as everything in nudge.
     """
     from planning.tumbling.paper import paper_bounds
-    from planning.tumbling.planner import analyze_polyhedron
+    from planning import analyze_polyhedron
 
     if not (math.isfinite(tau_v) and tau_v >= 0):
         raise ValueError(f"tau_v: tolerance must be a finite number >= 0, got {tau_v!r}")

@@ -46,149 +46,16 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 from typing import Any, Optional, Sequence
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-DISTRIBUTIONS = ("uniform", "gaussian")
-COM_SHAPES = ("disc", "box")
+from kernels.precision import float64
+from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
 
 GEOMETRY, FRICTION, EXECUTION = 0, 1, 2
-
-
-# --------------------------------------------------------------------------
-# Settings (host-side, validated)
-# --------------------------------------------------------------------------
-def check_nonneg(obj, name: str, fix: str = "") -> None:
-    """Raise ValueError naming ``name`` unless ``obj.name`` is a finite number >= 0."""
-    v = getattr(obj, name)
-    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
-    if not ok:
-        raise ValueError(f"{name}: must be a finite number >= 0 (a tolerance half-width), got "
-                         f"{v!r}{fix}")
-
-
-def _range(obj, name: str, lo_ok: float = 0.0) -> None:
-    v = getattr(obj, name)
-    try:
-        lo, hi = (float(x) for x in v)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a range [low, high], got {v!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi)) or lo < lo_ok or hi < lo:
-        raise ValueError(f"{name}: expected finite {lo_ok:g} <= low <= high, got [{lo}, {hi}]")
-    object.__setattr__(obj, name, (lo, hi))
-
-
-@dataclasses.dataclass(frozen=True)
-class GeometryTolerance:
-    """Part tolerances (the supplier).
-
-    Attributes:
-      tau_v: half-width of each vertex coordinate's offset, m.
-      tau_com: half-width (box) or radius (disc) of the centre-of-mass offset, m.
-      distribution: ``"uniform"`` (vertex offsets uniform in the box) or
-        ``"gaussian"`` (normal with ``sigma_v``, truncated to the box).
-      sigma_v: standard deviation of a Gaussian vertex offset, m (default
-        ``tau_v / 2``); ignored for ``uniform``.
-      com_shape: ``"disc"`` (uniform in the disc / ball of radius tau_com) or
-        ``"box"`` (uniform in the box of half-width tau_com).
-    """
-
-    tau_v: float = 0.0
-    tau_com: float = 0.0
-    distribution: str = "uniform"
-    sigma_v: Optional[float] = None
-    com_shape: str = "disc"
-
-    def __post_init__(self):
-        check_nonneg(self, "tau_v")
-        check_nonneg(self, "tau_com")
-        if self.distribution not in DISTRIBUTIONS:
-            raise ValueError(f"distribution: expected one of {DISTRIBUTIONS}, got {self.distribution!r}")
-        if self.com_shape not in COM_SHAPES:
-            raise ValueError(f"com_shape: expected one of {COM_SHAPES}, got {self.com_shape!r}")
-        if self.sigma_v is not None:
-            check_nonneg(self, "sigma_v")
-
-    @property
-    def sigma(self) -> float:
-        """Gaussian standard deviation actually used, m."""
-        return float(self.sigma_v) if self.sigma_v is not None else 0.5 * self.tau_v
-
-
-@dataclasses.dataclass(frozen=True)
-class FrictionRange:
-    """Friction ranges (the cell).
-
-    Attributes:
-      mu_f: ``(low, high)`` fence-part Coulomb coefficient, uniform.
-      mu_s: ``(low, high)`` support coefficient, uniform (recorded only; it
-        cancels out of quasi-static kinematics).
-      support_points: number of support points of the sampled pressure
-        distribution (>= 1).
-      weight_concentration: integer Dirichlet concentration of their weights
-        (1: uniform on the simplex; large: nearly equal weights), 1..64.
-      c: optional ``(low, high)`` range (m) to draw ``c`` directly, uniform,
-        instead of from a pressure distribution.
-    """
-
-    mu_f: tuple = (0.5, 0.5)
-    mu_s: tuple = (0.5, 0.5)
-    support_points: int = 16
-    weight_concentration: int = 1
-    c: Optional[tuple] = None
-
-    def __post_init__(self):
-        _range(self, "mu_f")
-        _range(self, "mu_s")
-        if self.c is not None:
-            _range(self, "c")
-            if self.c[0] <= 0:
-                raise ValueError(f"c: the limit-surface ratio must be > 0 m, got {list(self.c)}")
-        sp = self.support_points
-        if not isinstance(sp, int) or isinstance(sp, bool) or sp < 1:
-            raise ValueError(f"support_points: expected an integer >= 1, got {sp!r}")
-        wc = self.weight_concentration
-        if not (isinstance(wc, int) and not isinstance(wc, bool) and 1 <= wc <= 64):
-            raise ValueError(f"weight_concentration: expected an integer in 1..64, got {wc!r}")
-
-
-@dataclasses.dataclass(frozen=True)
-class ExecutionTolerance:
-    """Robot execution errors (half-widths; names as in
-    :class:`robustness.bounds.PushTolerances`).
-
-    Attributes:
-      start_xy: start position error, each coordinate, m.
-      start_theta: start orientation error, rad.
-      fence_angle: fence direction error of each push, rad (CCW rotation of
-        the push direction).
-      distance_abs: absolute push-distance error, m.
-      distance_rel: relative push-distance error (fraction of the distance).
-      tumble_slip_xy: planar slip after each tumble, each coordinate, m.
-      tumble_slip_theta: rotational slip after each tumble, rad.
-      distribution: ``"uniform"`` in the boxes or ``"gaussian"`` (sigma = half
-        the half-width, truncated to the box).
-    """
-
-    start_xy: float = 0.0
-    start_theta: float = 0.0
-    fence_angle: float = 0.0
-    distance_abs: float = 0.0
-    distance_rel: float = 0.0
-    tumble_slip_xy: float = 0.0
-    tumble_slip_theta: float = 0.0
-    distribution: str = "uniform"
-
-    def __post_init__(self):
-        for f in dataclasses.fields(self):
-            if f.name != "distribution":
-                check_nonneg(self, f.name)
-        if self.distribution not in DISTRIBUTIONS:
-            raise ValueError(f"distribution: expected one of {DISTRIBUTIONS}, got {self.distribution!r}")
 
 
 # --------------------------------------------------------------------------
@@ -359,15 +226,6 @@ def support_from_u(u, body, n_points: int, concentration: int, dtype):
     return pts, w
 
 
-def sample_support(key, n: int, body, n_points: int, concentration: int = 1,
-                   dtype=jnp.float64):
-    """``n`` support pressure distributions in the polygon ``body`` (see
-    :func:`support_from_u`); returns ``(points (n, S, 2), weights (n, S))``."""
-    S, k = int(n_points), int(concentration)
-    u = jax.random.uniform(key, (n, S * (3 + k)), dtype)
-    return support_from_u(u, body, S, k, dtype)
-
-
 def _sample_friction(key, body, n: int, rng: FrictionRange, has_body: bool, dtype=jnp.float64):
     S, k = int(rng.support_points), int(rng.weight_concentration)
     u = jax.random.uniform(key, (n, 3 + S * (3 + k)), dtype)
@@ -450,61 +308,6 @@ def _dtype(dtype):
     return jnp.dtype(dtype).type
 
 
-def sample_geometry(key, n: int, tol: GeometryTolerance, n_vertices: int, dim: int,
-                    dtype=jnp.float64):
-    """Draw ``n`` geometry perturbations.
-
-    Args:
-      key: a ``jax.random`` key.
-      n: number of samples.
-      tol: :class:`GeometryTolerance`.
-      n_vertices: length ``m`` of the caller's vertex list (every vertex,
-        hull or not, is perturbed).
-      dim: 2 (polygon) or 3 (polyhedron).
-      dtype: float dtype of the draws.
-
-    Returns:
-      ``(GeometryParams, in_axes)``: ``vertex_offset`` (n, m, dim) and
-      ``com_offset`` (n, dim), each unbatched zeros (axis ``None``) when its
-      tolerance is zero.
-    """
-    return _run_staged(_sample_geometry, (key,),
-                       (int(n), tol, int(n_vertices), int(dim), _dtype(dtype)))
-
-
-def sample_friction(key, n: int, rng: FrictionRange, body=None, dtype=jnp.float64):
-    """Draw ``n`` friction settings.
-
-    Args:
-      key: a ``jax.random`` key.
-      n: number of samples.
-      rng: :class:`FrictionRange`.
-      body: (k, 2) the part's nominal body-frame polygon (support points are
-        drawn inside it); ``None`` for a part that is not pushed (a tumbled
-        polyhedron): then no pressure distribution is drawn and ``c`` is NaN
-        unless ``rng.c`` gives a range.
-      dtype: float dtype.
-
-    Returns:
-      ``(FrictionParams, in_axes)``.
-    """
-    has_body = body is not None
-    b = jnp.asarray(body, _dtype(dtype)) if has_body else jnp.zeros((3, 2), _dtype(dtype))
-    return _run_staged(_sample_friction, (key, b), (int(n), rng, has_body, _dtype(dtype)))
-
-
-def sample_execution(key, n: int, tol: ExecutionTolerance, n_pushes: int = 0,
-                     n_tumbles: int = 0, dtype=jnp.float64):
-    """Draw ``n`` execution-error sets for a plan of ``n_pushes`` pushes and
-    ``n_tumbles`` tumbles.
-
-    Returns:
-      ``(ExecutionParams, in_axes)``.
-    """
-    return _run_staged(_sample_execution, (key,),
-                       (int(n), tol, int(n_pushes), int(n_tumbles), _dtype(dtype)))
-
-
 def _sample_all(key, body, n, sampler, n_vertices, dim, n_pushes, n_tumbles, has_body, dtype):
     g, ga = _sample_geometry(jax.random.fold_in(key, GEOMETRY), n, sampler.geometry, n_vertices,
                              dim, dtype)
@@ -529,6 +332,7 @@ class Sampler:
     friction: FrictionRange = FrictionRange()
     execution: ExecutionTolerance = ExecutionTolerance()
 
+    @float64
     def sample(self, key, n: int, *, n_vertices: int, dim: int, n_pushes: int = 0,
                n_tumbles: int = 0, body=None, dtype=jnp.float64):
         """Draw ``n`` perturbations; returns ``(PerturbationParams, in_axes)``.
@@ -570,68 +374,6 @@ def slice_batch(params, in_axes, start: int, stop: int):
     """Samples ``start:stop`` of a batch (unbatched fields stay as they are)."""
     return jax.tree_util.tree_map(lambda x, a: x if a is None else x[start:stop], params, in_axes,
                                   is_leaf=lambda x: x is None)
-
-
-# --------------------------------------------------------------------------
-# Hull checks
-# --------------------------------------------------------------------------
-def polygon_hull_changed(vertices, com, hull_index):
-    """Whether a perturbed polygon is no longer strictly convex in the nominal
-    hull order, or its centre of mass is no longer strictly inside (pure JAX,
-    one sample; vmap it).
-
-    Args:
-      vertices: (m, 2) perturbed caller vertices, m.
-      com: (2,) perturbed centre of mass, m.
-      hull_index: (n,) nominal hull order (caller indices, CCW).
-
-    Returns:
-      () bool.  Points the nominal hull dropped (interior or collinear) are not
-      checked: the part is its hull.
-    """
-    p = jnp.asarray(vertices)[jnp.asarray(hull_index)]
-    e = jnp.roll(p, -1, axis=0) - p
-    e_next = jnp.roll(e, -1, axis=0)
-    turn = e[:, 0] * e_next[:, 1] - e[:, 1] * e_next[:, 0]
-    rel = jnp.asarray(com)[None, :] - p
-    inside = e[:, 0] * rel[:, 1] - e[:, 1] * rel[:, 0]
-    return jnp.any(turn <= 0.0) | jnp.any(inside <= 0.0)
-
-
-def polyhedron_combinatorics_changed(vertices, polyhedron, merge_tol: float) -> np.ndarray:
-    """Per-sample :func:`kernels.polyhedron.combinatorics_changed` (host-side
-    numpy loop).
-
-    Args:
-      vertices: (n, m, 3) perturbed vertex sets.
-      polyhedron: the nominal :class:`kernels.polyhedron.Polyhedron`.
-      merge_tol: relative face-merging tolerance (times the diameter).
-
-    Returns:
-      (n,) bool numpy array.
-    """
-    from kernels.polyhedron import combinatorics_changed
-
-    v = np.asarray(vertices, dtype=np.float64)
-    return np.array([combinatorics_changed(v[i], polyhedron, tol=merge_tol) for i in range(len(v))],
-                    dtype=bool)
-
-
-def face_merge_tol(tau_v: float, diameter: float, factor: float = 8.0, floor: float = 1e-6) -> float:
-    """Relative face-merging tolerance for perturbed polyhedra.
-
-    A face whose corners each move by at most ``sqrt(3) tau_v`` stays within
-    about ``(1 + 3) sqrt(3) tau_v`` of the plane of any three of its corners
-    (the fourth corner of a quadrilateral is an affine combination with
-    coefficients summing in absolute value to 3), so faces that were planar
-    nominally are still merged when their corners lie within
-    ``factor * tau_v`` (default 8 > 4 sqrt(3)) of a common plane; a perturbed
-    face that is bent more than that, or an edge flip, counts as a change of
-    combinatorics.  Returned relative to the diameter, floored at ``floor``.
-    """
-    if diameter <= 0:
-        return floor
-    return max(floor, factor * float(tau_v) / float(diameter))
 
 
 # --------------------------------------------------------------------------

@@ -150,9 +150,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except InputError as exc:
         return fail(str(exc))
 
-    # heavy imports (JAX) only after the cheap checks; planning is float64
-    import jax
-    jax.config.update("jax_enable_x64", True)
+    # heavy imports (JAX) only after the cheap checks
     from kernels.polyhedron import make_polyhedron
 
     with warnings.catch_warnings(record=True) as caught:

@@ -10,8 +10,8 @@ from kernels.polyhedron import make_polyhedron
 from kernels.tumble import make_config, replay
 from kernels.polyhedron import tumble_geometry
 from planning.pushing.planner import plan_pose
-from robustness.bounds import (PushTolerances, push_final_pose_fn, push_plan_bound,
-                               tumble_first_order_bound)
+from robustness.bounds import push_final_pose_fn, push_plan_bound, tumble_first_order_bound
+from robustness.tolerances import ExecutionTolerance, GeometryTolerance
 
 RECT = [[0, 0], [0.04, 0], [0.04, 0.02], [0, 0.02]]
 TRI = [[0, 0], [0.03, 0], [0.005, 0.02]]
@@ -30,7 +30,7 @@ def test_translation_push_by_hand():
     assert plan.plan_class == "translation" and plan.n_pushes == 1
     s = plan.pushes[0].distance
     a, d = 1e-3, 2e-4
-    b = push_plan_bound(plan, PushTolerances(fence_angle=a, distance_abs=d))
+    b = push_plan_bound(plan, execution=ExecutionTolerance(fence_angle=a, distance_abs=d))
     assert b["x_m"] == pytest.approx(d + 0.01 * a, rel=1e-9)
     assert b["y_m"] == pytest.approx((s + 0.02) * a, rel=1e-9)
     assert b["theta_rad"] == pytest.approx(a, rel=1e-9)
@@ -39,7 +39,7 @@ def test_translation_push_by_hand():
 def test_start_errors_do_not_reach_final_orientation():
     # every push ends with a stable edge flush: start errors cannot change the final heading
     plan = plan_pose(TRI, (0.01, -0.02, 0.4), (0.1, 0.05, 2.0))
-    b = push_plan_bound(plan, PushTolerances(start_xy=1e-3, start_theta=1e-2))
+    b = push_plan_bound(plan, execution=ExecutionTolerance(start_xy=1e-3, start_theta=1e-2))
     assert b["theta_rad"] == pytest.approx(0.0, abs=1e-12)
     assert b["by_source"]["start_xy"]["position_m"] > 0
 
@@ -51,9 +51,10 @@ def test_start_errors_do_not_reach_final_orientation():
 ])
 def test_first_order_bound_vs_monte_carlo(verts, com, goal):
     plan = plan_pose(verts, (0, 0, 0), goal, com=com)
-    tol = PushTolerances(tau_v=2e-5, tau_com=2e-5, start_xy=2e-5, start_theta=2e-4,
-                         fence_angle=2e-4, distance_abs=2e-5, distance_rel=1e-3)
-    b = push_plan_bound(plan, tol)
+    geo = GeometryTolerance(tau_v=2e-5, tau_com=2e-5, com_shape="box")
+    tol = ExecutionTolerance(start_xy=2e-5, start_theta=2e-4, fence_angle=2e-4, distance_abs=2e-5,
+                             distance_rel=1e-3)
+    b = push_plan_bound(plan, geo, tol)
     f, sz = push_final_pose_fn(plan)
     n, P = sz["n"], sz["pushes"]
     rng = np.random.default_rng(7)
@@ -61,7 +62,7 @@ def test_first_order_bound_vs_monte_carlo(verts, com, goal):
     u = lambda *s: rng.uniform(-1.0, 1.0, s)
     dists = np.array([p.distance for p in plan.pushes])
     out = np.asarray(jax.jit(jax.vmap(f))(
-        jnp.asarray(u(N, n, 2) * tol.tau_v), jnp.asarray(u(N, 2) * tol.tau_com),
+        jnp.asarray(u(N, n, 2) * geo.tau_v), jnp.asarray(u(N, 2) * geo.tau_com),
         jnp.asarray(u(N, 3) * np.array([tol.start_xy, tol.start_xy, tol.start_theta])),
         jnp.asarray(u(N, P) * tol.fence_angle),
         jnp.asarray(u(N, P) * (tol.distance_abs + tol.distance_rel * dists))))
@@ -77,9 +78,9 @@ def test_first_order_bound_vs_monte_carlo(verts, com, goal):
 
 def test_tolerances_validated():
     with pytest.raises(ValueError, match="tau_v"):
-        PushTolerances(tau_v=-1.0)
+        GeometryTolerance(tau_v=-1.0)
     with pytest.raises(ValueError, match="fence_angle"):
-        PushTolerances(fence_angle=float("nan"))
+        ExecutionTolerance(fence_angle=float("nan"))
 
 
 def test_tumble_first_order_bound_vs_monte_carlo():
@@ -117,7 +118,7 @@ def test_paper_bounds_confronted_with_monte_carlo():
 
     from planning.tumbling.planner import plan_tumble
     from robustness.bounds import tumble_plan_paper_bounds
-    from robustness.evaluate import BoundViolation, ExecutionTolerance, FrictionRange, \
+    from robustness.evaluation import BoundViolation, ExecutionTolerance, FrictionRange, \
         GeometryTolerance, Sampler, evaluate
     from tests.polyhedra import example
 

@@ -1,4 +1,4 @@
-"""python -m robustness.certify: end to end, and bad configs."""
+"""python -m sweeps.certify: end to end, and bad configs."""
 import os
 import pathlib
 import subprocess
@@ -7,8 +7,9 @@ import sys
 import pandas as pd
 import pytest
 
-from robustness import certify
-from robustness.tables import VERDICTS, read_metadata
+from sweeps import certify
+from robustness.tables import VERDICTS
+from sweeps.parquet import read_metadata
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "certify_triangle.yaml"
@@ -17,7 +18,7 @@ EXAMPLE = ROOT / "examples" / "certify_triangle.yaml"
 def run_cli(*args, timeout=600):
     env = dict(os.environ)
     env.setdefault("JAX_PLATFORMS", "cpu")
-    return subprocess.run([sys.executable, "-m", "robustness.certify", *map(str, args)], cwd=ROOT,
+    return subprocess.run([sys.executable, "-m", "sweeps.certify", *map(str, args)], cwd=ROOT,
                           capture_output=True, text=True, timeout=timeout, env=env)
 
 

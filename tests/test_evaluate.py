@@ -10,8 +10,8 @@ from kernels.polyhedron import PartWarning, make_polyhedron
 from kernels.tumble import make_config, replay
 from planning.pushing.planner import plan_pose
 from planning.tumbling.plan import Tumble, TumblePlan
-from robustness import evaluate as ev_mod
-from robustness.evaluate import BoundViolation, evaluate
+from robustness import evaluation as ev_mod
+from robustness.evaluation import BoundViolation, evaluate
 from robustness.samplers import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler
 from robustness.tables import FAILURE_MODES
 
@@ -46,7 +46,8 @@ def tumble_plan():
         seq.append(g)
         f = g
     start = (0.01, -0.02, 0.3, 0)
-    fin, ok = replay(P.geometry(jnp.float64), make_config(*start), jnp.asarray(seq))
+    with jax.enable_x64(True):  # the test's own float64 replay of the plan
+        fin, ok = replay(P.geometry(jnp.float64), make_config(*start), jnp.asarray(seq))
     assert bool(ok)
     pf = (float(fin.xy[0]), float(fin.xy[1]), float(fin.theta), int(fin.face))
     faces = [0] + seq

@@ -17,6 +17,8 @@ from kernels.push import replay_push
 from tests import strategies as S
 from oracles import push_numpy as oracle
 
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
+
 geometry = jax.jit(pg.polygon_geometry)
 reorient_table = jax.jit(pg.max_reorient_table)
 classify = jax.jit(pg.object_class)

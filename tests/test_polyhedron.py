@@ -8,7 +8,6 @@ import warnings
 
 import jax
 
-jax.config.update("jax_enable_x64", True)
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
@@ -24,6 +23,8 @@ from kernels.polyhedron import (  # noqa: E402
     make_polyhedron,
     tumble_geometry,
 )
+
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 PI = math.pi

@@ -12,6 +12,8 @@ import pytest
 
 from planning.pushing import pose_lp
 
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
+
 K_MAX = 12
 REL = 1e-7
 

@@ -15,10 +15,13 @@ from hypothesis import event, given, settings, strategies as st
 
 from kernels import polygon as pg
 from planning.pushing import pose_lp
+from planning.pushing import batch as pb
 from planning.pushing import planner as pp
 from planning.pushing.plan import PLAN_CLASSES, Push, PushPlan
 from tests import strategies as S
 from oracles import push_numpy as oracle
+
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 
 POS_TOL = 1e-9
 ANG_TOL = 1e-9
@@ -187,7 +190,7 @@ def test_batch_agrees_with_single(name, objective):
     starts, goals = _pairs()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pg.PartWarning)
-        batch = pp.plan_pose_batch(pts, starts, goals, com=com, objective=objective, chunk=64)
+        batch = pb.plan_pose_batch(pts, starts, goals, com=com, objective=objective, chunk=64)
     singles = _single_plans(name, objective)
     assert len(batch) == len(starts)
     assert np.all(batch.ok)
@@ -444,11 +447,11 @@ def test_bad_input_names_the_field(change, exc, field):
 
 def test_batch_bad_input():
     with pytest.raises(ValueError, match="objective"):
-        pp.plan_pose_batch(SQUARE, [[0, 0, 0]], [[1, 0, 0]], objective="time")
+        pb.plan_pose_batch(SQUARE, [[0, 0, 0]], [[1, 0, 0]], objective="time")
     with pytest.raises(ValueError, match="starts/goals"):
-        pp.plan_pose_batch(SQUARE, [[0, 0, 0], [0, 0, 1]], [[1, 0, 0]])
+        pb.plan_pose_batch(SQUARE, [[0, 0, 0], [0, 0, 1]], [[1, 0, 0]])
     with pytest.raises(ValueError, match="^starts"):
-        pp.plan_pose_batch(SQUARE, [[0, float("nan"), 0]], [[1, 0, 0]])
+        pb.plan_pose_batch(SQUARE, [[0, float("nan"), 0]], [[1, 0, 0]])
 
 
 def test_non_convex_part_warns_and_plans():

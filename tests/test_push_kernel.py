@@ -15,6 +15,8 @@ from kernels.push import replay_push, replay_pushes
 from tests import strategies as S
 from oracles import push_numpy as oracle
 
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
+
 TOL = 1e-9
 
 _replay_batch = jax.jit(jax.vmap(replay_push, in_axes=(None, 0, 0, 0)))

@@ -21,6 +21,9 @@ from kernels.quasistatic import (SimOutcome, contact_rates, limit_surface_ratio,
 from tests import strategies as S
 from oracles import push_numpy as push_oracle
 from oracles import quasistatic_numpy as qs_oracle
+import pytest  # noqa: E402
+
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 
 N_STEPS = 200
 BATCH = 32

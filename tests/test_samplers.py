@@ -9,10 +9,13 @@ import numpy as np
 import pytest
 
 from kernels import polygon as pg
+from kernels.hulls import polygon_hull_changed
 from kernels.polyhedron import PartWarning, make_polyhedron
-from robustness.samplers import (ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler,
-                                 broadcast, face_merge_tol, parameter_columns,
-                                 polygon_hull_changed, polyhedron_combinatorics_changed, take)
+from robustness.hulls import face_merge_tol, polyhedron_combinatorics_changed
+from robustness.samplers import Sampler, broadcast, parameter_columns, take
+from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
+
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 
 PENT = np.array([[0.0, 0.0], [0.028, 0.0], [0.034, 0.016], [0.016, 0.027], [-0.004, 0.015]])
 CUBE = np.array([[x, y, z] for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (-0.05, 0.05)])

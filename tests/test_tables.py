@@ -8,8 +8,9 @@ import pyarrow.parquet as pq
 import pytest
 
 from robustness import tables
-from robustness.tables import (CERTIFICATES_SCHEMA, SUMMARY_SCHEMA, read_metadata, read_results,
-                               samples_schema, write_table)
+from robustness.tables import CERTIFICATES_SCHEMA, SUMMARY_SCHEMA, samples_schema
+from sweeps import parquet
+from sweeps.parquet import read_metadata, read_results, write_table
 
 CONFIG = "part: x.yaml\nseed: 7\n"
 
@@ -66,7 +67,7 @@ def test_atomic_write_leaves_nothing_on_error(tmp_path, monkeypatch):
             fh.write(b"PAR1 partial")
         raise OSError("disk full")
 
-    monkeypatch.setattr(tables.pq, "write_table", boom)
+    monkeypatch.setattr(parquet.pq, "write_table", boom)
     with pytest.raises(OSError, match="disk full"):
         write_table(df, target, schema, CONFIG, 1)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["samples.parquet"]
@@ -124,4 +125,4 @@ def test_schemas_are_declared_once():
             if name.startswith("n_") and name[2:] in tables.FAILURE_MODES:
                 stem = "n_<mode>"
             assert f"`{stem}`" in readme, name
-    json.dumps(tables.package_versions())
+    json.dumps(parquet.package_versions())

@@ -11,7 +11,6 @@ import sys
 
 import jax
 
-jax.config.update("jax_enable_x64", True)
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402

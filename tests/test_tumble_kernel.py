@@ -7,7 +7,6 @@ from collections import deque
 
 import jax
 
-jax.config.update("jax_enable_x64", True)
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
@@ -16,6 +15,7 @@ import yaml  # noqa: E402
 from hypothesis import given, settings, strategies as st  # noqa: E402
 
 from kernels.polyhedron import Polyhedron, make_polyhedron, tumble_geometry  # noqa: E402
+from kernels.planar import wrap_angle  # noqa: E402
 from kernels.tumble import (  # noqa: E402
     TumbleConfig,
     apply_effect,
@@ -26,9 +26,10 @@ from kernels.tumble import (  # noqa: E402
     replay_trajectory,
     tumble,
     tumble_sequence_effect,
-    wrap_angle,
 )
 from oracles import tumble_numpy as oracle  # noqa: E402
+
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
 EXAMPLE_NAMES = ["cube", "tetrahedron", "octahedron", "truncated_pyramid", "irregular_polyhedron"]

@@ -12,7 +12,6 @@ import math
 
 import jax
 
-jax.config.update("jax_enable_x64", True)
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
@@ -24,6 +23,8 @@ from planning.tumbling.plan import Tumble, TumblePlan, config_error  # noqa: E40
 from planning.tumbling.planner import analyze_polyhedron, plan_tumble  # noqa: E402
 
 from tests.polyhedra import box, example, random_polyhedron
+
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 A_CUBE = 0.1
 
 

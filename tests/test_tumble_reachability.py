@@ -27,18 +27,20 @@ import math
 
 import jax
 
-jax.config.update("jax_enable_x64", True)
 
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from kernels.tumble import make_config, replay_trajectory  # noqa: E402
-from planning.tumbling.motions import Motion, wrap  # noqa: E402
+from kernels.planar import wrap_angle_np  # noqa: E402
+from planning.tumbling.motions import Motion  # noqa: E402
 from planning.tumbling.paper import paper_plan  # noqa: E402
 from planning.tumbling.planner import analyze_polyhedron, replay_faces  # noqa: E402
 
 from tests.polyhedra import box, example, random_polyhedron
+
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 TWO_PI = 2 * math.pi
 
 
@@ -103,7 +105,7 @@ def test_cube_structure():
     assert same_lattice(A, e1 + e2, e1 - e2)  # checkerboard
     z, th = kernel_samples(A)
     k = np.round(th / (math.pi / 2)).astype(int) % 4
-    assert np.allclose(wrap(th - k * math.pi / 2), 0, atol=1e-9)
+    assert np.allclose(wrap_angle_np(th - k * math.pi / 2), 0, atol=1e-9)
     m = np.real(z / e1)
     n = np.real(z / e2)
     assert np.allclose(m, np.round(m), atol=1e-9) and np.allclose(n, np.round(n), atol=1e-9)
@@ -131,8 +133,8 @@ def test_tetrahedron_structure():
     assert A.mesh_area == pytest.approx(4 * cell, rel=1e-12)
     assert same_lattice(A, 2 * e1, 2 * e2)
     z, th = kernel_samples(A)
-    h0 = np.abs(wrap(th)) < 1e-9
-    hpi = np.abs(wrap(th - math.pi)) < 1e-9
+    h0 = np.abs(wrap_angle_np(th)) < 1e-9
+    hpi = np.abs(wrap_angle_np(th - math.pi)) < 1e-9
     assert np.all(h0 | hpi) and h0.sum() > 10 and hpi.sum() > 10
     assert in_lattice(z[h0], 2 * e1, 2 * e2)
     assert in_lattice(z[hpi], 2 * e1, 2 * e2, offset=2 * c[0])
@@ -151,7 +153,7 @@ def test_octahedron_structure():
     assert same_lattice(A, (1 - w) * e1, (1 - w) * e2)
     z, th = kernel_samples(A)
     k = np.round(th / (TWO_PI / 3)).astype(int) % 3
-    assert np.allclose(wrap(th - k * TWO_PI / 3), 0, atol=1e-9)
+    assert np.allclose(wrap_angle_np(th - k * TWO_PI / 3), 0, atol=1e-9)
     for kk in range(3):
         sel = k == kk
         assert sel.sum() > 5
@@ -170,7 +172,7 @@ def test_rotation_generators_and_descartes():
         for r in A.rotation_generators[:4]:
             final, ok = replay_faces(A, (0.0, 0.0, 0.0, A.start_face), r["word"])
             assert ok and final[3] == A.start_face
-            assert abs(wrap(final[2] - r["angle_float"])) < 1e-9
+            assert abs(wrap_angle_np(final[2] - r["angle_float"])) < 1e-9
             # rotation about C_j: C_j is fixed
             cj = complex(*r["centre"])
             e = cmath.exp(1j * final[2])
@@ -238,7 +240,7 @@ def test_paper_construction_replays_exactly(name):
         final, ok = replay_faces(A, (0.0, 0.0, 0.0, A.start_face), res.word)
         assert ok and final[3] == f
         assert abs(complex(final[0], final[1]) - M.z) < 1e-9
-        assert abs(wrap(final[2] - M.angle)) < 1e-9
+        assert abs(wrap_angle_np(final[2] - M.angle)) < 1e-9
 
 
 def test_huge_paper_counts_are_numbers():

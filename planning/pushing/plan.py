@@ -10,7 +10,6 @@ Edges and vertices are indices into the caller's own vertex list.
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Optional
 
 PLAN_CLASSES = ("translation", "cw", "ccw", "singular-cw", "singular-ccw")
@@ -165,9 +164,3 @@ class PushPlan:
                          f"{p.pose_after[0]:>10.4g} {p.pose_after[1]:>10.4g} "
                          f"{p.pose_after[2]:>9.4f}")
         return "\n".join(lines)
-
-
-def angle_error(a: float, b: float) -> float:
-    """|a - b| wrapped to [0, pi] (rad)."""
-    d = (a - b + math.pi) % (2 * math.pi) - math.pi
-    return abs(d)

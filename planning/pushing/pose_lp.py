@@ -39,6 +39,8 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
+from kernels.planar import wrap_angle, wrap_angle_np
+
 ZERO_TARGET = 1e-13  # m: a residual translation this small needs no push
 DROP = 1e-12         # m: a push shorter than this is dropped from the plan
 DET_EPS = 1e-12      # columns closer than this to antiparallel do not span
@@ -65,10 +67,6 @@ class LPSolution:
 # --------------------------------------------------------------------------
 # Closed form, numpy (one LP)
 # --------------------------------------------------------------------------
-def _wrap_np(a):
-    return -np.remainder(-a + np.pi, 2 * np.pi) + np.pi
-
-
 def _pair_np(angles, target, ia, ib):
     ua = np.array([math.cos(angles[ia]), math.sin(angles[ia])])
     ub = np.array([math.cos(angles[ib]), math.sin(angles[ib])])
@@ -120,7 +118,7 @@ def solve_closed_form(angles, mask, merged, target, objective="distance") -> LPS
     k = len(angles)
     if np.hypot(*target) <= ZERO_TARGET:
         return LPSolution(True, 0.0, 0, np.zeros(k))
-    delta = _wrap_np(angles - math.atan2(target[1], target[0]))
+    delta = wrap_angle_np(angles - math.atan2(target[1], target[0]))
 
     def pair(sel_a, sel_b):
         a, _ = _nearest_np(delta, sel_a)
@@ -230,7 +228,7 @@ def solve_jax(angles, mask, merged, target, objective="distance"):
       ``(feasible, cost, pushes, idx_a, x_a, idx_b, x_b)`` as :func:`solve_delta`.
     """
     psi = jnp.arctan2(target[1], target[0])
-    delta = -jnp.remainder(-(angles - psi) + jnp.pi, 2 * jnp.pi) + jnp.pi
+    delta = wrap_angle(angles - psi)
     return solve_delta(delta, mask, merged, jnp.hypot(target[0], target[1]), objective)
 
 

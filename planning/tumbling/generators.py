@@ -48,15 +48,8 @@ import numpy as np
 from kernels.polyhedron import Polyhedron, make_polyhedron
 from planning.lattice import lagrange_gauss_reduce, lattice_basis
 from planning.rationals import best_rational_within, extended_gcd_coeffs, rotation_step
-from planning.tumbling.motions import (
-    Motion,
-    TumbleTable,
-    compose,
-    fixed_point,
-    power_motion,
-    rotation_about,
-    wrap,
-)
+from planning.tumbling.motions import Motion, TumbleTable, compose, fixed_point, power_motion, rotation_about
+from kernels.planar import wrap_angle_np
 from planning.tumbling.words import concat, inverse, purge
 
 __all__ = [
@@ -311,7 +304,7 @@ def build_analysis(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[float
 
     paths = _bfs(table, F)
     dev_m = {f: table.word_motion(F, w) for f, w in paths.items()}
-    development = {f: (m.z.real, m.z.imag, float(wrap(m.angle))) for f, m in dev_m.items()}
+    development = {f: (m.z.real, m.z.imag, float(wrap_angle_np(m.angle))) for f, m in dev_m.items()}
 
     edge_len = [float(np.linalg.norm(P.vertices[a] - P.vertices[b])) for a, b in P.edges]
     d_min, d_max = min(edge_len), max(edge_len)
@@ -342,7 +335,7 @@ def build_analysis(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[float
         c_local = complex(corners[j1, k, 0], corners[j1, k, 1])
         centre = _cz(dev_m[j1], c_local)
         fp = fixed_point(eff)
-        max_angle_err = max(max_angle_err, abs(float(wrap(eff.angle - beta))))
+        max_angle_err = max(max_angle_err, abs(float(wrap_angle_np(eff.angle - beta))))
         if fp is not None:
             max_centre_err = max(max_centre_err, abs(fp - centre))
         rot.append({
@@ -424,7 +417,7 @@ def build_analysis(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[float
             if word is not None:
                 eff = table.word_motion(F, word)
                 vec = eff.z
-                rres = float(wrap(eff.angle))
+                rres = float(wrap_angle_np(eff.angle))
                 max_gen_err = max(max_gen_err, abs(vec - closed))
                 max_gen_rot = max(max_gen_rot, abs(rres))
                 length = len(word)

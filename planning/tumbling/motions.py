@@ -30,6 +30,7 @@ from typing import Sequence
 
 import numpy as np
 
+
 TWO_PI = 2.0 * math.pi
 
 __all__ = [
@@ -40,14 +41,8 @@ __all__ = [
     "power_motion",
     "rotation_about",
     "fixed_point",
-    "wrap",
     "TumbleTable",
 ]
-
-
-def wrap(a):
-    """Wrap angles (rad) to (-pi, pi] (float or numpy array)."""
-    return math.pi - (math.pi - a) % TWO_PI
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,8 @@ from typing import Optional
 
 from planning.lattice import closest_lattice_point
 from planning.tumbling.generators import TumbleAnalysis, loop_power_length
-from planning.tumbling.motions import Motion, compose, inverse_motion, wrap
+from planning.tumbling.motions import Motion, compose, inverse_motion
+from kernels.planar import wrap_angle_np
 from planning.tumbling.words import power, purge
 
 PAPER_MATERIALISE_CAP = 200_000
@@ -117,12 +118,12 @@ def paper_plan(A: TumbleAnalysis, M: Motion, goal_face: int, eps: float) -> Pape
     L = A.transit_paths[goal_face]
     E_L = A.table.word_motion(F, L)
     loop = compose(M, inverse_motion(E_L))
-    gamma1 = float(wrap(loop.angle))
+    gamma1 = float(wrap_angle_np(loop.angle))
     z1 = loop.z
 
     # ---- step 3 ----
     k, ang_k = nearest_rotation_power(A, gamma1)
-    r3 = abs(float(wrap(ang_k - gamma1)))
+    r3 = abs(float(wrap_angle_np(ang_k - gamma1)))
     cbar = complex(*A.rbar_centre)
     z_rk = cbar - cmath.exp(1j * ang_k) * cbar
     t_star = z1 - z_rk

@@ -15,6 +15,8 @@ import dataclasses
 import math
 from typing import Optional
 
+from kernels.planar import angle_distance
+
 VERDICTS = ("solved", "not_solvable")
 REACHABLE_CLASSES = ("discrete", "dense", "dense_lines")
 BOUND_KEYS = ("Delta_D", "Delta_beta", "Delta_gen", "E", "U_max", "Delta_theta_f", "Delta_C_f",
@@ -23,17 +25,11 @@ BOUND_KEYS = ("Delta_D", "Delta_beta", "Delta_gen", "E", "U_max", "Delta_theta_f
 __all__ = ["Tumble", "TumblePlan", "config_error", "VERDICTS", "REACHABLE_CLASSES", "BOUND_KEYS"]
 
 
-def _angle_diff(a: float, b: float) -> float:
-    """|a - b| wrapped to [0, pi]."""
-    d = (a - b + math.pi) % (2.0 * math.pi) - math.pi
-    return abs(d)
-
-
 def config_error(c1, c2) -> float:
     """The paper's distance between configurations ``(x, y, theta, face)``:
     ``max(|dxy|, |dtheta| wrapped, 1 - delta(face1, face2))``."""
     dxy = math.hypot(float(c1[0]) - float(c2[0]), float(c1[1]) - float(c2[1]))
-    dth = _angle_diff(float(c1[2]), float(c2[2]))
+    dth = angle_distance(c1[2], c2[2])
     df = 0.0 if int(c1[3]) == int(c2[3]) else 1.0
     return max(dxy, dth, df)
 

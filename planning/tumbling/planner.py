@@ -41,9 +41,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels.polyhedron import make_polyhedron
+from kernels.precision import float64
 from kernels.tumble import make_config, replay
 from planning.tumbling.generators import TumbleAnalysis, build_analysis
-from planning.tumbling.motions import Motion, compose, inverse_motion, wrap
+from planning.tumbling.motions import Motion, compose, inverse_motion
+from kernels.planar import wrap_angle_np
 from planning.tumbling.paper import paper_plan
 from planning.tumbling.plan import Tumble, TumblePlan, config_error
 from planning.tumbling.shorten import ShortPlanner
@@ -102,6 +104,7 @@ def _check_tol(x, name: str, allow_none: bool):
     return xf
 
 
+@float64
 def analyze_polyhedron(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[float] = None,
                        start_face: int = 0) -> TumbleAnalysis:
     """The Marigo-Bicchi analysis of a part, rooted at ``start_face`` (cached).
@@ -144,6 +147,7 @@ def _geom(A: TumbleAnalysis):
     return A.cache["geom"]
 
 
+@float64
 def replay_faces(A: TumbleAnalysis, start, faces) -> tuple[tuple, bool]:
     """Replay landing faces from configuration ``start`` with the JAX kernel
     (float64, padded to a few fixed lengths so that compilations are shared);
@@ -189,6 +193,7 @@ def _pose(c) -> Motion:
     return Motion(float(c[2]), complex(c[0], c[1]))
 
 
+@float64
 def plan_tumble(vertices, goal, start=None, com=None, eps: float = 1e-3, tau_v: float = 0.0,
                 tau_g: Optional[float] = None, shorten: bool = True) -> TumblePlan:
     """Plan a sequence of tumbles from ``start`` to ``goal`` (see module doc).
@@ -269,7 +274,7 @@ def plan_tumble(vertices, goal, start=None, com=None, eps: float = 1e-3, tau_v: 
         com=tuple(float(c) for c in P.com),
         start=start_c, goal=goal_c, eps=eps, tau_v=tau_v, tau_g=tau_g,
         tumbles=tuple(tumbles),
-        predicted_final=(final[0], final[1], float(wrap(final[2])), int(final[3])),
+        predicted_final=(final[0], final[1], float(wrap_angle_np(final[2])), int(final[3])),
         error=float(err), bounds=bounds, verdict=verdict, reason=reason,
         reachable_class=A.reachable_class, n_tumbles_paper=int(paper.n_tumbles),
     )

@@ -57,7 +57,8 @@ from scipy.spatial import cKDTree
 from planning.lattice import closest_lattice_point, lagrange_gauss_reduce
 from planning.tumbling.cvp import CVPSolver, Sumset
 from planning.tumbling.generators import TumbleAnalysis
-from planning.tumbling.motions import Motion, wrap
+from planning.tumbling.motions import Motion
+from kernels.planar import wrap_angle_np
 from planning.tumbling.walks import Walks, akey as _akey, enumerate_walks
 from planning.tumbling.words import concat, inverse, power, purge
 
@@ -174,7 +175,7 @@ class ShortPlanner:
         if not w:
             return None
         m = self.table.word_motion(F, w)
-        if abs(float(wrap(m.angle))) > 1e-9:
+        if abs(float(wrap_angle_np(m.angle))) > 1e-9:
             return None
         if abs(m.z) <= 1e-9 * self.scale:
             return None
@@ -452,7 +453,7 @@ class ShortPlanner:
             if f not in first:
                 first[f] = i
         anc = np.array([first[f] for f in W.face.tolist()])
-        d = wrap(W.ang - W.ang[anc])
+        d = wrap_angle_np(W.ang - W.ang[anc])
         lenb = W.depth + W.depth[anc]
         ok = np.abs(d) > 1e-9
         idx = np.flatnonzero(ok)
@@ -471,7 +472,7 @@ class ShortPlanner:
             if not w:
                 continue
             m = self.table.word_motion(F, w)
-            a = float(wrap(m.angle))
+            a = float(wrap_angle_np(m.angle))
             if abs(a) <= 1e-9:
                 continue
             k = min(int(_akey(np.array([a]))[0]), int(_akey(np.array([-a]))[0]))
@@ -538,7 +539,7 @@ class ShortPlanner:
             o = o[first]
             uq = nbn[o]
             dist[uq] = nc[o]
-            ang[uq] = wrap(na[o])
+            ang[uq] = wrap_angle_np(na[o])
             pbin[uq] = src[o]
             pcode[uq] = code[o]
             for cc in np.unique(nc[o]):
@@ -556,7 +557,7 @@ class ShortPlanner:
     def rotation_word(self, target: float, tol: float):
         """Product of rotation loops turning by ``target`` within ``tol`` (or as
         close as the table gets): ``(word, angle)``; ``((), 0.0)`` if none needed."""
-        if abs(float(wrap(target))) <= tol:
+        if abs(float(wrap_angle_np(target))) <= tol:
             return (), 0.0
         tab = None
         for div in (8, 32, 128):
@@ -570,7 +571,7 @@ class ShortPlanner:
         for cb in cands:
             if dist[cb] == np.iinfo(np.int64).max:
                 continue
-            res = abs(float(wrap(ang[cb] - target)))
+            res = abs(float(wrap_angle_np(ang[cb] - target)))
             key = (res > tol, int(dist[cb]) if res <= tol else res)
             if best is None or key < best[0]:
                 best = (key, cb)
@@ -641,7 +642,7 @@ class ShortPlanner:
         """Cores ``A B^-1`` turning by exactly ``h`` (rational headings)."""
         self._forward_groups()
         B = self.bwd(G)
-        a_req = wrap(h + B.ang)
+        a_req = wrap_angle_np(h + B.ang)
         z_req = M.z + np.exp(1j * h) * B.z
         keys = _akey(a_req)
         out = []
@@ -683,7 +684,7 @@ class ShortPlanner:
             fa_ext = np.concatenate([fa - TWO_PI, fa, fa + TWO_PI])
             fidx_ext = np.concatenate([fidx, fidx, fidx])
             bidx = np.flatnonzero(B.face == X)
-            a_req = wrap(gamma + B.ang[bidx])
+            a_req = wrap_angle_np(gamma + B.ang[bidx])
             lo = np.searchsorted(fa_ext, a_req - eta, side="left")
             hi = np.searchsorted(fa_ext, a_req + eta, side="right")
             cnt = hi - lo
@@ -716,7 +717,7 @@ class ShortPlanner:
 
     def _evaluate(self, word: tuple, M: Motion):
         m = self.table.word_motion(self.F, word)
-        dth = abs(float(wrap(m.angle - M.angle)))
+        dth = abs(float(wrap_angle_np(m.angle - M.angle)))
         dz = abs(m.z - M.z)
         return m, dth, dz
 
@@ -751,7 +752,7 @@ class ShortPlanner:
             seen.add(cw)
             mc = self.table.word_motion(F, cw)
             if self.regime == "dense":
-                need = float(wrap(M.angle - mc.angle))
+                need = float(wrap_angle_np(M.angle - mc.angle))
                 rw = self.rotation_word(need, 0.45 * eps)
                 if rw is None:
                     continue
@@ -779,7 +780,7 @@ class ShortPlanner:
                 # cheap ranking by the coarse estimate, fine stage for the best few
                 prelim = sorted(scored, key=lambda s: len(s[0]) + self.rho * abs(s[2]))[:4]
                 for cw, mc, t in prelim:
-                    ang_res = abs(float(wrap(M.angle - mc.angle)))
+                    ang_res = abs(float(wrap_angle_np(M.angle - mc.angle)))
                     tol = max(0.0, 0.9 * eps - 0.0) if ang_res <= eps else 0.9 * eps
                     coef, cost, err = self.decompose_dense(t, tol)
                     results.append((cost + len(cw) + (0 if err <= tol else 1e9 * err), coef, cw))

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from planning.tumbling.motions import TumbleTable, wrap
+from planning.tumbling.motions import TumbleTable
+from kernels.planar import wrap_angle_np
 
 TWO_PI = 2.0 * math.pi
 AKEY_BITS = 32
@@ -87,7 +88,7 @@ def enumerate_walks(table: TumbleTable, root: int, budget: int, pos_tol: float,
             a0 = lvl_a[ok]
             cf.append(g[ok])
             cz.append(lvl_z[ok] + np.exp(1j * a0) * sz[f0, k])
-            ca.append(wrap(a0 + sa[f0, k]))
+            ca.append(wrap_angle_np(a0 + sa[f0, k]))
             cpar.append(lvl_idx[ok])
             cprev.append(f0)
         if not cf:

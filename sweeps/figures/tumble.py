@@ -30,6 +30,9 @@ matplotlib.use("Agg")
 import jax.numpy as jnp  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+
+from kernels.planar import rot2_np  # noqa: E402
+from kernels.precision import float64  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import FancyArrowPatch, Patch, Polygon as PolyPatch  # noqa: E402
@@ -49,16 +52,11 @@ __all__ = ["development_poses", "face_footprint", "plot_development", "plot_reac
 # --------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------
-def _rot(theta: float) -> np.ndarray:
-    c, s = math.cos(theta), math.sin(theta)
-    return np.array([[c, -s], [s, c]])
-
-
 def face_footprint(poly: Polyhedron, face: int, pose) -> np.ndarray:
     """World corners (s, 2) of ``face`` on the plane at planar pose
     ``(x, y, theta)``, in ``face_cycles[face]`` order."""
     q = np.asarray(poly.face_corners_2d[int(face)], dtype=float)
-    return q @ _rot(float(pose[2])).T + np.asarray(pose[:2], dtype=float)
+    return q @ rot2_np(float(pose[2])).T + np.asarray(pose[:2], dtype=float)
 
 
 def _polyhedron(vertices, com) -> Polyhedron:
@@ -93,6 +91,7 @@ def _pose3(p) -> tuple[float, float, float]:
     return a[0], a[1], a[2]
 
 
+@float64
 def development_poses(poly: Polyhedron, root: int = 0) -> tuple[dict, dict]:
     """Plane development rooted at face ``root`` (paper Sec. III, Steps 1-2).
 
@@ -160,6 +159,7 @@ def _ticks(ax) -> None:
 # --------------------------------------------------------------------------
 # Plane development (Fig. 3)
 # --------------------------------------------------------------------------
+@float64
 def plot_development(polyhedron_or_analysis, path, root: Optional[int] = None,
                      title: Optional[str] = None, name: str = "", dpi: int = 150) -> dict:
     """Draw the plane development rooted at a face (paper Fig. 3); save to ``path``.
@@ -272,6 +272,7 @@ def plot_development(polyhedron_or_analysis, path, root: Optional[int] = None,
 MAX_DRAWN_POINTS = 20_000
 
 
+@float64
 def sample_reached_positions(poly: Polyhedron, root: int, radius: float, n_walks: int = 1000,
                              seed: int = 0) -> np.ndarray:
     """Positions of face ``root``'s frame, any heading, reached by random tumble walks.
@@ -386,6 +387,7 @@ def _draw_basis(ax, basis, scale: float, handles: Optional[list], view: float):
                                   label=f"X{k + 1} = ({X[0]:.4g}, {X[1]:.4g}) m"))
 
 
+@float64
 def plot_reachable(analysis, path, radius: float, title: Optional[str] = None,
                    name: str = "", n_walks: int = 1000, dpi: int = 150) -> np.ndarray:
     """Draw the reachable positions around the start (paper Fig. 2); save to ``path``.
@@ -549,12 +551,13 @@ def _fmt_cfg(c) -> str:
 def _heading(ax, poly, face, pose, color, scale):
     """Short arrow along the face frame's x-axis (the heading theta)."""
     o = np.asarray(pose[:2], dtype=float)
-    d = _rot(float(pose[2])) @ np.array([scale, 0.0])
+    d = rot2_np(float(pose[2])) @ np.array([scale, 0.0])
     ax.annotate("", xy=o + d, xytext=o,
                 arrowprops=dict(arrowstyle="-|>", color=color, lw=1.4, shrinkA=0, shrinkB=0,
                                 mutation_scale=10), zorder=8)
 
 
+@float64
 def plan_trajectory(plan):
     """Replay a plan's tumbles with the exact kernel.
 
@@ -578,6 +581,7 @@ def plan_trajectory(plan):
     return poly, np.array(rows, dtype=float), ok
 
 
+@float64
 def plot_plan(plan, path, title: Optional[str] = None, name: str = "",
               dpi: int = 150) -> np.ndarray:
     """Draw the footprints along a tumble plan; save to ``path``.

@@ -2,11 +2,11 @@
 
 Usage::
 
-    python -m robustness.certify CONFIG.yaml [--out DIR] [--n-samples N] [--seed S] [--quiet]
+    python -m sweeps.certify CONFIG.yaml [--out DIR] [--n-samples N] [--seed S] [--quiet]
 
 For every task of the config: plan it (the Akella-Mason pose planner for a
 polygon part, the Marigo-Bicchi tumble planner for a polyhedron), evaluate the
-plan on ``n_samples`` perturbed samples (:func:`robustness.evaluate.evaluate`),
+plan on ``n_samples`` perturbed samples (:func:`robustness.evaluation.evaluate`),
 and give a verdict:
 
 * ``certified (analytic bound)``: the first-order bound of
@@ -409,7 +409,8 @@ def load_config(path) -> tuple[CertifyConfig, str]:
 # Running
 # --------------------------------------------------------------------------
 def _sampler(cfg: CertifyConfig):
-    from robustness.samplers import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler
+    from robustness.samplers import Sampler
+    from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
 
     t, f, e = cfg.tolerances, cfg.friction, cfg.execution
     return Sampler(
@@ -493,7 +494,8 @@ def run(cfg: CertifyConfig, config_path: pathlib.Path, config_text: str, out: pa
     from kernels.polygon import PartError
     from planning.pushing.planner import PlanningError
     from robustness import tables
-    from robustness.evaluate import BoundViolation, evaluate
+    from sweeps import parquet
+    from robustness.evaluation import BoundViolation, evaluate
 
     part = _load_part(cfg, config_path)
     sampler = _sampler(cfg)
@@ -605,11 +607,11 @@ def run(cfg: CertifyConfig, config_path: pathlib.Path, config_text: str, out: pa
     for c in cols:
         if c not in samples:
             samples[c] = math.nan
-    tables.write_table(samples[schema.names], out / "samples.parquet", schema, config_text,
+    parquet.write_table(samples[schema.names], out / "samples.parquet", schema, config_text,
                        cfg.seed, "samples")
-    tables.write_table(tables.frame(summaries, tables.SUMMARY_SCHEMA), out / "summary.parquet",
+    parquet.write_table(tables.frame(summaries, tables.SUMMARY_SCHEMA), out / "summary.parquet",
                        tables.SUMMARY_SCHEMA, config_text, cfg.seed, "summary")
-    tables.write_table(tables.frame(certs, tables.CERTIFICATES_SCHEMA),
+    parquet.write_table(tables.frame(certs, tables.CERTIFICATES_SCHEMA),
                        out / "certificates.parquet", tables.CERTIFICATES_SCHEMA, config_text,
                        cfg.seed, "certificates")
     return (EXIT_OK if all(c["verdict"].startswith("certified") for c in certs)
@@ -620,7 +622,7 @@ def _margin_search(part, start, goal, cfg, sampler, key, dtype, log):
     """Smallest (margin_deg, safety_factor) of the grid whose plan certifies
     empirically (or analytically); None if none does."""
     from planning.pushing.planner import PlanningError
-    from robustness.evaluate import evaluate
+    from robustness.evaluation import evaluate
 
     ms = cfg.margin_search
     for m in ms.margins_deg:
@@ -666,7 +668,7 @@ def format_table(certs: list) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = Parser(prog="python -m robustness.certify",
+    p = Parser(prog="python -m sweeps.certify",
                 description="Certify push / tumble plans against tolerances (Monte Carlo + "
                             "analytic bounds); writes Parquet tables.")
     p.add_argument("config", help="certification config (YAML)")
@@ -726,9 +728,6 @@ def main(argv=None) -> int:
         return fail(str(exc))
     out = pathlib.Path(args.out) if args.out else pathlib.Path("results") / f"certify-{path.stem}"
     _enable_compilation_cache()
-    import jax
-
-    jax.config.update("jax_enable_x64", True)
     try:
         code, certs = run(cfg, path, text, out, quiet=args.quiet)
     except ConfigError as exc:

@@ -91,14 +91,14 @@ import numpy as np
 import pandas as pd
 
 from kernels import polygon as pg
+from kernels.hulls import polygon_hull_changed
+from kernels.planar import rot2, wrap_angle, wrap_angle_np
+from kernels.precision import float64
 from robustness import stats
-from robustness.samplers import (ExecutionTolerance, FrictionRange, GeometryTolerance,
-                                 PerturbationParams, Sampler, face_merge_tol, parameter_columns,
-                                 polygon_hull_changed, polyhedron_combinatorics_changed,
-                                 slice_batch)
+from robustness.hulls import face_merge_tol, polyhedron_combinatorics_changed
+from robustness.samplers import PerturbationParams, Sampler, parameter_columns, slice_batch
+from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
 from robustness.tables import FAILURE_MODES
-
-jax.config.update("jax_enable_x64", True)
 
 MODELS = ("quasistatic", "exact")
 DEFAULT_POS_EPS = 1e-3      # m
@@ -153,7 +153,7 @@ def _push_one(nom, p: PerturbationParams, hull_index, model, n_steps):
     geom = pg.polygon_geometry(body)
     changed = polygon_hull_changed(V, com, hi)
     th0 = start[2] + e.start_offset[2]
-    com_w = start[:2] + e.start_offset[:2] + pg.rot2(th0) @ g.com_offset
+    com_w = start[:2] + e.start_offset[:2] + rot2(th0) @ g.com_offset
     pose0 = jnp.concatenate([com_w, th0[None]])
     ang = ang0 + e.fence_angle
     dirs = jnp.stack([jnp.cos(ang), jnp.sin(ang)], axis=-1)
@@ -170,7 +170,7 @@ def _push_one(nom, p: PerturbationParams, hull_index, model, n_steps):
         final, outs = simulate_pushes(geom, pose0, dirs, dists, f.c, f.mu_f, n_steps=n_steps,
                                       expected_edges=planned)
         slip = jnp.sum(jnp.where(active, outs.slip, 0.0))
-    ref = final[:2] - pg.rot2(final[2]) @ g.com_offset
+    ref = final[:2] - rot2(final[2]) @ g.com_offset
     return dict(x=ref[0], y=ref[1], theta=final[2], edges=outs.edge, complete=outs.complete,
                 slip=slip, changed=changed)
 
@@ -257,11 +257,6 @@ def _edge_pairs(poly, hull_edges: np.ndarray):
 # --------------------------------------------------------------------------
 # Tumble plans
 # --------------------------------------------------------------------------
-def _rot2(a):
-    c, s = jnp.cos(a), jnp.sin(a)
-    return jnp.stack([jnp.stack([c, -s]), jnp.stack([s, c])])
-
-
 def _frame_offset(geom, nom_origins, nom_xaxes, face):
     """Nominal frame of ``face`` expressed in the perturbed face frame:
     ``(q (2,), phi)``, its origin's and x-axis's planar coordinates."""
@@ -273,7 +268,7 @@ def _frame_offset(geom, nom_origins, nom_xaxes, face):
 
 def _tumble_one(nom, p: PerturbationParams, topology):
     from kernels.polyhedron import tumble_geometry
-    from kernels.tumble import TumbleConfig, tumble, wrap_angle
+    from kernels.tumble import TumbleConfig, tumble
 
     V0, com0, nom_origins, nom_xaxes, start, start_face, seq = nom
     g, e = p.geometry, p.execution
@@ -283,7 +278,7 @@ def _tumble_one(nom, p: PerturbationParams, topology):
     xy_r = start[:2] + e.start_offset[:2]
     q, phi = _frame_offset(geom, nom_origins, nom_xaxes, start_face)
     th = th_r - phi
-    xy = xy_r - _rot2(th) @ q
+    xy = xy_r - rot2(th) @ q
     cfg = TumbleConfig(xy=xy, theta=wrap_angle(th), face=jnp.asarray(start_face, jnp.int32))
 
     def body(carry, xs):
@@ -295,7 +290,7 @@ def _tumble_one(nom, p: PerturbationParams, topology):
 
     (fin, ok), _ = jax.lax.scan(body, (cfg, jnp.asarray(True)), (seq, e.tumble_slip))
     q, phi = _frame_offset(geom, nom_origins, nom_xaxes, fin.face)
-    xy_ref = fin.xy + _rot2(fin.theta) @ q
+    xy_ref = fin.xy + rot2(fin.theta) @ q
     th_ref = wrap_angle(fin.theta + phi)
     slip = jnp.sum(jnp.linalg.norm(e.tumble_slip[:, :2], axis=-1))
     return dict(x=xy_ref[0], y=xy_ref[1], theta=th_ref, face=fin.face, ok=ok, slip=slip)
@@ -339,24 +334,13 @@ def _run_tumble(plan, params, in_axes, n, dtype, chunk):
 # --------------------------------------------------------------------------
 # Bounds
 # --------------------------------------------------------------------------
-def push_tolerances(sampler: Sampler):
-    """The :class:`robustness.bounds.PushTolerances` box that contains every
-    draw of ``sampler`` (a disc of radius tau_com lies in the box of half-width
-    tau_com; Gaussians are truncated to their boxes)."""
-    from robustness.bounds import PushTolerances
-
-    g, e = sampler.geometry, sampler.execution
-    return PushTolerances(tau_v=g.tau_v, tau_com=g.tau_com, start_xy=e.start_xy,
-                          start_theta=e.start_theta, fence_angle=e.fence_angle,
-                          distance_abs=e.distance_abs, distance_rel=e.distance_rel)
-
-
 def _push_bound(plan, sampler) -> Optional[dict]:
     """:func:`robustness.bounds.push_plan_bound` for the box that holds every
-    draw of ``sampler``."""
+    draw of ``sampler`` (a disc of radius tau_com lies in the box of half-width
+    tau_com; Gaussians are truncated to their boxes)."""
     from robustness.bounds import push_plan_bound
 
-    return push_plan_bound(plan, push_tolerances(sampler))
+    return push_plan_bound(plan, sampler.geometry, sampler.execution)
 
 
 def _tumble_bound(plan, sampler, poly) -> Optional[dict]:
@@ -416,10 +400,6 @@ def _tumble_bound(plan, sampler, poly) -> Optional[dict]:
 # --------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------
-def _wrap(a):
-    return (np.asarray(a, np.float64) + np.pi) % (2 * np.pi) - np.pi
-
-
 def _cast(params, dtype):
     """The float64 draws in the kernels' dtype: a float32 evaluation sees the same
     samples as a float64 one (drawing in float32 would give other numbers)."""
@@ -436,6 +416,7 @@ def _kind(plan) -> str:
     raise TypeError(f"plan: expected a PushPlan or a TumblePlan, got {type(plan).__name__}")
 
 
+@float64
 def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
              dtype=jnp.float64, *, pos_eps_m: Optional[float] = None,
              theta_eps_rad: Optional[float] = None, confidence: float = 0.95,
@@ -549,10 +530,10 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
 
     x = np.asarray(r["x"], np.float64)
     y = np.asarray(r["y"], np.float64)
-    th = _wrap(np.asarray(r["theta"], np.float64))
+    th = wrap_angle_np(np.asarray(r["theta"], np.float64))
     ex, ey = x - goal[0], y - goal[1]
     ep = np.hypot(ex, ey)
-    et = _wrap(th - goal[2])
+    et = wrap_angle_np(th - goal[2])
     within = (ep <= pe) & (np.abs(et) <= te)
     success = valid & within & (structural != "wrong_face")
     mode = np.where(success, "none",
@@ -692,5 +673,5 @@ def _summarise(df, kind, model, dtype_name, pe, te, confidence, b, task,
     return s
 
 
-__all__ = ["evaluate", "Evaluation", "BoundViolation", "push_tolerances", "MODELS",
+__all__ = ["evaluate", "Evaluation", "BoundViolation", "MODELS",
            "Sampler", "GeometryTolerance", "FrictionRange", "ExecutionTolerance"]

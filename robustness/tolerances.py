@@ -1,0 +1,147 @@
+"""Tolerance models: what the supplier makes, the friction of the cell, and
+what the robot does (host-side settings, validated on construction).
+
+One definition of each, used by the samplers (:mod:`robustness.samplers`), the
+analytic bounds (:mod:`robustness.bounds`) and the config files of the edge
+(:mod:`sweeps.config` validates a YAML mapping straight into these types).
+Units: metres, radians; a relative distance error is a fraction.  Every
+half-width is a box: an offset never leaves it (Gaussians are truncated to it),
+so the box bounds of :mod:`robustness.bounds` hold for every draw.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Optional
+
+DISTRIBUTIONS = ("uniform", "gaussian")
+COM_SHAPES = ("disc", "box")
+
+
+# --------------------------------------------------------------------------
+def check_nonneg(obj, name: str, fix: str = "") -> None:
+    """Raise ValueError naming ``name`` unless ``obj.name`` is a finite number >= 0."""
+    v = getattr(obj, name)
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
+    if not ok:
+        raise ValueError(f"{name}: must be a finite number >= 0 (a tolerance half-width), got "
+                         f"{v!r}{fix}")
+
+
+def _range(obj, name: str, lo_ok: float = 0.0) -> None:
+    v = getattr(obj, name)
+    try:
+        lo, hi = (float(x) for x in v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a range [low, high], got {v!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo < lo_ok or hi < lo:
+        raise ValueError(f"{name}: expected finite {lo_ok:g} <= low <= high, got [{lo}, {hi}]")
+    object.__setattr__(obj, name, (lo, hi))
+
+
+@dataclasses.dataclass(frozen=True)
+class GeometryTolerance:
+    """Part tolerances (the supplier).
+
+    Attributes:
+      tau_v: half-width of each vertex coordinate's offset, m.
+      tau_com: half-width (box) or radius (disc) of the centre-of-mass offset, m.
+      distribution: ``"uniform"`` (vertex offsets uniform in the box) or
+        ``"gaussian"`` (normal with ``sigma_v``, truncated to the box).
+      sigma_v: standard deviation of a Gaussian vertex offset, m (default
+        ``tau_v / 2``); ignored for ``uniform``.
+      com_shape: ``"disc"`` (uniform in the disc / ball of radius tau_com) or
+        ``"box"`` (uniform in the box of half-width tau_com).
+    """
+
+    tau_v: float = 0.0
+    tau_com: float = 0.0
+    distribution: str = "uniform"
+    sigma_v: Optional[float] = None
+    com_shape: str = "disc"
+
+    def __post_init__(self):
+        check_nonneg(self, "tau_v")
+        check_nonneg(self, "tau_com")
+        if self.distribution not in DISTRIBUTIONS:
+            raise ValueError(f"distribution: expected one of {DISTRIBUTIONS}, got {self.distribution!r}")
+        if self.com_shape not in COM_SHAPES:
+            raise ValueError(f"com_shape: expected one of {COM_SHAPES}, got {self.com_shape!r}")
+        if self.sigma_v is not None:
+            check_nonneg(self, "sigma_v")
+
+    @property
+    def sigma(self) -> float:
+        """Gaussian standard deviation actually used, m."""
+        return float(self.sigma_v) if self.sigma_v is not None else 0.5 * self.tau_v
+
+
+@dataclasses.dataclass(frozen=True)
+class FrictionRange:
+    """Friction ranges (the cell).
+
+    Attributes:
+      mu_f: ``(low, high)`` fence-part Coulomb coefficient, uniform.
+      mu_s: ``(low, high)`` support coefficient, uniform (recorded only; it
+        cancels out of quasi-static kinematics).
+      support_points: number of support points of the sampled pressure
+        distribution (>= 1).
+      weight_concentration: integer Dirichlet concentration of their weights
+        (1: uniform on the simplex; large: nearly equal weights), 1..64.
+      c: optional ``(low, high)`` range (m) to draw ``c`` directly, uniform,
+        instead of from a pressure distribution.
+    """
+
+    mu_f: tuple = (0.5, 0.5)
+    mu_s: tuple = (0.5, 0.5)
+    support_points: int = 16
+    weight_concentration: int = 1
+    c: Optional[tuple] = None
+
+    def __post_init__(self):
+        _range(self, "mu_f")
+        _range(self, "mu_s")
+        if self.c is not None:
+            _range(self, "c")
+            if self.c[0] <= 0:
+                raise ValueError(f"c: the limit-surface ratio must be > 0 m, got {list(self.c)}")
+        sp = self.support_points
+        if not isinstance(sp, int) or isinstance(sp, bool) or sp < 1:
+            raise ValueError(f"support_points: expected an integer >= 1, got {sp!r}")
+        wc = self.weight_concentration
+        if not (isinstance(wc, int) and not isinstance(wc, bool) and 1 <= wc <= 64):
+            raise ValueError(f"weight_concentration: expected an integer in 1..64, got {wc!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class ExecutionTolerance:
+    """Robot execution errors (half-widths).
+
+    Attributes:
+      start_xy: start position error, each coordinate, m.
+      start_theta: start orientation error, rad.
+      fence_angle: fence direction error of each push, rad (CCW rotation of
+        the push direction).
+      distance_abs: absolute push-distance error, m.
+      distance_rel: relative push-distance error (fraction of the distance).
+      tumble_slip_xy: planar slip after each tumble, each coordinate, m.
+      tumble_slip_theta: rotational slip after each tumble, rad.
+      distribution: ``"uniform"`` in the boxes or ``"gaussian"`` (sigma = half
+        the half-width, truncated to the box).
+    """
+
+    start_xy: float = 0.0
+    start_theta: float = 0.0
+    fence_angle: float = 0.0
+    distance_abs: float = 0.0
+    distance_rel: float = 0.0
+    tumble_slip_xy: float = 0.0
+    tumble_slip_theta: float = 0.0
+    distribution: str = "uniform"
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            if f.name != "distribution":
+                check_nonneg(self, f.name)
+        if self.distribution not in DISTRIBUTIONS:
+            raise ValueError(f"distribution: expected one of {DISTRIBUTIONS}, got {self.distribution!r}")
