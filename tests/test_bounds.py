@@ -13,6 +13,8 @@ from planning.pushing.planner import plan_pose
 from robustness.bounds import push_final_pose_fn, push_plan_bound, tumble_first_order_bound
 from robustness.tolerances import ExecutionTolerance, GeometryTolerance
 
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
+
 RECT = [[0, 0], [0.04, 0], [0.04, 0.02], [0, 0.02]]
 TRI = [[0, 0], [0.03, 0], [0.005, 0.02]]
 UNI = [[0.0, 0.0], [0.0394, 0.0], [0.042, 0.0043], [0.0404, 0.0117], [0.0311, 0.0185], [0.0158, 0.0166]]
