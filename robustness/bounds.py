@@ -67,6 +67,39 @@ from planning import PushPlan, prepare_part
 from robustness.tolerances import ExecutionTolerance, GeometryTolerance
 
 
+def _final_pose(body0, start, ang0, dists, dV, dcom, dstart, dfence, ddist):
+    body = body0 + dV - dcom[None, :]
+    geom = pg.polygon_geometry(body)
+    th0 = start[2] + dstart[2]
+    com_w = start[:2] + dstart[:2] + rot2(th0) @ dcom
+    ang = ang0 + dfence
+    d = jnp.stack([jnp.cos(ang), jnp.sin(ang)], -1)
+    final, _ = replay_pushes(geom, jnp.concatenate([com_w, th0[None]]), d, dists + ddist)
+    ref = final[:2] - rot2(final[2]) @ dcom
+    return jnp.concatenate([ref, final[2:]])
+
+
+#: Jacobian of the final pose in the perturbations; jit caches one compilation per
+#: (vertex count, padded push count), so a study's plans share compilations.
+_final_pose_jacobian = jax.jit(jax.jacfwd(_final_pose, argnums=(4, 5, 6, 7, 8)))
+
+
+def _plan_arrays(plan: PushPlan, pad_to: int = 0):
+    """Body-frame hull, start, push angles and distances of a plan; the pushes
+    padded with zero-distance pushes (no-ops) to ``pad_to``."""
+    part = prepare_part(plan.vertices, plan.com, plan.margin_deg, plan.safety_factor)
+    P = len(plan.pushes)
+    Pp = max(P, pad_to)
+    ang = np.zeros(Pp)
+    dist = np.zeros(Pp)
+    if P:
+        dirs = np.array([p.direction for p in plan.pushes]).reshape(-1, 2)
+        ang[:P] = np.arctan2(dirs[:, 1], dirs[:, 0])
+        dist[:P] = [p.distance for p in plan.pushes]
+    return (jnp.asarray(part.body), jnp.asarray(plan.start), jnp.asarray(ang), jnp.asarray(dist)), \
+        part.n, P
+
+
 def push_final_pose_fn(plan: PushPlan):
     """The plan's final pose as a function of parameter perturbations.
 
@@ -75,27 +108,15 @@ def push_final_pose_fn(plan: PushPlan):
     point), with ``dV`` (n, 2) hull-vertex offsets (part frame), ``dcom`` (2,)
     centre-of-mass offset (part frame), ``dstart`` (3,) start-pose error,
     ``dfence`` (P,) fence angle errors (rad, CCW), ``ddist`` (P,) distance
-    errors (m).  Pure JAX, float64, exact replay kinematics.
+    errors (m).  Pure JAX, exact replay kinematics; call it in float64
+    (``jax.enable_x64``).
     """
-    part = prepare_part(plan.vertices, plan.com, plan.margin_deg, plan.safety_factor)
-    body0 = jnp.asarray(part.body)
-    dirs = jnp.asarray(np.array([p.direction for p in plan.pushes]).reshape(-1, 2))
-    dists = jnp.asarray(np.array([p.distance for p in plan.pushes]))
-    start = jnp.asarray(plan.start)
-    ang0 = jnp.arctan2(dirs[:, 1], dirs[:, 0])
+    arrays, n, P = _plan_arrays(plan)
 
     def f(dV, dcom, dstart, dfence, ddist):
-        body = body0 + dV - dcom[None, :]
-        geom = pg.polygon_geometry(body)
-        th0 = start[2] + dstart[2]
-        com_w = start[:2] + dstart[:2] + rot2(th0) @ dcom
-        ang = ang0 + dfence
-        d = jnp.stack([jnp.cos(ang), jnp.sin(ang)], -1)
-        final, _ = replay_pushes(geom, jnp.concatenate([com_w, th0[None]]), d, dists + ddist)
-        ref = final[:2] - rot2(final[2]) @ dcom
-        return jnp.concatenate([ref, final[2:]])
+        return _final_pose(*arrays, dV, dcom, dstart, dfence, ddist)
 
-    return f, dict(n=part.n, pushes=len(plan.pushes))
+    return f, dict(n=n, pushes=P)
 
 
 @float64
@@ -116,12 +137,14 @@ def push_plan_bound(plan: PushPlan, geometry: GeometryTolerance = GeometryTolera
       ``theta_rad`` bounds, and ``by_source``: the position and angle
       contributions of each tolerance (m, rad), to see what dominates.
     """
-    f, sz = push_final_pose_fn(plan)
-    n, P = sz["n"], sz["pushes"]
+    P = len(plan.pushes)
+    arrays, n, _ = _plan_arrays(plan, pad_to=-(-max(P, 1) // 4) * 4)
+    Pp = arrays[2].shape[0]
     dists = np.array([p.distance for p in plan.pushes])
-    zeros = (jnp.zeros((n, 2)), jnp.zeros(2), jnp.zeros(3), jnp.zeros(P), jnp.zeros(P))
-    jac = jax.jit(jax.jacfwd(f, argnums=(0, 1, 2, 3, 4)))(*zeros)  # one compiled call
+    zeros = (jnp.zeros((n, 2)), jnp.zeros(2), jnp.zeros(3), jnp.zeros(Pp), jnp.zeros(Pp))
+    jac = _final_pose_jacobian(*arrays, *zeros)
     jv, jc, js, jf, jd = (np.asarray(j) for j in jac)
+    jf, jd = jf[:, :P], jd[:, :P]   # the padding pushes' own columns are not perturbations
     g, e = geometry, execution
     contrib = {
         "tau_v": np.abs(jv).reshape(3, -1).sum(1) * g.tau_v,

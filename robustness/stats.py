@@ -8,6 +8,8 @@
   For certification the ONE-sided lower bound at the stated confidence
   (``Beta(alpha; k, n-k+1)``) is what counts: :func:`one_sided_lower`.
 * :func:`quantiles`: the 50/90/99 % quantiles and the maximum of an error.
+* :func:`one_sided_upper`: the one-sided upper bound (a requirement above it
+  cannot be met, whatever more samples show).
 * :func:`samples_needed`: how many all-successful samples certify a required
   probability at a confidence (``p^n <= alpha``).
 """
@@ -52,6 +54,15 @@ def one_sided_lower(k: int, n: int, confidence: float = 0.95) -> float:
     return float(_st.beta.ppf(1.0 - confidence, k, n - k + 1))
 
 
+def one_sided_upper(k: int, n: int, confidence: float = 0.95) -> float:
+    """One-sided Clopper-Pearson upper bound: with probability ``confidence``
+    the true success probability is at most this (1 when ``k = n``)."""
+    _check(k, n, confidence)
+    if n == 0 or k == n:
+        return 1.0
+    return float(_st.beta.ppf(confidence, k + 1, n - k))
+
+
 def samples_needed(p_required: float, confidence: float) -> int:
     """Fewest samples that, all successful, put the one-sided lower bound at
     ``p_required`` or above: the smallest n with ``p_required ** n <= 1 - confidence``."""
@@ -59,7 +70,13 @@ def samples_needed(p_required: float, confidence: float) -> int:
         raise ValueError(f"p_required: expected a number in (0, 1), got {p_required!r}")
     if not (0.0 < confidence < 1.0):
         raise ValueError(f"confidence: expected a number in (0, 1), got {confidence!r}")
-    return int(math.ceil(math.log(1.0 - confidence) / math.log(p_required)))
+    n = max(1, int(math.ceil(math.log(1.0 - confidence) / math.log(p_required))))
+    # the ratio of logs can round across an integer: settle n on the exact condition
+    while n > 1 and p_required ** (n - 1) <= 1.0 - confidence:
+        n -= 1
+    while p_required ** n > 1.0 - confidence:
+        n += 1
+    return n
 
 
 def quantiles(values) -> dict:

@@ -1,42 +1,52 @@
 """Result tables: every Parquet schema of nudge, declared here and only here.
 
-Tables (long format, snake_case, units in the column names where not
-radians or metres; see ``results/README.md`` for every column):
+Tables (long format, snake_case, units in the column names where not radians
+or metres; ``results/README.md`` documents every column):
 
-* ``samples``: one row per (task, Monte-Carlo sample): the sampled parameters
-  (flattened; their columns depend on the part's vertex count and the plan's
-  length, so the schema is built by :func:`samples_schema` from the list of
-  parameter columns, always float64), the final pose, the errors, the edge or
-  face reached, success and failure mode.
-* ``summary``: one row per task: success rate, Clopper-Pearson interval, error
-  quantiles, worst case, the analytic bound beside the empirical maximum.
-* ``certificates``: one row per task: the verdict and why.
+* ``samples``: one row per (configuration, task, Monte-Carlo sample): the
+  sampled parameters, the final pose, the errors, the edge or face reached,
+  success and failure mode.  Scalars are columns; per-vertex and per-push
+  draws are list columns (``dv_m``, ``fence_angle_err_rad``...), so the schema
+  is the same for every part and plan length.
+* ``summary``: one row per (configuration, task): success rate,
+  Clopper-Pearson bounds, error quantiles, worst case, the analytic bound
+  beside the empirical maximum.
+* ``plans``: one row per (configuration, task): the plan (or why there is
+  none), its length and distance, and the plan itself as JSON.
+* ``certificates``: one row per task of a certification: what was shown.
 
-Column types never depend on the data (a column that is all NaN is still
-float64, an integer column never becomes float), so files of one table read
-back as one consistent frame.  The edge (:mod:`sweeps.parquet`) writes them,
-with provenance metadata, atomically.
+Every table starts with ``run_id``; a study's swept parameters follow as
+ordinary columns (:func:`with_design`); the integer ``config_id`` is the Hive
+partition of the folder the file lies in.  Column types never depend on the
+data (a column that is all NaN is still float64, an integer column never
+becomes float), so the files of one table read back as one consistent frame.
+The edge (:mod:`sweeps.store`) writes them, atomically, with provenance.
 """
 from __future__ import annotations
 
+import re
 from typing import Iterable, Sequence, Union
 
+import numpy as np
 import pandas as pd
 import pyarrow as pa
 
 FAILURE_MODES = ("none", "incomplete_reorientation", "wrong_edge", "slip", "hull_changed",
                  "wrong_face", "combinatorics_changed", "position", "orientation")
 
-VERDICTS = ("certified (analytic bound)", "certified (empirical)", "not certified")
-
-
+#: What a certificate can say (:mod:`robustness.certify`).
+VERDICTS = ("certified", "not certified", "no plan")
 
 # --------------------------------------------------------------------------
 # Schemas
 # --------------------------------------------------------------------------
 F64, I64, STR, BOOL = pa.float64(), pa.int64(), pa.string(), pa.bool_()
+F64_LIST = pa.list_(pa.float64())
 
-#: Columns before the sampled parameters in ``samples``.
+#: The first column of every table.
+RUN_FIELD = pa.field("run_id", STR, nullable=False)
+
+#: Columns that identify a sample, after ``run_id`` and the swept parameters.
 SAMPLES_KEY_FIELDS = [
     pa.field("task", STR, nullable=False),
     pa.field("kind", STR, nullable=False),          # "push" | "tumble"
@@ -45,7 +55,20 @@ SAMPLES_KEY_FIELDS = [
     pa.field("sample_id", I64, nullable=False),
 ]
 
-#: Columns after the sampled parameters in ``samples``.
+#: Sampled parameters (see :func:`robustness.samplers.parameter_columns`):
+#: scalars, then per-vertex / per-push draws as lists.
+SAMPLED_FIELDS = [
+    pa.field("dcom_x_m", F64), pa.field("dcom_y_m", F64), pa.field("dcom_z_m", F64),
+    pa.field("mu_f", F64), pa.field("mu_s", F64), pa.field("c_m", F64),
+    pa.field("start_dx_m", F64), pa.field("start_dy_m", F64), pa.field("start_dtheta_rad", F64),
+    pa.field("slip_sum_dx_m", F64), pa.field("slip_sum_dy_m", F64),
+    pa.field("slip_sum_dtheta_rad", F64),
+    pa.field("dv_m", F64_LIST),                     # per caller vertex: x, y (, z), flattened
+    pa.field("fence_angle_err_rad", F64_LIST),      # per push
+    pa.field("push_dist_rel_err", F64_LIST),        # per push
+    pa.field("push_dist_abs_err_m", F64_LIST),      # per push
+]
+
 SAMPLES_RESULT_FIELDS = [
     pa.field("final_x_m", F64),
     pa.field("final_y_m", F64),
@@ -63,24 +86,14 @@ SAMPLES_RESULT_FIELDS = [
     pa.field("slip_m", F64),
     pa.field("n_incomplete", I64),
     pa.field("first_wrong_step", I64),
-    pa.field("hull_changed", BOOL),
-    pa.field("model_valid", BOOL),
-    pa.field("in_bound_model", BOOL),
-    pa.field("success", BOOL),
+    pa.field("hull_changed", BOOL, nullable=False),
+    pa.field("model_valid", BOOL, nullable=False),
+    pa.field("in_bound_model", BOOL, nullable=False),
+    pa.field("success", BOOL, nullable=False),
     pa.field("failure_mode", STR),
 ]
 
-SAMPLES_FIXED = {f.name for f in SAMPLES_KEY_FIELDS + SAMPLES_RESULT_FIELDS}
-
-
-def samples_schema(param_columns: Sequence[str]) -> pa.Schema:
-    """Schema of ``samples`` with the given sampled-parameter columns (float64,
-    in the given order) between the key and the result columns."""
-    clash = [c for c in param_columns if c in SAMPLES_FIXED]
-    if clash:
-        raise ValueError(f"parameter columns {clash} clash with fixed sample columns")
-    return pa.schema(SAMPLES_KEY_FIELDS + [pa.field(c, F64) for c in param_columns]
-                     + SAMPLES_RESULT_FIELDS)
+SAMPLES_SCHEMA = pa.schema([RUN_FIELD] + SAMPLES_KEY_FIELDS + SAMPLED_FIELDS + SAMPLES_RESULT_FIELDS)
 
 
 def _quantile_fields(stem: str) -> list:
@@ -89,6 +102,7 @@ def _quantile_fields(stem: str) -> list:
 
 SUMMARY_SCHEMA = pa.schema(
     [
+        RUN_FIELD,
         pa.field("task", STR, nullable=False),
         pa.field("kind", STR, nullable=False),
         pa.field("model", STR, nullable=False),
@@ -99,6 +113,7 @@ SUMMARY_SCHEMA = pa.schema(
         pa.field("confidence", F64),
         pa.field("ci_low", F64),
         pa.field("ci_high", F64),
+        pa.field("ci_low_one_sided", F64),
         pa.field("pos_eps_m", F64),
         pa.field("theta_eps_rad", F64),
     ]
@@ -127,7 +142,30 @@ SUMMARY_SCHEMA = pa.schema(
     ]
 )
 
+PLANS_SCHEMA = pa.schema([
+    RUN_FIELD,
+    pa.field("task", STR, nullable=False),
+    pa.field("kind", STR, nullable=False),
+    pa.field("part", STR),
+    pa.field("start_x_m", F64), pa.field("start_y_m", F64), pa.field("start_theta_rad", F64),
+    pa.field("start_face", I64),
+    pa.field("goal_x_m", F64), pa.field("goal_y_m", F64), pa.field("goal_theta_rad", F64),
+    pa.field("goal_face", I64),
+    pa.field("planned", BOOL, nullable=False),      # a verified plan exists
+    pa.field("verdict", STR),                       # solved | not_solvable | no_plan ...
+    pa.field("reason", STR),
+    pa.field("plan_class", STR),                    # push plans
+    pa.field("n_steps", I64),                       # pushes or tumbles (0 without a plan)
+    pa.field("total_distance_m", F64),              # push plans: total fence travel
+    pa.field("straight_distance_m", F64),           # |goal - start| of the position
+    pa.field("length_ratio", F64),                  # total_distance_m / straight_distance_m
+    pa.field("n_tumbles_paper", I64),               # tumble plans: the paper's construction
+    pa.field("plan_error", F64),                    # replayed error (m / rad, paper's metric)
+    pa.field("plan_json", STR),                     # the plan, PushPlan/TumblePlan.to_dict()
+])
+
 CERTIFICATES_SCHEMA = pa.schema([
+    RUN_FIELD,
     pa.field("task", STR, nullable=False),
     pa.field("kind", STR, nullable=False),
     pa.field("part", STR),
@@ -150,40 +188,86 @@ CERTIFICATES_SCHEMA = pa.schema([
     pa.field("required_probability", F64),
     pa.field("confidence", F64),
     pa.field("n_samples", I64),
+    pa.field("n_success", I64),
     pa.field("success_rate", F64),
-    pa.field("ci_low", F64),
-    pa.field("ci_high", F64),
+    pa.field("ci_low_one_sided", F64),
+    pa.field("samples_needed", I64),
+    pa.field("nothing_perturbed", BOOL),
     pa.field("bound_position_m", F64),
     pa.field("bound_theta_rad", F64),
+    pa.field("bound_model", STR),
     pa.field("bound_within_eps", BOOL),
     pa.field("bound_violated", BOOL),
     pa.field("verdict", STR, nullable=False),
+    pa.field("reason", STR),
+    pa.field("claim", STR),
     pa.field("dominant_failure_mode", STR),
     pa.field("recommended_margin_deg", F64),
     pa.field("recommended_safety_factor", F64),
     pa.field("note", STR),
 ])
 
-TABLES = {"summary": SUMMARY_SCHEMA, "certificates": CERTIFICATES_SCHEMA}
+TABLES = {"samples": SAMPLES_SCHEMA, "summary": SUMMARY_SCHEMA, "plans": PLANS_SCHEMA,
+          "certificates": CERTIFICATES_SCHEMA}
 
 
-def schema_for(table: str, param_columns: Sequence[str] = ()) -> pa.Schema:
-    """The schema of a named table (``samples`` needs its parameter columns)."""
-    if table == "samples":
-        return samples_schema(param_columns)
+def schema_for(table: str) -> pa.Schema:
+    """The schema of a named table (before the swept columns, :func:`with_design`)."""
     try:
         return TABLES[table]
     except KeyError:
-        raise ValueError(f"table: expected one of samples, {', '.join(TABLES)}; got {table!r}") from None
+        raise ValueError(f"table: expected one of {', '.join(TABLES)}; got {table!r}") from None
+
+
+def with_design(schema: pa.Schema, swept: Sequence[pa.Field]) -> pa.Schema:
+    """``schema`` with a study's swept-parameter columns after ``run_id``.
+
+    Raises:
+      ValueError: a swept column's name clashes with a column of the table.
+    """
+    clash = [f.name for f in swept if f.name in schema.names]
+    if clash:
+        raise ValueError(f"swept columns {clash} clash with columns of the table")
+    fields = list(schema)
+    return pa.schema(fields[:1] + list(swept) + fields[1:], metadata=schema.metadata)
+
+
+def pack_samples(samples: pd.DataFrame, param_columns: Sequence[str]) -> pd.DataFrame:
+    """An evaluation's per-sample frame (flat parameter columns ``dv{i}_{x,y,z}_m``,
+    ``fence_angle_err_rad_p{k}``...) in the table layout: scalars as they are,
+    per-vertex and per-push draws gathered into list columns (in vertex / push
+    order), missing scalars (``dcom_z_m`` of a polygon) NaN."""
+    n = len(samples)
+    out = {c: samples[c] for c in samples.columns if c not in set(param_columns)}
+    for f in SAMPLED_FIELDS:
+        if f.type == F64:
+            out[f.name] = samples[f.name] if f.name in samples else np.full(n, np.nan)
+
+    def gather(cols):
+        if not cols:
+            return [np.zeros(0)] * n
+        block = samples[cols].to_numpy(np.float64)
+        return list(block)
+
+    dv = [c for c in param_columns if re.fullmatch(r"dv\d+_[xyz]_m", c)]
+    dv.sort(key=lambda c: (int(re.match(r"dv(\d+)_", c).group(1)), c[-3]))
+    out["dv_m"] = gather(dv)
+    for stem in ("fence_angle_err_rad", "push_dist_rel_err", "push_dist_abs_err_m"):
+        cols = sorted((c for c in param_columns if re.fullmatch(rf"{stem}_p\d+", c)),
+                      key=lambda c: int(c.rsplit("_p", 1)[1]))
+        out[stem] = gather(cols)
+    return pd.DataFrame(out)
 
 
 # --------------------------------------------------------------------------
 # Conforming data to a schema
 # --------------------------------------------------------------------------
 def to_arrow(df_or_table: Union[pd.DataFrame, pa.Table], schema: pa.Schema) -> pa.Table:
-    """Conform a frame or table to ``schema``: same columns (a missing or an
+    """Conform a frame or table to ``schema``: the same columns (a missing or an
     unexpected column is an error naming it), in the schema's order, cast to
-    its types."""
+    its types.  From a frame, pandas metadata is kept so that ``pd.read_parquet``
+    gives back the same dtypes (a nullable boolean column reads as ``boolean``,
+    not ``object``)."""
     if isinstance(df_or_table, pa.Table):
         cols = list(df_or_table.column_names)
     elif isinstance(df_or_table, pd.DataFrame):
@@ -195,17 +279,34 @@ def to_arrow(df_or_table: Union[pd.DataFrame, pa.Table], schema: pa.Schema) -> p
     extra = [c for c in cols if c not in schema.names]
     if missing or extra:
         raise ValueError(f"columns do not match the schema: missing {missing}, unexpected {extra}")
-    if isinstance(df_or_table, pd.DataFrame):
-        df = df_or_table.reset_index(drop=True)
-        arrays = []
-        for f in schema:
-            try:
-                arrays.append(pa.array(df[f.name], type=f.type, from_pandas=True))
-            except (pa.ArrowInvalid, pa.ArrowTypeError, TypeError, ValueError) as exc:
-                raise ValueError(f"column {f.name!r}: cannot be stored as {f.type} ({exc})") from None
-        return pa.Table.from_arrays(arrays, schema=schema)
-    t = df_or_table.select(schema.names)
-    return t.cast(schema)
+    if isinstance(df_or_table, pa.Table):
+        return df_or_table.select(schema.names).cast(schema)
+    df = df_or_table.reset_index(drop=True)[schema.names].copy()
+    for f in schema:
+        if not f.nullable and df[f.name].isna().any():
+            raise ValueError(f"column {f.name!r}: holds nulls but may not (schema {f.type} not null)")
+        try:
+            if f.type == BOOL and f.nullable:
+                df[f.name] = pd.array(df[f.name].astype(object).where(df[f.name].notna(), None),
+                                      dtype="boolean")
+            elif f.type == F64_LIST:
+                df[f.name] = [np.asarray(v, np.float64) for v in df[f.name]]
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"column {f.name!r}: cannot be stored as {f.type} ({exc})") from None
+    try:
+        return pa.Table.from_pandas(df, schema=schema, preserve_index=False)
+    except (pa.ArrowInvalid, pa.ArrowTypeError, TypeError, ValueError) as exc:
+        bad = next((f.name for f in schema if not _fits(df[f.name], f)), "?")
+        raise ValueError(f"column {bad!r}: cannot be stored as {schema.field(bad).type if bad != '?' else 'its type'} "
+                         f"({exc})") from None
+
+
+def _fits(col: pd.Series, f: pa.Field) -> bool:
+    try:
+        pa.array(col, type=f.type, from_pandas=True)
+        return True
+    except (pa.ArrowInvalid, pa.ArrowTypeError, TypeError, ValueError):
+        return False
 
 
 def frame(rows: Iterable[dict], schema: pa.Schema) -> pd.DataFrame:

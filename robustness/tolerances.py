@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Optional
+from typing import Literal, Optional
 
 DISTRIBUTIONS = ("uniform", "gaussian")
 COM_SHAPES = ("disc", "box")
@@ -56,9 +56,9 @@ class GeometryTolerance:
 
     tau_v: float = 0.0
     tau_com: float = 0.0
-    distribution: str = "uniform"
+    distribution: Literal["uniform", "gaussian"] = "uniform"
     sigma_v: Optional[float] = None
-    com_shape: str = "disc"
+    com_shape: Literal["disc", "box"] = "disc"
 
     def __post_init__(self):
         check_nonneg(self, "tau_v")
@@ -92,11 +92,11 @@ class FrictionRange:
         instead of from a pressure distribution.
     """
 
-    mu_f: tuple = (0.5, 0.5)
-    mu_s: tuple = (0.5, 0.5)
+    mu_f: tuple[float, float] = (0.5, 0.5)
+    mu_s: tuple[float, float] = (0.5, 0.5)
     support_points: int = 16
     weight_concentration: int = 1
-    c: Optional[tuple] = None
+    c: Optional[tuple[float, float]] = None
 
     def __post_init__(self):
         _range(self, "mu_f")
@@ -137,7 +137,7 @@ class ExecutionTolerance:
     distance_rel: float = 0.0
     tumble_slip_xy: float = 0.0
     tumble_slip_theta: float = 0.0
-    distribution: str = "uniform"
+    distribution: Literal["uniform", "gaussian"] = "uniform"
 
     def __post_init__(self):
         for f in dataclasses.fields(self):

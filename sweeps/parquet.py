@@ -19,7 +19,6 @@ import subprocess
 import tempfile
 from typing import Optional
 
-import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
@@ -88,16 +87,48 @@ def read_metadata(path) -> dict:
     return out
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def atomic_write(path, write, mode: str = "wb") -> pathlib.Path:
+    """Write ``path`` atomically: ``write(file)`` fills a hidden temporary file
+    in the same folder, which is then renamed over ``path`` (readers never see a
+    partial file, a failed write leaves the previous one).  The file gets the
+    permissions of an ordinary new file (0666 less the umask, so other users can
+    read results), not ``mkstemp``'s 0600."""
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, mode) as fh:
+            write(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return path
+
+
 def write_table(df_or_table, path, schema: pa.Schema, config_text: str, seed,
                 table: Optional[str] = None) -> pathlib.Path:
-    """Write one table to Parquet, atomically, with provenance metadata.
+    """Write one table to Parquet, atomically (:func:`atomic_write`), with
+    provenance metadata.
 
     Args:
       df_or_table: a pandas DataFrame or pyarrow Table with exactly the
         schema's columns (any order).
       path: the ``.parquet`` file to write (its folder is created).
-      schema: the table's schema (from this module).
-      config_text: the YAML text of the run's config.
+      schema: the table's schema (:mod:`robustness.tables`).
+      config_text: the YAML text of the run's config, as run.
       seed: the run's seed.
       table: the table's name for the metadata (default: the file's stem).
 
@@ -109,75 +140,4 @@ def write_table(df_or_table, path, schema: pa.Schema, config_text: str, seed,
     t = to_arrow(df_or_table, schema)
     meta = {k.encode(): v.encode() for k, v in provenance(config_text, seed, name).items()}
     t = t.replace_schema_metadata({**(t.schema.metadata or {}), **meta})
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        pq.write_table(t, tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return path
-
-
-def _parquet_files(folder: pathlib.Path) -> list[pathlib.Path]:
-    return sorted(p for p in folder.rglob("*.parquet")
-                  if not any(part.startswith((".", "_")) for part in p.relative_to(folder).parts))
-
-
-def read_results(folder, table: Optional[str] = None) -> pd.DataFrame:
-    """Read every Parquet file of one table under ``folder`` into one frame.
-
-    Args:
-      folder: a results folder (searched recursively; hidden and ``_`` files
-        skipped), or a single ``.parquet`` file.
-      table: which table (``samples``, ``summary``, ``certificates``, ...),
-        by the files' ``nudge.table`` metadata; may be omitted when the folder
-        holds one table only.
-
-    Returns:
-      A DataFrame: the files concatenated in path order, with columns unified
-      (a parameter column absent from a file is NaN / null there); types come
-      from the schemas, so they agree across files.
-
-    Raises:
-      FileNotFoundError: no Parquet file; ValueError: several tables and no
-      ``table`` given (the message lists them), or the named one is absent.
-    """
-    folder = pathlib.Path(folder)
-    if folder.is_file():
-        files = [folder]
-    elif folder.is_dir():
-        files = _parquet_files(folder)
-    else:
-        raise FileNotFoundError(f"{folder}: no such results folder")
-    if not files:
-        raise FileNotFoundError(f"{folder}: holds no Parquet file")
-    kinds: dict = {}
-    for f in files:
-        md = pq.read_schema(f).metadata or {}
-        kinds.setdefault(md.get(b"nudge.table", f.stem.encode()).decode(), []).append(f)
-    if table is None:
-        if len(kinds) > 1:
-            raise ValueError(f"{folder}: holds several tables ({', '.join(sorted(kinds))}); "
-                             "pass table=... to choose one")
-        table = next(iter(kinds))
-    if table not in kinds:
-        raise ValueError(f"{folder}: no file of table {table!r}; found {', '.join(sorted(kinds))}")
-    tables = [pq.read_table(f) for f in kinds[table]]
-    if len(tables) == 1:
-        return tables[0].to_pandas()
-    schema = pa.unify_schemas([t.schema.remove_metadata() for t in tables],
-                              promote_options="permissive")
-    aligned = []
-    for t in tables:
-        t = t.replace_schema_metadata(None)
-        for f in schema:
-            if f.name not in t.column_names:
-                t = t.append_column(f, pa.nulls(len(t), type=f.type))
-        aligned.append(t.select(schema.names).cast(schema))
-    return pa.concat_tables(aligned).to_pandas()
+    return atomic_write(path, lambda fh: pq.write_table(t, fh))

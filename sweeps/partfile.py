@@ -22,8 +22,9 @@ import pathlib
 from typing import Literal, Optional, Union
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, StrictFloat, StrictInt, ValidationError
+
+from sweeps.yamlio import YamlError, read_yaml
 
 KINDS = ("polygon", "polyhedron")
 DIMS = {"polygon": 2, "polyhedron": 3}
@@ -85,24 +86,6 @@ class PartFile:
         if self.description is not None:
             d["description"] = self.description
         return d
-
-
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """``yaml.SafeLoader`` that rejects a key given twice in one mapping."""
-
-
-def _construct_mapping(loader, node, deep=False):
-    seen = set()
-    for key_node, _ in node.value:
-        key = loader.construct_object(key_node, deep=deep)
-        if key in seen:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"key {key!r} is given twice", key_node.start_mark)
-        seen.add(key)
-    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
-
-
-_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 
 
 def _loc(loc) -> str:
@@ -241,30 +224,8 @@ def load_part(path: Union[str, pathlib.Path]) -> PartFile:
         or missing key, wrong type or shape, NaN or inf; one line, starting
         with the path and naming the field.
     """
-    path = pathlib.Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise PartFileError(f"{path}: no such part file") from None
-    except IsADirectoryError:
-        raise PartFileError(f"{path}: is a directory, expected a part file (.yaml)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PartFileError(f"{path}: cannot read the part file ({exc})") from None
-    try:
-        doc = yaml.load(text, Loader=_UniqueKeyLoader)  # noqa: S506 (a SafeLoader subclass)
-    except yaml.YAMLError as exc:
-        raise PartFileError(f"{path}: YAML syntax error: {_yaml_message(exc)}") from None
+        doc, _ = read_yaml(path, "part file")
+    except YamlError as exc:
+        raise PartFileError(str(exc)) from None
     return parse_part(doc, path)
-
-
-def _yaml_message(exc: yaml.YAMLError) -> str:
-    """A one-line description of a YAML error with its line and column."""
-    mark = getattr(exc, "problem_mark", None)
-    problem = getattr(exc, "problem", None) or str(exc)
-    context = getattr(exc, "context", None)
-    text = f"{context}, {problem}" if context else problem
-    text = " ".join(str(text).split())
-    if mark is not None:
-        text += f" (line {mark.line + 1}, column {mark.column + 1})"
-    return text
-

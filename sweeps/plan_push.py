@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m sweeps.plan_push PART.yaml --start X,Y,THETA --goal X,Y,THETA
+    nudge plan-push PART.yaml --start X,Y,THETA --goal X,Y,THETA
         [--margin-deg 7] [--safety-factor 1.15] [--objective distance|pushes]
         [--solver closed_form|cvxpy] [--json] [--plot FILE.png] [--psd FILE.png]
 
@@ -43,9 +43,9 @@ def parse_pose(text: str, field: str) -> tuple[float, float, float]:
     return _parse_pose(text, field)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(prog: str = "nudge plan-push") -> argparse.ArgumentParser:
     p = Parser(
-        prog="python -m sweeps.plan_push",
+        prog=prog,
         description="Plan normal fence pushes (Akella & Mason 1992) that take a polygonal part "
                     "from a start pose to a goal pose, and optionally draw the plan and the "
                     "part's push stability diagram.",
@@ -84,9 +84,9 @@ def _flag_names(message: str) -> str:
     return message
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
+def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") -> int:
     """Run the command line; returns the exit status."""
-    args = build_parser().parse_args(_join_pose_args(sys.argv[1:] if argv is None else argv))
+    args = build_parser(prog).parse_args(_join_pose_args(sys.argv[1:] if argv is None else argv))
     try:
         if (args.start is None) != (args.goal is None) or (args.start is None and not args.psd):
             missing = "--start" if args.start is None else "--goal"
@@ -105,7 +105,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return fail(str(exc))
 
     try:
-        part = load_part_of_kind(args.part, "polygon", "python -m sweeps.plan_tumble for polyhedra")
+        part = load_part_of_kind(args.part, "polygon", "nudge plan-tumble for polyhedra")
     except InputError as exc:
         return fail(str(exc))
 
@@ -160,8 +160,3 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             sys.stderr.write(f"wrote {path}\n")
     return EXIT_OK
 
-
-if __name__ == "__main__":
-    from sweeps.terminal import run_main
-
-    run_main(main)

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python -m sweeps.plan_tumble PART.yaml --goal X,Y,THETA,FACE --eps E
+    nudge plan-tumble PART.yaml --goal X,Y,THETA,FACE --eps E
         [--start X,Y,THETA,FACE] [--tau-v T] [--tau-g T] [--no-shorten]
         [--json] [--plot FILE.png] [--development FILE.png]
         [--lattice FILE.png] [--lattice-radius R]
@@ -65,9 +65,9 @@ def _number(text: str, field: str, *, positive: bool, allow_zero: bool = False) 
     return v
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(prog: str = "nudge plan-tumble") -> argparse.ArgumentParser:
     p = Parser(
-        prog="python -m sweeps.plan_tumble",
+        prog=prog,
         description="Plan a sequence of tumbles (rotations about edges on the plane, Marigo & "
                     "Bicchi) that takes a convex polyhedral part from a start configuration to "
                     "within eps of a goal, and optionally draw it.",
@@ -121,9 +121,9 @@ def _json_default(o):
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
-def main(argv: Optional[Sequence[str]] = None) -> int:
+def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") -> int:
     """Run the command line; returns the exit status."""
-    args = build_parser().parse_args(_join_config_args(sys.argv[1:] if argv is None else argv))
+    args = build_parser(prog).parse_args(_join_config_args(sys.argv[1:] if argv is None else argv))
     try:
         if args.goal is None and not (args.development or args.lattice):
             raise InputError("--goal: required (or give --development / --lattice alone to draw "
@@ -146,7 +146,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return fail(str(exc))
 
     try:
-        part = load_part_of_kind(args.part, "polyhedron", "python -m sweeps.plan_push for polygons")
+        part = load_part_of_kind(args.part, "polyhedron", "nudge plan-push for polygons")
     except InputError as exc:
         return fail(str(exc))
 
@@ -226,8 +226,3 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             sys.stderr.write(f"wrote {path}\n")
     return code
 
-
-if __name__ == "__main__":
-    from sweeps.terminal import run_main
-
-    run_main(main)

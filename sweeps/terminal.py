@@ -134,16 +134,23 @@ def run_main(main: Callable[[], int]) -> None:
 
 
 def load_part_of_kind(path, kind: str, other_tool: str):
-    """Read a part file (:func:`sweeps.partfile.load_part`) and check that it
-    holds a ``kind`` part (``polygon`` or ``polyhedron``).
+    """Read a part file (:func:`sweeps.partfile.load_part`; a bundled part's
+    name works too, e.g. ``cube``) and check that it holds a ``kind`` part
+    (``polygon`` or ``polyhedron``).
 
     Raises:
       InputError: a bad file (the message names the field), or the other kind
         (the message names ``other_tool``, the command for that kind).
     """
+    from sweeps.catalog import find_part
     from sweeps.partfile import PartFileError, load_part
 
     try:
+        try:
+            path = find_part(path)
+        except FileNotFoundError as exc:
+            if not str(path).endswith((".yaml", ".yml")) and "/" not in str(path):
+                raise InputError(f"{path}: {exc}") from None
         part = load_part(path)
     except PartFileError as exc:
         raise InputError(str(exc)) from None

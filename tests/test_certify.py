@@ -1,4 +1,5 @@
-"""python -m sweeps.certify: end to end, and bad configs."""
+"""``nudge certify``: end to end through the console script, the run-folder
+layout, resume, what a certificate claims, and bad configs."""
 import os
 import pathlib
 import subprocess
@@ -7,43 +8,67 @@ import sys
 import pandas as pd
 import pytest
 
+from robustness.certificates import VERDICTS
 from sweeps import certify
-from robustness.tables import VERDICTS
 from sweeps.parquet import read_metadata
+from tests.commandline import nudge
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "certify_triangle.yaml"
+TABLES = ("samples", "summary", "plans", "certificates")
 
 
-def run_cli(*args, timeout=600):
-    env = dict(os.environ)
-    env.setdefault("JAX_PLATFORMS", "cpu")
-    return subprocess.run([sys.executable, "-m", "sweeps.certify", *map(str, args)], cwd=ROOT,
-                          capture_output=True, text=True, timeout=timeout, env=env)
+def _files(out, table):
+    return sorted((out / table).rglob("*.parquet"))
 
 
-def test_example_end_to_end(tmp_path):
+def test_example_end_to_end_layout_and_metadata(tmp_path):
     out = tmp_path / "out"
-    r = run_cli(EXAMPLE, "--out", out, "--n-samples", "40", "--quiet")
+    r = nudge("certify", EXAMPLE, "--out", out, "--n-samples", "40", "--seed", "5", "--quiet")
     assert r.returncode in (0, 1), r.stderr
     assert "Traceback" not in r.stderr
-    for name in ("samples", "summary", "certificates"):
-        path = out / f"{name}.parquet"
-        assert path.is_file()
-        md = read_metadata(path)
-        assert md["table"] == name and md["config"] == EXAMPLE.read_text() and md["seed"] == "0"
-    certs = pd.read_parquet(out / "certificates.parquet")
+    # one folder per table, Hive-partitioned by config_id: pandas reads each as one frame
+    frames = {t: pd.read_parquet(out / t) for t in TABLES}
+    for t in TABLES:
+        f = _files(out, t)[0]
+        assert f.parent.name == "config_id=00000"
+        md = read_metadata(f)
+        assert md["table"] == t and md["seed"] == "5"
+        # the metadata records the config as run, after the command-line overrides
+        assert "n_samples: 40" in md["config"] and "seed: 5" in md["config"]
+        assert (f.stat().st_mode & 0o044) == 0o044   # readable by others (umask 022)
+    certs = frames["certificates"]
     assert certs["task"].tolist() == ["translate", "turn"]
     assert set(certs["verdict"]) <= set(VERDICTS)
-    summ = pd.read_parquet(out / "summary.parquet")
-    assert (summ["n"] == 40).all()
-    samples = pd.read_parquet(out / "samples.parquet")
+    assert (frames["summary"]["n"] == 40).all()
+    samples = frames["samples"]
     assert len(samples) == 80 and samples["sample_id"].max() == 39
-    assert (samples["kind"] == "push").all()
-    # the table on stdout has one line per task
+    assert (samples["kind"] == "push").all() and samples["run_id"].nunique() == 1
+    assert samples["dv_m"].map(len).eq(6).all()           # 3 vertices x (x, y), a list column
+    assert str(frames["summary"]["bound_violated"].dtype) == "boolean"
+    # every certificate states what it proves: the one-sided bound, the model, the samples
+    for _, c in certs.iterrows():
+        assert "quasistatic" in c["claim"] and "40 samples" in c["claim"]
+        assert c["bound_model"].startswith("first-order")
     assert "translate" in r.stdout and "turn" in r.stdout
-    # exit status: 0 only when every task is certified
-    assert r.returncode == (0 if certs["verdict"].str.startswith("certified").all() else 1)
+    assert r.returncode == (0 if (certs["verdict"] == "certified").all() else 1)
+    # the same command resumes: nothing is recomputed, the tables are unchanged
+    before = {t: pd.read_parquet(out / t) for t in TABLES}
+    r2 = nudge("certify", EXAMPLE, "--out", out, "--n-samples", "40", "--seed", "5", "--quiet")
+    assert r2.returncode == r.returncode, r2.stderr
+    for t in TABLES:
+        pd.testing.assert_frame_equal(pd.read_parquet(out / t), before[t])
+    # another config on the same folder is refused before any work
+    r3 = nudge("certify", EXAMPLE, "--out", out, "--n-samples", "41", "--quiet")
+    assert r3.returncode == 2 and "another config" in r3.stderr
+
+
+def test_pd_read_parquet_on_run_folder_never_mixes_tables(tmp_path):
+    out = tmp_path / "out"
+    r = nudge("certify", EXAMPLE, "--out", out, "--n-samples", "8", "--quiet")
+    assert r.returncode in (0, 1), r.stderr
+    # tables live in their own folders; the run folder itself holds no Parquet file
+    assert not list(out.glob("*.parquet"))
 
 
 def _write(tmp_path, text):
@@ -53,7 +78,7 @@ def _write(tmp_path, text):
 
 
 BASE = f"""part: {EXAMPLE.parent / 'biplus_stable.yaml'}
-tolerances: {{tau_v: 1.0e-5}}
+tolerances: {{tau_v: 1e-5}}
 eps: {{pos_eps_m: 0.002, theta_eps_rad: 0.03}}
 tasks:
   - {{name: a, start: [0, 0, 0], goal: [0.05, 0.0, 30deg]}}
@@ -64,46 +89,108 @@ def _input_error(r, *words):
     assert r.returncode == 2, (r.stdout, r.stderr)
     assert "Traceback" not in r.stderr and r.stdout == ""
     lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: "), r.stderr
+    assert lines and all(ln.startswith("error: ") for ln in lines), r.stderr
     for w in words:
         assert w in lines[0], lines[0]
     return lines[0]
 
 
 def test_unknown_key_exits_2(tmp_path):
-    p = _write(tmp_path, BASE.replace("tau_v: 1.0e-5", "tau_v: 1.0e-5, tau_vv: 2"))
-    line = _input_error(run_cli(p), "tau_vv", "allowed keys")
+    p = _write(tmp_path, BASE.replace("tau_v: 1e-5", "tau_v: 1e-5, tau_vv: 2"))
+    line = _input_error(nudge("certify", p), "tau_vv", "allowed keys")
     assert "tau_com" in line
     p = _write(tmp_path, BASE + "colour: red\n")
-    _input_error(run_cli(p), "colour", "top level")
-
-
-def test_negative_or_nan_tolerance_exits_2(tmp_path):
-    p = _write(tmp_path, BASE.replace("tau_v: 1.0e-5", "tau_v: -1.0e-5"))
-    _input_error(run_cli(p), "tolerances.tau_v", ">= 0", "metres")
+    _input_error(nudge("certify", p), "colour", "top level")
 
 
 @pytest.mark.parametrize("text,words", [
-    (BASE.replace("tau_v: 1.0e-5", "tau_v: .nan"), ("tolerances.tau_v", "finite")),
+    (BASE.replace("tau_v: 1e-5", "tau_v: -1e-5"), ("tolerances.tau_v", ">= 0")),
+    (BASE.replace("tau_v: 1e-5", "tau_v: .nan"), ("tolerances.tau_v", "finite")),
     (BASE.replace("pos_eps_m: 0.002", "pos_eps_m: 0"), ("eps.pos_eps_m", "> 0")),
     (BASE.replace("30deg", "thirty"), ("tasks[0].goal[2]", "deg")),
     (BASE + "required: {probability: 1.5}\n", ("required.probability",)),
     (BASE.replace("biplus_stable.yaml", "missing.yaml"), ("part", "missing.yaml")),
     (BASE.replace("tasks:\n", "tasks: []\nx:\n"), ("x",)),
-], ids=["nan", "zero-eps", "bad-angle", "probability", "missing-part", "unknown-top-key"])
+    (BASE + "n_samples: lots\n", ("n_samples",)),
+    (BASE + "friction: {mu_f: [0.8, 0.3]}\n", ("friction", "mu_f")),
+], ids=["negative", "nan", "zero-eps", "bad-angle", "probability", "missing-part",
+        "unknown-top-key", "n-samples", "inverted-range"])
 def test_bad_configs_in_process(tmp_path, capsys, text, words):
     p = _write(tmp_path, text)
-    code = certify.main([str(p)])
+    code = certify.main([str(p), "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err
     assert code == 2, err
     line = err.strip().splitlines()[0]
     for w in words:
         assert w in line, line
+    assert not (tmp_path / "o").exists()   # nothing ran, nothing was written
+
+
+def test_numbers_like_1e5_are_numbers(tmp_path):
+    # YAML 1.1 reads 1e-5 as a string; nudge reads it as the number it is
+    cfg, doc, text, part, tasks = certify.load(_write(tmp_path, BASE))
+    assert cfg.tolerances.tau_v == 1e-5 and isinstance(doc["tolerances"]["tau_v"], float)
 
 
 def test_missing_config_file(tmp_path, capsys):
     assert certify.main([str(tmp_path / "nope.yaml")]) == 2
-    assert "no such config file" in capsys.readouterr().err
+    assert "no such config" in capsys.readouterr().err
+
+
+def test_nothing_perturbed_is_said(tmp_path):
+    text = f"""part: {EXAMPLE.parent / 'rectangle.yaml'}
+friction: {{mu_f: [0.8, 0.8], c: [0.005, 0.005]}}
+eps: {{pos_eps_m: 0.002, theta_eps_rad: 0.03}}
+n_samples: 5
+tasks:
+  - {{name: a, start: [0, 0, 0], goal: [0.05, 0.0, 0.0]}}
+"""
+    out = tmp_path / "o"
+    r = nudge("certify", _write(tmp_path, text), "--out", out, "--quiet")
+    assert r.returncode == 1, r.stderr
+    c = pd.read_parquet(out / "certificates").iloc[0]
+    assert c["verdict"] == "not certified" and c["reason"] == "nothing_perturbed"
+    assert bool(c["nothing_perturbed"]) and "nothing was perturbed" in c["claim"]
+
+
+def test_too_few_samples_says_how_many_are_needed(tmp_path):
+    text = BASE.replace("tau_v: 1e-5", "tau_v: 1e-7") + "required: {probability: 0.95}\n"
+    out = tmp_path / "o"
+    r = nudge("certify", _write(tmp_path, text), "--out", out, "--n-samples", "10", "--quiet")
+    c = pd.read_parquet(out / "certificates").iloc[0]
+    if c["n_success"] == 10:   # every sample succeeded: the answer is 'too few samples'
+        assert r.returncode == 1
+        assert c["reason"] == "too_few_samples" and c["samples_needed"] == 59
+        assert "at least 59 successes without a failure are needed" in c["claim"]
+
+
+def test_non_convex_part_warns(tmp_path):
+    text = """part:
+  vertices: [[0, 0], [0.04, 0], [0.04, 0.02], [0.02, 0.005], [0, 0.02]]
+tolerances: {tau_v: 1e-6}
+eps: {pos_eps_m: 0.002, theta_eps_rad: 0.03}
+n_samples: 4
+tasks:
+  - {name: a, start: [0, 0, 0], goal: [0.05, 0.0, 0.0]}
+"""
+    r = nudge("certify", _write(tmp_path, text), "--out", tmp_path / "o")
+    assert r.returncode in (0, 1), r.stderr
+    assert "warning: vertices: points [3] are not vertices of the convex hull" in r.stderr
+
+
+def test_auto_samples_grow_until_decided(tmp_path):
+    text = BASE.replace("tau_v: 1e-5", "tau_v: 1e-7") + "required: {probability: 0.9}\n"
+    out = tmp_path / "o"
+    r = nudge("certify", _write(tmp_path, text), "--out", out, "--n-samples", "auto",
+              "--max-samples", "200", "--quiet")
+    assert r.returncode in (0, 1), r.stderr
+    c = pd.read_parquet(out / "certificates").iloc[0]
+    s = pd.read_parquet(out / "samples")
+    # auto starts at the fewest samples that could certify (29 for 0.9 at 95%) and doubles
+    assert c["n_samples"] in (29, 58, 116, 200) and len(s) == c["n_samples"]
+    assert s["sample_id"].tolist() == list(range(len(s)))
+    if c["verdict"] != "certified":
+        assert c["n_samples"] == 200 or c["reason"] == "below_requirement"
 
 
 @pytest.mark.slow
@@ -116,5 +203,10 @@ def test_bench_quick_result_line():
     assert r.returncode == 0, r.stderr
     last = r.stdout.strip().splitlines()[-1]
     assert last.startswith("RESULT push_samples_per_s=") and " tumble_steps_per_s=" in last
-    push, tumble = (float(kv.split("=")[1]) for kv in last.split()[1:])
-    assert push > 0 and tumble > 0
+    vals = dict(kv.split("=") for kv in last.split()[1:])
+    assert float(vals["push_samples_per_s"]) > 0 and float(vals["tumble_steps_per_s"]) > 0
+
+
+def test_help_explains_units_and_exit_codes():
+    r = nudge("certify", "--help")
+    assert r.returncode == 0 and "metres" in r.stdout and "Exit status" in r.stdout

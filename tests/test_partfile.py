@@ -121,3 +121,17 @@ def test_error_is_a_value_error(tmp_path):
     assert issubclass(PartFileError, ValueError)
     with pytest.raises(ValueError):
         load_part(write(tmp_path, "vertices: [[0,0],[1,0],[0,.nan]]\n"))
+
+
+def test_exponent_numbers_are_numbers(tmp_path):
+    # YAML 1.1 reads 1e9 / 1e-3 as strings; part files read them as the numbers they are
+    p = write(tmp_path, "vertices: [[0, 0], [4e-2, 0], [4.0e-2, 2e-2], [0, 2E-2]]\n")
+    part = load_part(p)
+    assert part.vertices.tolist() == [[0, 0], [0.04, 0], [0.04, 0.02], [0, 0.02]]
+    p = write(tmp_path, "vertices: [[0, 0], [1e9, 0], [0, 1e9]]\n", "big.yaml")
+    assert load_part(p).vertices[1, 0] == 1e9
+
+
+def test_a_key_given_twice_is_an_error(tmp_path):
+    msg = error_of(write(tmp_path, "vertices: [[0, 0], [1, 0], [0, 1]]\nvertices: []\n"))
+    assert "given twice" in msg and "line 2" in msg

@@ -1,4 +1,4 @@
-"""Tests for the pushing CLI (python -m sweeps.plan_push) and its figures.
+"""Tests for the pushing CLI (``nudge plan-push``) and its figures.
 
 Every CLI run is a subprocess (Python + JAX start-up, a few seconds of CPU
 each), so an autouse module fixture starts them all on a thread pool (at
@@ -12,7 +12,8 @@ import math
 import os
 import pathlib
 import subprocess
-import sys
+
+from tests.commandline import nudge_executable
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -70,7 +71,7 @@ def cli(tmp_path_factory):
     env = dict(os.environ, JAX_PLATFORMS="cpu")
 
     def run(argv):
-        p = subprocess.run([sys.executable, "-m", "sweeps.plan_push", *argv], cwd=ROOT, env=env,
+        p = subprocess.run([nudge_executable(), "plan-push", *argv], cwd=ROOT, env=env,
                            capture_output=True, text=True, timeout=600)
         return p.returncode, p.stdout, p.stderr
 

@@ -1,5 +1,6 @@
-"""Result tables: schemas, provenance metadata, atomic writes, reading folders."""
-import json
+"""Result tables: schemas, provenance metadata, atomic writes, the run-folder layout."""
+import os
+import pathlib
 
 import numpy as np
 import pandas as pd
@@ -8,15 +9,16 @@ import pyarrow.parquet as pq
 import pytest
 
 from robustness import tables
-from robustness.tables import CERTIFICATES_SCHEMA, SUMMARY_SCHEMA, samples_schema
+from robustness.tables import (CERTIFICATES_SCHEMA, PLANS_SCHEMA, SAMPLES_SCHEMA, SUMMARY_SCHEMA,
+                               pack_samples, with_design)
 from sweeps import parquet
-from sweeps.parquet import read_metadata, read_results, write_table
+from sweeps.parquet import read_metadata, write_table
+from sweeps.store import RunError, RunStore, check_writable
 
 CONFIG = "part: x.yaml\nseed: 7\n"
 
 
-def _samples(n, params, task="t", start=0):
-    schema = samples_schema(params)
+def _samples(n, task="t", start=0, schema=SAMPLES_SCHEMA):
     data = {}
     for f in schema:
         if pa.types.is_string(f.type):
@@ -25,16 +27,17 @@ def _samples(n, params, task="t", start=0):
             data[f.name] = [True] * n
         elif pa.types.is_integer(f.type):
             data[f.name] = np.arange(start, start + n, dtype=np.int64)
+        elif pa.types.is_list(f.type):
+            data[f.name] = [np.arange(3.0)] * n
         else:
             data[f.name] = np.linspace(0.0, 1.0, n)
-    for k, v in (("model", "exact"), ("dtype", "float64")):
+    for k, v in (("model", "exact"), ("dtype", "float64"), ("run_id", "r0")):
         data[k] = [v] * n
-    return pd.DataFrame(data), schema
+    return pd.DataFrame(data)
 
 
 def test_metadata_present(tmp_path):
-    df, schema = _samples(5, ["dv0_x_m", "c_m"])
-    path = write_table(df, tmp_path / "samples.parquet", schema, CONFIG, 7)
+    path = write_table(_samples(5), tmp_path / "samples.parquet", SAMPLES_SCHEMA, CONFIG, 7)
     md = read_metadata(path)
     assert md["table"] == "samples"
     assert md["config"] == CONFIG and md["seed"] == "7"
@@ -43,80 +46,119 @@ def test_metadata_present(tmp_path):
     for pkg in ("jax", "numpy", "pandas", "pyarrow", "scipy"):
         assert pkg in md["packages"]
     back = pq.read_table(path)
-    assert back.schema.remove_metadata() == schema
+    assert back.schema.remove_metadata() == SAMPLES_SCHEMA
     assert back.num_rows == 5
+    # readable by others: the umask decides, not mkstemp's 0600
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (path.stat().st_mode & 0o777) == 0o666 & ~mask
 
 
 def test_column_mismatch_names_the_column(tmp_path):
-    df, schema = _samples(3, ["c_m"])
+    df = _samples(3)
     with pytest.raises(ValueError, match="c_m"):
-        write_table(df.drop(columns=["c_m"]), tmp_path / "a.parquet", schema, CONFIG, 0)
+        write_table(df.drop(columns=["c_m"]), tmp_path / "a.parquet", SAMPLES_SCHEMA, CONFIG, 0)
     with pytest.raises(ValueError, match="bogus"):
-        write_table(df.assign(bogus=1.0), tmp_path / "a.parquet", schema, CONFIG, 0)
+        write_table(df.assign(bogus=1.0), tmp_path / "a.parquet", SAMPLES_SCHEMA, CONFIG, 0)
+    with pytest.raises(ValueError, match="run_id"):
+        write_table(df.assign(run_id=None), tmp_path / "a.parquet", SAMPLES_SCHEMA, CONFIG, 0)
     assert list(tmp_path.iterdir()) == []
 
 
 def test_atomic_write_leaves_nothing_on_error(tmp_path, monkeypatch):
-    df, schema = _samples(4, ["c_m"])
+    df = _samples(4)
     target = tmp_path / "samples.parquet"
-    write_table(df, target, schema, CONFIG, 0)
+    write_table(df, target, SAMPLES_SCHEMA, CONFIG, 0)
     before = target.read_bytes()
 
     def boom(table, where, **kw):
-        with open(where, "wb") as fh:  # a partial file, then a failure
-            fh.write(b"PAR1 partial")
+        where.write(b"PAR1 partial")  # a partial file, then a failure
         raise OSError("disk full")
 
     monkeypatch.setattr(parquet.pq, "write_table", boom)
     with pytest.raises(OSError, match="disk full"):
-        write_table(df, target, schema, CONFIG, 1)
+        write_table(df, target, SAMPLES_SCHEMA, CONFIG, 1)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["samples.parquet"]
     assert target.read_bytes() == before  # the old file is untouched
-    # a frame that cannot be converted never creates a file either
     monkeypatch.undo()
     bad = df.assign(sample_id=["x"] * 4)
     with pytest.raises(ValueError, match="sample_id"):
-        write_table(bad, tmp_path / "other.parquet", schema, CONFIG, 0)
+        write_table(bad, tmp_path / "other.parquet", SAMPLES_SCHEMA, CONFIG, 0)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["samples.parquet"]
 
 
-def test_read_results_concatenates(tmp_path):
-    a, sa = _samples(3, ["dv0_x_m", "fence_angle_err_rad_p0"], task="a")
-    b, sb = _samples(4, ["dv0_x_m", "fence_angle_err_rad_p0", "fence_angle_err_rad_p1"],
-                     task="b", start=3)
-    write_table(a, tmp_path / "run1" / "samples.parquet", sa, CONFIG, 0)
-    write_table(b, tmp_path / "run2" / "samples.parquet", sb, CONFIG, 0)
-    df = read_results(tmp_path)
-    assert len(df) == 7 and df["task"].tolist() == ["a"] * 3 + ["b"] * 4
-    assert df["sample_id"].dtype == np.int64 and df["success"].dtype == bool
-    assert df["fence_angle_err_rad_p1"].isna().sum() == 3  # absent in run1
-    # files of one schema: pandas reads the folder directly, with the same types
-    write_table(a, tmp_path / "same" / "part-0.parquet", sa, CONFIG, 0, table="samples")
-    write_table(a, tmp_path / "same" / "part-1.parquet", sa, CONFIG, 0, table="samples")
-    direct = pd.read_parquet(tmp_path / "same")
-    assert len(direct) == 6 and direct["sample_id"].dtype == np.int64
-    # several tables in one folder: ask for one
-    s = tables.frame([{"task": "a", "kind": "push", "model": "exact", "dtype": "float64", "n": 3,
-                       "bound_violated": None}], SUMMARY_SCHEMA)
-    write_table(s, tmp_path / "run1" / "summary.parquet", SUMMARY_SCHEMA, CONFIG, 0)
-    with pytest.raises(ValueError, match="several tables"):
-        read_results(tmp_path)
-    summ = read_results(tmp_path, table="summary")
-    assert len(summ) == 1 and summ["n"].dtype == np.int64
-    assert summ["bound_violated"].isna().all()
+def test_run_folder_layout_reads_as_one_frame_with_right_dtypes(tmp_path):
+    swept = [pa.field("planner_margin_deg", pa.float64())]
+    store = RunStore.open(tmp_path / "run", {"run_id": "r1", "config": CONFIG, "seed": 7})
+    schema = with_design(SUMMARY_SCHEMA, swept)
+    for cid in (0, 2, 10):   # folder names sort in numeric order
+        rows = [{"run_id": "r1", "planner_margin_deg": 3.0 + cid, "task": "a", "kind": "push",
+                 "model": "exact", "dtype": "float64", "n": 4, "n_success": 4,
+                 "bound_violated": None if cid else True}]
+        store.write("summary", cid, "t0000", tables.frame(rows, schema), schema)
+    df = pd.read_parquet(tmp_path / "run" / "summary")
+    assert df["config_id"].astype(int).tolist() == [0, 2, 10]
+    assert df["n"].dtype == np.int64 and df["planner_margin_deg"].dtype == np.float64
+    assert str(df["bound_violated"].dtype) == "boolean"   # nullable, not object
+    assert df["bound_violated"].isna().tolist() == [False, True, True]
+    # the run folder holds no Parquet file of its own (pd.read_parquet(run) would mix tables)
+    assert not list((tmp_path / "run").glob("*.parquet"))
 
 
-def test_schemas_are_declared_once():
-    assert "verdict" in CERTIFICATES_SCHEMA.names and "ci_low" in SUMMARY_SCHEMA.names
+def test_schema_drift_is_an_error(tmp_path):
+    store = RunStore.open(tmp_path / "run", {"run_id": "r1", "config": CONFIG, "seed": 7})
+    df = _samples(2)
+    store.write("samples", 0, "a", df, SAMPLES_SCHEMA)
+    with pytest.raises(ValueError, match="unexpected"):
+        store.write("samples", 0, "b", df.assign(extra=1.0), SAMPLES_SCHEMA)
+
+
+def test_changed_config_is_refused_and_unwritable_folder_reported(tmp_path):
+    RunStore.open(tmp_path / "run", {"run_id": "r1", "config": "a: 1\n", "seed": 0})
+    with pytest.raises(RunError, match="another config.*a: 1.*a: 2"):
+        RunStore.open(tmp_path / "run", {"run_id": "r2", "config": "a: 2\n", "seed": 0})
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    with pytest.raises(RunError, match="cannot write"):
+        check_writable(blocker / "sub")
+
+
+def test_done_needs_the_log_line_and_the_files(tmp_path):
+    store = RunStore.open(tmp_path / "run", {"run_id": "r1", "config": CONFIG, "seed": 7})
+    p = store.write("samples", 0, "t0000-b0000", _samples(2), SAMPLES_SCHEMA)
+    assert store.done() == {}               # written but not logged: it reruns
+    store.mark_done("c0-t0-b0", [p], rows=2)
+    assert set(store.done()) == {"c0-t0-b0"}
+    with open(tmp_path / "run" / "chunks.jsonl", "a") as fh:
+        fh.write('{"key": "cut')             # a line cut by a crash is ignored
+    assert set(store.done()) == {"c0-t0-b0"}
+    p.unlink()                               # a logged unit whose file is gone reruns
+    assert store.done() == {}
+
+
+def test_pack_samples_gathers_lists_in_order():
+    flat = pd.DataFrame({"task": ["a", "a"], "dv10_x_m": [10.0, 11.0], "dv2_x_m": [2.0, 3.0],
+                         "dv2_y_m": [2.5, 3.5], "dv10_y_m": [10.5, 11.5],
+                         "fence_angle_err_rad_p1": [0.1, 0.2], "fence_angle_err_rad_p0": [0.0, 0.3],
+                         "mu_f": [0.5, 0.6], "dcom_x_m": [0.0, 0.0], "dcom_y_m": [0.0, 0.0]})
+    params = [c for c in flat.columns if c != "task"]
+    out = pack_samples(flat, params)
+    assert out["dv_m"].iloc[0].tolist() == [2.0, 2.5, 10.0, 10.5]
+    assert out["fence_angle_err_rad"].iloc[1].tolist() == [0.3, 0.2]
+    assert out["push_dist_rel_err"].iloc[0].tolist() == []
+    assert np.isnan(out["dcom_z_m"]).all() and out["mu_f"].tolist() == [0.5, 0.6]
+
+
+def test_schemas_are_declared_once_and_documented():
+    assert "verdict" in CERTIFICATES_SCHEMA.names and "ci_low_one_sided" in SUMMARY_SCHEMA.names
     assert tables.schema_for("summary") is SUMMARY_SCHEMA
-    s = tables.schema_for("samples", ["c_m"])
-    assert s.field("c_m").type == pa.float64() and s.field("sample_id").type == pa.int64()
+    assert tables.schema_for("plans") is PLANS_SCHEMA
     with pytest.raises(ValueError, match="clash"):
-        samples_schema(["success"])
-    # every column is documented in results/README.md
-    import pathlib
+        with_design(SAMPLES_SCHEMA, [pa.field("success", pa.float64())])
+    for s in tables.TABLES.values():
+        assert s.names[0] == "run_id"
     readme = (pathlib.Path(__file__).resolve().parents[1] / "results" / "README.md").read_text()
-    for schema in (SUMMARY_SCHEMA, CERTIFICATES_SCHEMA, samples_schema([])):
+    for schema in tables.TABLES.values():
         for name in schema.names:
             stem = name
             for q in ("_q50", "_q90", "_q99", "_max"):
@@ -125,4 +167,3 @@ def test_schemas_are_declared_once():
             if name.startswith("n_") and name[2:] in tables.FAILURE_MODES:
                 stem = "n_<mode>"
             assert f"`{stem}`" in readme, name
-    json.dumps(parquet.package_versions())

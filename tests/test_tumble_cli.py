@@ -15,6 +15,7 @@ import jax
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
+from tests.commandline import nudge_executable  # noqa: E402
 from kernels.polyhedron import make_polyhedron  # noqa: E402
 from sweeps.partfile import load_part  # noqa: E402
 from sweeps.figures import tumble as tumble_plots  # noqa: E402
@@ -30,7 +31,7 @@ def run_cli(*args, timeout=300):
     env = dict(os.environ)
     env.pop("NUDGE_DEBUG", None)
     env.setdefault("JAX_PLATFORMS", "cpu")
-    return subprocess.run([sys.executable, "-m", "sweeps.plan_tumble", *map(str, args)],
+    return subprocess.run([nudge_executable(), "plan-tumble", *map(str, args)],
                           cwd=ROOT, capture_output=True, text=True, timeout=timeout, env=env)
 
 

@@ -1,0 +1,321 @@
+"""Config files of nudge (pydantic v2): the sections shared by certification
+configs and parameter studies, and the error messages a user reads.
+
+The config layer only validates and converts: tolerances are the robustness
+layer's own types (:class:`~robustness.GeometryTolerance`,
+:class:`~robustness.FrictionRange`, :class:`~robustness.ExecutionTolerance`,
+stdlib dataclasses that pydantic validates field by field and whose
+``__post_init__`` checks the values), so a tolerance is defined once.
+
+Every mistake becomes one line naming its dotted field path and the fix
+(:func:`describe`).  Units: metres, radians; an angle may be written with a
+``deg`` suffix (``90deg``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Literal, Optional, Union
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
+from sweeps.terminal import angle_value
+
+
+class ConfigError(ValueError):
+    """A config that cannot be used.  ``lines`` holds one message per mistake
+    (each names the field and the fix); ``str()`` is the first."""
+
+    def __init__(self, message: str, lines: Optional[list] = None):
+        super().__init__(message)
+        self.lines = list(lines) if lines else [message]
+
+
+class Strict(BaseModel):
+    """Base of every config section: unknown keys are errors, numbers finite."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+Angle = Union[float, str]
+MODELS = ("quasistatic", "exact")
+
+
+class PartInline(Strict):
+    """An inline part (the part-file format of :mod:`sweeps.partfile`)."""
+
+    name: Optional[str] = None
+    kind: Optional[Literal["polygon", "polyhedron"]] = None
+    vertices: list[list[float]]
+    com: Optional[list[float]] = None
+    description: Optional[str] = None
+
+
+class Planner(Strict):
+    """Planner settings: pushing (margin, safety factor, objective) and tumbling
+    (the planner's accuracy and tolerances)."""
+
+    margin_deg: float = Field(7.0, gt=0, lt=90)
+    safety_factor: float = Field(1.15, ge=1)
+    objective: Literal["distance", "pushes"] = "distance"
+    tumble_eps: Optional[float] = Field(None, gt=0)
+    tumble_tau_v: float = Field(0.0, ge=0)
+    tau_g: Optional[float] = Field(None, ge=0)
+
+
+class Eps(Strict):
+    """Success tolerances: position (m) and orientation (rad)."""
+
+    pos_eps_m: float = Field(0.001, gt=0)
+    theta_eps_rad: float = Field(math.radians(1.0), gt=0)
+
+
+class Required(Strict):
+    """Required success probability and the confidence of its claim."""
+
+    probability: float = Field(0.9, gt=0, lt=1)
+    confidence: float = Field(0.95, gt=0, lt=1)
+
+
+class Task(Strict):
+    """One task: start and goal pose ``[x, y, theta]`` (push) or configuration
+    ``[x, y, theta, face]`` (tumble; the start defaults to ``[0, 0, 0, 0]``)."""
+
+    name: str = Field(min_length=1)
+    start: Optional[list[Angle]] = None
+    goal: list[Angle]
+
+
+class Evaluation(Strict):
+    """The Monte-Carlo sections shared by certify configs and studies."""
+
+    tolerances: GeometryTolerance = Field(default_factory=GeometryTolerance)
+    friction: FrictionRange = Field(default_factory=FrictionRange)
+    execution: ExecutionTolerance = Field(default_factory=ExecutionTolerance)
+    planner: Planner = Field(default_factory=Planner)
+    eps: Eps = Field(default_factory=Eps)
+    required: Required = Field(default_factory=Required)
+    seed: int = Field(0, ge=0)
+    model: Literal["quasistatic", "exact"] = "quasistatic"
+    dtype: Literal["float64", "float32"] = "float64"
+    n_steps: int = Field(64, ge=1, le=100_000)
+
+    def sampler(self):
+        """The :class:`~robustness.Sampler` of these tolerances."""
+        from robustness import Sampler
+
+        return Sampler(self.tolerances, self.friction, self.execution)
+
+
+HINTS = {
+    "tau_v": "the half-width of each vertex coordinate's tolerance in metres (0 for none)",
+    "tau_com": "the centre-of-mass tolerance in metres (0 for none)",
+    "sigma_v": "the Gaussian standard deviation in metres",
+    "start_xy": "the start position error half-width in metres (0 for none)",
+    "start_theta": "the start orientation error half-width in radians (0 for none)",
+    "fence_angle": "the fence angle error half-width in radians (0 for none)",
+    "distance_abs": "the push-distance error half-width in metres (0 for none)",
+    "distance_rel": "the relative push-distance error half-width, a fraction (0 for none)",
+    "tumble_slip_xy": "the slip half-width after each tumble in metres (0 for none)",
+    "tumble_slip_theta": "the rotational slip half-width after each tumble in radians (0 for none)",
+    "pos_eps_m": "the position accuracy in metres, > 0",
+    "theta_eps_rad": "the orientation accuracy in radians, > 0",
+    "probability": "the required success probability, strictly between 0 and 1 (e.g. 0.95)",
+    "confidence": "the confidence level, strictly between 0 and 1 (e.g. 0.95)",
+    "n_samples": "a positive number of Monte-Carlo samples",
+    "samples": "a positive number of Monte-Carlo samples per configuration",
+    "margin_deg": "the margin angle in degrees, 0 < margin < 90 (paper: 7)",
+    "tumble_eps": "the tumble planner's accuracy (m / rad), > 0",
+    "tumble_tau_v": "the vertex tolerance the tumble planner plans for, m (0: the nominal part)",
+    "safety_factor": "the Peshkin safety factor, >= 1 (paper: 1.15)",
+    "mu_f": "a range [low, high] of fence friction coefficients >= 0",
+    "mu_s": "a range [low, high] of support friction coefficients >= 0",
+    "c": "a range [low, high] of limit-surface ratios in metres, > 0",
+    "support_points": "an integer number of support points >= 1",
+    "weight_concentration": "an integer Dirichlet concentration in 1..64",
+    "seed": "an integer >= 0",
+}
+
+# pydantic appends these tags (union branches, dataclass names) to error locations
+_TAGS = {"str", "float", "int", "bool", "list", "dict", "function-after", "function-plain"}
+
+
+def _loc(loc) -> str:
+    out = ""
+    for p in loc:
+        if isinstance(p, int):
+            out += f"[{p}]"
+        elif p in _TAGS or (isinstance(p, str) and (p[:1].isupper() or p.startswith(("list[", "tuple[", "union[")))):
+            continue
+        else:
+            out += f".{p}" if out else str(p)
+    return out or "(top level)"
+
+
+def _model_at(model, loc):
+    """The pydantic model (or dataclass) at location ``loc`` of ``model``, or None."""
+    for p in loc:
+        if isinstance(p, int) or p in _TAGS or (isinstance(p, str) and p[:1].isupper()):
+            continue
+        fields = _fields(model)
+        if p not in fields:
+            return None
+        model = _inner_type(fields[p])
+        if model is None:
+            return None
+    return model
+
+
+def _fields(model) -> dict:
+    if dataclasses.is_dataclass(model):
+        import typing
+
+        hints = typing.get_type_hints(model)
+        return {f.name: hints.get(f.name) for f in dataclasses.fields(model)}
+    if isinstance(model, type) and issubclass(model, BaseModel):
+        return {k: f.annotation for k, f in model.model_fields.items()}
+    return {}
+
+
+def _inner_type(ann):
+    """The model or dataclass inside an annotation (through Optional / list / Union)."""
+    if isinstance(ann, type) and (dataclasses.is_dataclass(ann) or issubclass(ann, BaseModel)):
+        return ann
+    for a in getattr(ann, "__args__", ()) or ():
+        got = _inner_type(a)
+        if got is not None:
+            return got
+    return None
+
+
+def allowed_keys(model, loc) -> list:
+    """The keys allowed at ``loc`` of ``model``."""
+    m = _model_at(model, loc)
+    return list(_fields(m)) if m is not None else []
+
+
+def _one(e: dict, model) -> str:
+    typ, loc = e["type"], tuple(e["loc"])
+    got = e.get("input")
+    if typ in ("extra_forbidden", "unexpected_keyword_argument"):
+        parent = _loc(loc[:-1])
+        where = "at the top level" if parent == "(top level)" else f"in {parent}"
+        keys = allowed_keys(model, loc[:-1])
+        return (f"{_loc(loc)}: unknown key {loc[-1]!r} {where}"
+                + (f"; allowed keys: {', '.join(keys)}" if keys else "") + " (check the spelling)")
+    field = _loc(loc)
+    last = next((p for p in reversed(loc) if isinstance(p, str) and p not in _TAGS), "")
+    hint = HINTS.get(last)
+    tail = f"; give {hint}" if hint else ""
+    if typ == "missing":
+        return f"{field}: required key is missing{tail}"
+    if typ == "finite_number":
+        return f"{field}: must be a finite number, got {got!r}{tail}"
+    ops = {"greater_than_equal": (">=", "ge"), "greater_than": (">", "gt"),
+           "less_than": ("<", "lt"), "less_than_equal": ("<=", "le")}
+    if typ in ops:
+        op, k = ops[typ]
+        return f"{field}: must be {op} {(e.get('ctx') or {}).get(k, '')}, got {got!r}{tail}"
+    msg = e["msg"]
+    if msg.startswith("Value error, "):
+        msg = msg[len("Value error, "):]
+        # a dataclass's own check names its field first ('tau_v: must be ...'): join the paths
+        head, sep, rest = msg.partition(": ")
+        if sep and head in _fields(_model_at(model, loc)):
+            return f"{_loc(loc + (head,))}: {rest}"
+        return msg if field == "(top level)" else f"{field}: {msg}"
+    return f"{field}: {msg}, got {got!r}{tail}"
+
+
+def describe(exc: ValidationError, model, prefix: str = "") -> ConfigError:
+    """A :class:`ConfigError` with one line per mistake of a pydantic error."""
+    lines, seen = [], set()
+    # unknown keys first: a misspelt key is the likeliest cause of the other errors
+    errs = sorted(exc.errors(), key=lambda e: e["type"] not in ("extra_forbidden",
+                                                                "unexpected_keyword_argument"))
+    for e in errs:
+        line = _one(e, model)
+        if line not in seen:
+            seen.add(line)
+            lines.append(prefix + line)
+    return ConfigError(lines[0], lines)
+
+
+def validate(model, doc, prefix: str = ""):
+    """``model.model_validate(doc)`` with errors as a :class:`ConfigError`."""
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{prefix}expected a mapping with keys {', '.join(_fields(model))}, "
+                          f"got {type(doc).__name__}")
+    try:
+        return model.model_validate(doc)
+    except ValidationError as exc:
+        raise describe(exc, model, prefix) from None
+
+
+# --------------------------------------------------------------------------
+# Values inside configs
+# --------------------------------------------------------------------------
+def parse_angle(v, field: str) -> float:
+    """A number (radians) or a string ``'<number>deg'`` / ``'<number>rad'``."""
+    if isinstance(v, bool):
+        raise ConfigError(f"{field}: expected a number, got {v!r}")
+    if isinstance(v, (int, float)):
+        x = float(v)
+    else:
+        x = angle_value(str(v))
+        if x is None:
+            raise ConfigError(f"{field}: expected an angle in radians or with a 'deg' suffix "
+                              f"(e.g. 1.57 or 90deg), got {v!r}")
+    if not math.isfinite(x):
+        raise ConfigError(f"{field}: must be finite, got {v!r}")
+    return x
+
+
+def _length(v, field: str) -> float:
+    if isinstance(v, (str, bool)) or not isinstance(v, (int, float)):
+        raise ConfigError(f"{field}: expected a number in metres, got {v!r}")
+    x = float(v)
+    if not math.isfinite(x):
+        raise ConfigError(f"{field}: must be a finite number in metres, got {v!r}")
+    return x
+
+
+def parse_pose(values, field: str, kind: str) -> tuple:
+    """``[x, y, theta]`` (polygon part) or ``[x, y, theta, face]`` (polyhedron)."""
+    want = 3 if kind == "polygon" else 4
+    form = "[x, y, theta]" if want == 3 else "[x, y, theta, face]"
+    if not isinstance(values, (list, tuple)) or len(values) != want:
+        n = len(values) if isinstance(values, (list, tuple)) else 1
+        raise ConfigError(f"{field}: a {kind} task needs {form} (metres, radians"
+                          f"{', face number' if want == 4 else ''}), got {n} value(s)")
+    x = _length(values[0], f"{field}[0]")
+    y = _length(values[1], f"{field}[1]")
+    th = parse_angle(values[2], f"{field}[2]")
+    if want == 3:
+        return (x, y, th)
+    f = values[3]
+    if isinstance(f, bool) or not (isinstance(f, int) or (isinstance(f, float) and f.is_integer())) \
+            or f < 0:
+        raise ConfigError(f"{field}[3]: the face must be a face number (an integer >= 0), got {f!r}")
+    return (x, y, th, int(f))
+
+
+def explicit_tasks(tasks: list, kind: str) -> list[tuple[str, tuple, tuple]]:
+    """``(name, start, goal)`` of explicit tasks; a push task needs a start."""
+    out = []
+    names = [t.name for t in tasks]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ConfigError(f"tasks: task names must be unique, {dup} repeated")
+    for i, t in enumerate(tasks):
+        goal = parse_pose(t.goal, f"tasks[{i}].goal", kind)
+        if t.start is None:
+            if kind == "polygon":
+                raise ConfigError(f"tasks[{i}].start: a push task needs a start pose [x, y, theta]")
+            start = (0.0, 0.0, 0.0, 0)
+        else:
+            start = parse_pose(t.start, f"tasks[{i}].start", kind)
+        out.append((t.name, start, goal))
+    return out
+

@@ -1,0 +1,135 @@
+"""Where units of work run: in this process, or on Dask distributed.
+
+Both executors take a function ``fn(ctx, unit) -> record`` and yield
+``(unit, record)`` as units finish.  Units are idempotent, so a unit that runs
+twice (a Dask worker that died and whose task Dask re-ran) writes the same files
+again; the driver records what finished.
+
+Dask: a ``LocalCluster`` on 127.0.0.1 with its dashboard off (unless asked), or
+the cluster at ``address``.  Workers use JAX's persistent compilation cache
+(:func:`enable_compilation_cache`), so each worker process compiles a kernel
+once per machine and later runs start warm.
+"""
+from __future__ import annotations
+
+import os
+import pathlib
+from typing import Callable, Iterable, Iterator
+
+from distributed.diagnostics.plugin import WorkerPlugin
+
+CACHE_ENV = "NUDGE_JAX_CACHE"
+
+
+def cache_dir() -> str:
+    """The persistent compilation cache folder (``$NUDGE_JAX_CACHE``, default
+    ``~/.cache/nudge/jax``; an empty value disables the cache)."""
+    return os.environ.get(CACHE_ENV, str(pathlib.Path.home() / ".cache" / "nudge" / "jax"))
+
+
+def enable_compilation_cache(folder: str | None = None) -> None:
+    """Persist compiled kernels across processes and runs (an optimisation:
+    any failure leaves JAX as it was)."""
+    d = cache_dir() if folder is None else folder
+    if not d:
+        return
+    try:
+        import jax
+
+        pathlib.Path(d).mkdir(parents=True, exist_ok=True)
+        jax.config.update("jax_compilation_cache_dir", d)
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)
+    except Exception:  # noqa: BLE001 - a cache is never a reason to fail
+        pass
+
+
+class LocalExecutor:
+    """Runs units one after the other in this process."""
+
+    name = "local"
+
+    def __enter__(self):
+        enable_compilation_cache()
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def run(self, fn: Callable, ctx, units: Iterable) -> Iterator:
+        for u in units:
+            yield u, fn(ctx, u)
+
+
+class DaskExecutor:
+    """Runs units on Dask distributed (see the module docstring)."""
+
+    name = "dask"
+
+    def __init__(self, workers: int = 2, threads_per_worker: int = 1, address: str | None = None,
+                 dashboard: bool = False):
+        self.workers, self.threads = int(workers), int(threads_per_worker)
+        self.address, self.dashboard = address, bool(dashboard)
+        self.client = self.cluster = None
+        self._futures: list = []
+
+    def __enter__(self):
+        from distributed import Client, LocalCluster
+
+        d = cache_dir()
+        if d:  # worker processes inherit the environment, and JAX reads its flags from it
+            os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", d)
+            os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.5")
+        os.environ.setdefault("JAX_PLATFORMS", "cpu")
+        if self.address:
+            self.client = Client(self.address)
+        else:
+            self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=self.threads,
+                                        processes=True, host="127.0.0.1",
+                                        dashboard_address=":8787" if self.dashboard else None,
+                                        silence_logs=50)
+            self.client = Client(self.cluster)
+        self.client.register_plugin(_CachePlugin(d))
+        return self
+
+    def __exit__(self, *exc):
+        for f in self._futures:
+            f.cancel()
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+        return False
+
+    def run(self, fn: Callable, ctx, units: Iterable) -> Iterator:
+        from distributed import as_completed
+
+        units = list(units)
+        futures = {self.client.submit(fn, ctx, u, key=f"nudge-{u.key}-{id(ctx)}", pure=False): u
+                   for u in units}
+        self._futures = list(futures)
+        for fut in as_completed(futures):
+            yield futures[fut], fut.result()
+        self._futures = []
+
+
+class _CachePlugin(WorkerPlugin):
+    """Worker plugin: enable the persistent compilation cache in every worker,
+    including workers that join (or restart) later."""
+
+    name = "nudge-jax-cache"
+
+    def __init__(self, folder: str):
+        self.folder = folder
+
+    def setup(self, worker=None):
+        enable_compilation_cache(self.folder)
+
+    def teardown(self, worker=None):
+        pass
+
+
+def make_executor(spec):
+    """The executor of an :class:`~sweeps.study.Executor` spec."""
+    if spec.kind == "dask":
+        return DaskExecutor(spec.workers, spec.threads_per_worker, spec.address, spec.dashboard)
+    return LocalExecutor()

@@ -1,0 +1,240 @@
+"""Figures of a parameter study (for ``report.html``): each function takes the
+run's tables (pandas frames) and returns PNG bytes, or None when the figure
+does not apply.
+
+Success rates are pooled over a study's tasks and over the other swept
+parameters at each value of the one on the x axis, with two-sided
+Clopper-Pearson bands at the study's confidence.
+"""
+from __future__ import annotations
+
+import io
+import math
+from typing import Optional
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from robustness.stats import clopper_pearson  # noqa: E402
+from robustness.tables import FAILURE_MODES  # noqa: E402
+
+MODE_COLORS = dict(zip(FAILURE_MODES[1:], ("tab:orange", "tab:red", "tab:purple", "tab:brown",
+                                            "tab:pink", "tab:olive", "tab:cyan", "tab:gray")))
+
+
+def _png(fig) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _numeric(col: pd.Series) -> bool:
+    return pd.api.types.is_numeric_dtype(col) and not pd.api.types.is_bool_dtype(col)
+
+
+def _x(ax, col: pd.Series, label: str):
+    ax.set_xlabel(label)
+    if _numeric(col):
+        vals = np.sort(col.unique())
+        if len(vals) > 2 and vals.min() > 0 and vals.max() / vals.min() > 50:
+            ax.set_xscale("log")
+
+
+def success_vs_param(summary: pd.DataFrame, column: str, label: str, confidence: float,
+                     by: Optional[str] = None, by_label: str = "") -> Optional[bytes]:
+    """Pooled success rate against one swept parameter, with a CP band; one line
+    per value of a second swept parameter ``by`` (at most 6 values), pooled
+    over everything else."""
+    s = summary[summary["n"] > 0]
+    if s.empty:
+        return None
+    groups = [(None, s)]
+    if by is not None and 1 < s[by].nunique() <= 6:
+        groups = list(s.groupby(by, sort=True, observed=True))
+    fig, ax = plt.subplots(figsize=(5.2, 3.4))
+    num = _numeric(s[column])
+    cats = sorted(s[column].unique(), key=str)
+    for i, (val, part) in enumerate(groups):
+        g = part.groupby(column, sort=True, observed=True).agg(
+            n=("n", "sum"), k=("n_success", "sum")).reset_index()
+        lo, hi = zip(*(clopper_pearson(int(k), int(n), confidence) for k, n in zip(g["k"], g["n"])))
+        x = g[column] if num else np.array([cats.index(v) for v in g[column]])
+        color = f"C{i}"
+        name = "success rate" if val is None else f"{by_label or by} = {fmt(val)}"
+        ax.fill_between(x, lo, hi, color=color, alpha=0.15, lw=0)
+        ax.plot(x, g["k"] / g["n"], "o-", color=color, label=name)
+    if not num:
+        ax.set_xticks(np.arange(len(cats)), [str(v) for v in cats], rotation=20)
+    _x(ax, s[column], label)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_ylabel("success rate (pooled over tasks)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="best", fontsize=8, title=f"bands: {confidence:.0%} Clopper-Pearson",
+              title_fontsize=7)
+    ax.set_title(f"success against {label}", fontsize=10)
+    return _png(fig)
+
+
+def error_quantiles(samples: pd.DataFrame, column: Optional[str], label: str,
+                    eps: float) -> Optional[bytes]:
+    """Position error quantiles (q50, q90, q99, max; mm) per value of a swept
+    parameter (or per configuration), successes and failures together."""
+    s = samples[np.isfinite(samples["err_pos_m"])]
+    if s.empty:
+        return None
+    key = column or "config_id"
+    g = s.groupby(key, sort=True, observed=True)["err_pos_m"]
+    q = pd.DataFrame({name: g.quantile(v) for name, v in
+                      (("q50", 0.5), ("q90", 0.9), ("q99", 0.99), ("max", 1.0))}).reset_index()
+    fig, ax = plt.subplots(figsize=(5.2, 3.4))
+    num = column is not None and _numeric(q[key])
+    x = q[key] if num else np.arange(len(q))
+    for name, st in (("q50", "o-"), ("q90", "s--"), ("q99", "^:"), ("max", "x-")):
+        ax.plot(x, q[name] * 1e3, st, label=name)
+    ax.axhline(eps * 1e3, color="k", lw=0.8, ls="--", label="pos_eps")
+    if not num:
+        ax.set_xticks(x, [str(v) for v in q[key]], rotation=20)
+    _x(ax, q[key], label if column else "configuration")
+    ax.set_yscale("symlog", linthresh=max(eps * 1e3 / 10, 1e-6))
+    ax.set_ylabel("final position error (mm)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, ncol=2)
+    ax.set_title("position error quantiles", fontsize=10)
+    return _png(fig)
+
+
+def failure_modes(summary: pd.DataFrame, labels: list, axis_label: str = "configuration") -> Optional[bytes]:
+    """Failure modes per configuration (stacked fractions); ``labels`` name the
+    configurations (their swept values), ``axis_label`` says what they are."""
+    s = summary[summary["n"] > 0]
+    if s.empty:
+        return None
+    g = s.groupby("config_id", sort=True, observed=True)[[f"n_{m}" for m in FAILURE_MODES]].sum()
+    fig, ax = plt.subplots(figsize=(max(5.2, 0.35 * len(g) + 2), 3.4))
+    x = np.arange(len(g))
+    bottom = np.zeros(len(g))
+    tot = g.sum(axis=1).to_numpy(float)
+    tot[tot == 0] = 1.0
+    ax.bar(x, g["n_none"] / tot, bottom=bottom, color="tab:green", label="success")
+    bottom += g["n_none"].to_numpy() / tot
+    for m in FAILURE_MODES[1:]:
+        v = g[f"n_{m}"].to_numpy() / tot
+        if v.any():
+            ax.bar(x, v, bottom=bottom, color=MODE_COLORS[m], label=m)
+            bottom += v
+    ax.set_xticks(x, [labels[int(i)] if int(i) < len(labels) else str(i) for i in g.index],
+                  rotation=45 if len(g) > 6 else 0, ha="right" if len(g) > 6 else "center",
+                  fontsize=7)
+    ax.set_xlabel(axis_label, fontsize=8)
+    ax.set_ylabel("fraction of samples")
+    ax.set_ylim(0, 1)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    ax.set_title("outcome of every sample, per configuration", fontsize=10)
+    return _png(fig)
+
+
+def plan_shape(plans: pd.DataFrame, column: Optional[str], label: str, kind: str) -> Optional[bytes]:
+    """Plan length (pushes / tumbles) and, for pushes, the total push distance
+    relative to the straight distance, against a swept parameter."""
+    p = plans[plans["planned"]]
+    if p.empty:
+        return None
+    key = column or "config_id"
+    fig, ax = plt.subplots(figsize=(5.2, 3.4))
+    g = p.groupby(key, sort=True, observed=True)
+    num = column is not None and _numeric(p[key])
+    xs = np.asarray(list(g.groups)) if num else np.arange(g.ngroups)
+    med = g["n_steps"].median().to_numpy()
+    ax.plot(xs, med, "o-", color="tab:blue", label=f"median {'pushes' if kind == 'push' else 'tumbles'}")
+    ax.fill_between(xs, g["n_steps"].min().to_numpy(), g["n_steps"].max().to_numpy(),
+                    color="tab:blue", alpha=0.15, lw=0, label="min-max over tasks")
+    ax.set_ylabel("plan length (steps)", color="tab:blue")
+    if kind == "push":
+        ax2 = ax.twinx()
+        ratio = g["length_ratio"].median().to_numpy()
+        ax2.plot(xs, ratio, "s--", color="tab:red", label="median push distance / straight distance")
+        ax2.set_ylabel("push distance / straight distance", color="tab:red")
+        ax2.set_ylim(0, max(1.0, float(np.nanmax(ratio)) * 1.15) if np.isfinite(ratio).any() else 1.0)
+    if not num:
+        ax.set_xticks(xs, [str(v) for v in g.groups], rotation=20)
+    _x(ax, p[key], label if column else "configuration")
+    ax.grid(alpha=0.3)
+    handles = ax.get_legend_handles_labels()
+    if kind == "push":
+        h2 = ax2.get_legend_handles_labels()
+        handles = (handles[0] + h2[0], handles[1] + h2[1])
+    ax.legend(*handles, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2)
+    ax.set_title("plan length" + (" and push distance" if kind == "push" else ""), fontsize=10)
+    return _png(fig)
+
+
+def solvable_fraction(plans: pd.DataFrame, column: str, label: str,
+                      confidence: float) -> Optional[bytes]:
+    """Fraction of tasks with a verified plan against a swept parameter, with a CP band."""
+    if plans.empty:
+        return None
+    g = plans.groupby(column, sort=True, observed=True)["planned"].agg(["sum", "count"]).reset_index()
+    lo, hi = zip(*(clopper_pearson(int(k), int(n), confidence) for k, n in zip(g["sum"], g["count"])))
+    fig, ax = plt.subplots(figsize=(5.2, 3.4))
+    num = _numeric(g[column])
+    x = g[column] if num else np.arange(len(g))
+    ax.fill_between(x, lo, hi, color="tab:purple", alpha=0.2, lw=0,
+                    label=f"{confidence:.0%} Clopper-Pearson")
+    ax.plot(x, g["sum"] / g["count"], "o-", color="tab:purple", label="solvable fraction")
+    if not num:
+        ax.set_xticks(x, [str(v) for v in g[column]], rotation=20)
+    _x(ax, g[column], label)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_ylabel("tasks with a verified plan")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(f"solvable fraction against {label}", fontsize=10)
+    return _png(fig)
+
+
+def bound_vs_monte_carlo(summary: pd.DataFrame, column: Optional[str], label: str) -> Optional[bytes]:
+    """Analytic bounds (first order; the paper's eq. 6) beside the Monte-Carlo
+    maximum of the position error, against a swept parameter."""
+    s = summary[summary["n"] > 0]
+    if s.empty:
+        return None
+    key = column or "config_id"
+    g = s.groupby(key, sort=True, observed=True)
+    num = column is not None and _numeric(s[key])
+    xs = np.asarray(list(g.groups)) if num else np.arange(g.ngroups)
+    fig, ax = plt.subplots(figsize=(5.2, 3.4))
+    series = (("emp_max_pos_in_model_m", "o-", "Monte-Carlo max (in the bound's model)"),
+              ("bound_position_m", "s--", "first-order bound"),
+              ("paper_bound_position_m", "^:", "Marigo-Bicchi eq. (6)"))
+    drawn = False
+    for col, st, lab in series:
+        v = g[col].max().to_numpy(float)
+        ok = np.isfinite(v) & (v > 0)
+        if ok.any():
+            ax.plot(np.asarray(xs)[ok], v[ok] * 1e3, st, label=lab)
+            drawn = True
+    if not drawn:
+        plt.close(fig)
+        return None
+    if not num:
+        ax.set_xticks(xs, [str(v) for v in g.groups], rotation=20)
+    _x(ax, s[key], label if column else "configuration")
+    ax.set_yscale("log")
+    ax.set_ylabel("position error (mm)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    ax.set_title("analytic bounds and the Monte-Carlo maximum", fontsize=10)
+    return _png(fig)
+
+
+def fmt(v) -> str:
+    """A value for the report's tables."""
+    if isinstance(v, (float, np.floating)):
+        return "-" if not math.isfinite(v) else f"{v:.4g}"
+    return str(v)

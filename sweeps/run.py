@@ -1,0 +1,234 @@
+"""Run a parameter study: ``python -m sweeps.run CONFIG.yaml`` (also ``nudge sweep``).
+
+Usage::
+
+    python -m sweeps.run CONFIG.yaml [--out DIR] [--set path=value ...] [--dry-run]
+                                     [--executor local|dask] [--quiet] [--no-report]
+
+``CONFIG.yaml`` is a study file (format: :mod:`sweeps.study`); a bare name such
+as ``margins.yaml`` is looked up among the bundled studies (``examples/studies``)
+when no such file is in the working folder.  ``--set`` overrides fields by
+dotted path (``--set samples=2000``; a comma list sweeps:
+``--set planner.margin_deg=5,7,9``).  ``--dry-run`` prints the design
+(configurations, tasks, samples, chunks, a rough time estimate) and runs
+nothing.
+
+Results go to ``results/<study>/<run-id>/`` (or ``--out DIR``): one folder per
+table (``samples/``, ``summary/``, ``plans/``), Hive-partitioned by
+``config_id``, a ``manifest.json`` and ``report.html``;
+``pd.read_parquet("results/<study>/<run-id>/summary")`` is one frame.  The run
+id is a hash of the resolved config, so running the same command again resumes:
+finished chunks are skipped and the rows end up exactly those of an
+uninterrupted run.  A changed config on an existing ``--out`` is refused.
+
+Exit status: 0 the study ran (or resumed to the end; 130 after Ctrl-C, with
+the finished chunks kept), 2 bad input (one line per mistake, ``error: ...``,
+naming the field path and the fix, before anything runs), 3 internal error.
+"""
+from __future__ import annotations
+
+import json
+import math
+import pathlib
+import sys
+from typing import Optional, Sequence
+
+from sweeps.terminal import EXIT_INPUT, Parser, fail, run_main
+
+EXIT_OK, EXIT_INTERRUPTED = 0, 130
+
+#: Rough throughput on 2 CPU cores (samples/s, float64) for --dry-run's estimate.
+RATES = {"exact": 20_000.0, "quasistatic": 4_000.0, "tumble": 20_000.0}
+COMPILE_S = 8.0   # per distinct kernel shape, cold cache
+
+
+def build_parser(prog: str = "python -m sweeps.run") -> Parser:
+    p = Parser(prog=prog, description="Run a parameter study: plan every task under every "
+               "configuration of the design, replay the plans on perturbed parts (Monte Carlo), "
+               "and write Parquet tables and an HTML report.",
+               epilog="Units: metres, radians (angles in configs may carry 'deg'). Results: "
+                      "results/<study>/<run-id>/<table>/config_id=<k>/*.parquet (read a table "
+                      "with pandas.read_parquet on its folder), manifest.json, report.html. "
+                      "Rerunning the same command resumes. Exit status: 0 ran, 2 bad input, "
+                      "3 internal error, 130 interrupted (finished chunks kept).")
+    p.add_argument("config", metavar="CONFIG.yaml",
+                   help="a study file, or the name of a bundled study (e.g. margins.yaml)")
+    p.add_argument("--out", metavar="DIR", help="run folder (default results/<study>/<run-id>)")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE",
+                   help="override a field by dotted path; a comma list makes it a swept axis "
+                        "(repeatable)")
+    p.add_argument("--dry-run", action="store_true", help="print the design and run nothing")
+    p.add_argument("--executor", choices=("local", "dask"), help="override the config's executor")
+    p.add_argument("--quiet", action="store_true", help="no progress bar, no summary table")
+    p.add_argument("--no-report", action="store_true", help="do not write report.html")
+    return p
+
+
+def main(argv: Optional[Sequence[str]] = None, prog: str = "python -m sweeps.run") -> int:
+    """Run the command line; returns the exit status."""
+    from sweeps.config import ConfigError
+    from sweeps.store import RunError
+
+    args = build_parser(prog).parse_args(sys.argv[1:] if argv is None else argv)
+    try:
+        design, out, spec = _prepare(args)
+    except ConfigError as exc:
+        for line in exc.lines:
+            fail(line)
+        return EXIT_INPUT
+    if args.dry_run:
+        sys.stdout.write(describe_design(design, out, spec) + "\n")
+        return EXIT_OK
+    try:
+        return execute(design, out, spec, quiet=args.quiet, report=not args.no_report)
+    except RunError as exc:
+        return fail(str(exc))
+
+
+def _prepare(args):
+    from sweeps.study import Executor, load_design
+
+    design = load_design(args.config, args.overrides)
+    top = design.top
+    spec = top.executor_spec
+    if args.executor:
+        spec = Executor(**{**spec.model_dump(), "kind": args.executor})
+    out = pathlib.Path(args.out) if args.out else pathlib.Path(top.output) / design.name / design.run_id
+    return design, out, spec
+
+
+def describe_design(design, out: pathlib.Path, spec) -> str:
+    """The ``--dry-run`` text: configurations, tasks, samples, chunks, estimate."""
+    from sweeps.work import plan_units
+
+    blocks, summaries = plan_units(design, {})
+    n_samples = sum(u.samples for u in blocks)
+    lines = [f"study {design.name} ({design.top.kind}), run {design.run_id} -> {out}",
+             f"part: {design.part(0).name}; executor: {spec.kind}"
+             + (f" ({spec.workers} workers)" if spec.kind == "dask" and not spec.address else ""),
+             f"{len(design.configs)} configuration(s) x {len(design.tasks(0))} task(s) = "
+             f"{len(summaries)} (configuration, task) pairs; {n_samples} samples in "
+             f"{len(blocks)} chunk(s)"]
+    if design.paths:
+        lines.append("swept: " + ", ".join(
+            f"{p} ({len({json.dumps(pt[p]) for pt in design.points})} values)" for p in design.paths))
+        for i, pt in enumerate(design.points[:20]):
+            lines.append(f"  config {i:3d}: " + ", ".join(f"{k}={v}" for k, v in pt.items()))
+        if len(design.points) > 20:
+            lines.append(f"  ... {len(design.points) - 20} more")
+    secs = estimate_seconds(design, blocks)
+    lines.append(f"estimate: about {_fmt_time(secs)} on 2 CPU cores (rough: model throughput and "
+                 "compilation; a warm compilation cache is faster)")
+    return "\n".join(lines)
+
+
+def estimate_seconds(design, blocks) -> float:
+    """A rough run time (s) from per-model throughputs and per-shape compilation."""
+    total, shapes = 0.0, set()
+    for u in blocks:
+        cfg = design.configs[u.config_id]
+        rate = RATES["tumble"] if cfg.kind == "tumble" else RATES[cfg.model]
+        total += u.samples / rate + 0.05
+        shapes.add((cfg.kind, cfg.model, cfg.dtype, design.part(u.config_id).name))
+    return total + COMPILE_S * (len(shapes) + 1)
+
+
+def _fmt_time(s: float) -> str:
+    return f"{s:.0f} s" if s < 120 else (f"{s / 60:.1f} min" if s < 7200 else f"{s / 3600:.1f} h")
+
+
+def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool = True) -> int:
+    """Run (or resume) a study into ``out``; returns the exit status."""
+    from sweeps.executors import make_executor
+    from sweeps.progress import Progress, StopFlag
+    from sweeps.store import RunStore, manifest_for
+    from sweeps.work import Context, plan_units, run_block, run_summary
+
+    manifest = manifest_for(design.run_id, design.name, design.text, design.top.seed,
+                            {"paths": design.paths, "points": design.points})
+    store = RunStore.open(out, manifest)
+    done = store.done()
+    blocks, summaries = plan_units(design, done)
+    ctx = Context(str(design.path), json.dumps(design.doc), str(out), json.dumps(store.manifest))
+    total = sum(u.samples for u in blocks)
+    resume = f"run the same command again to resume (results so far: {out})"
+    if done:
+        _say(quiet, f"resuming run {design.run_id}: {len(done)} chunk(s) already done, "
+                    f"{len(blocks) + len(summaries)} to go")
+    bar = Progress(total, quiet=quiet)
+    warned: set = set()
+    try:
+        with StopFlag(resume) as flag, make_executor(spec) as ex:
+            for phase, fn, units in (("samples", run_block, blocks),
+                                     ("summary", run_summary, summaries)):
+                if flag.stop:
+                    break
+                for unit, rec in ex.run(fn, ctx, units):
+                    store.mark_done(rec["key"], rec["files"], rows=rec["rows"])
+                    for w in rec.get("warnings", ()):
+                        if w not in warned:
+                            warned.add(w)
+                            bar.note(f"warning: {w}")
+                    bar.advance(unit.samples)
+                    if flag.stop:
+                        break
+            stopped = flag.stop
+    finally:
+        bar.close()
+    if stopped:
+        sys.stderr.write(f"stopped: finished chunks are kept; {resume}\n")
+        return EXIT_INTERRUPTED
+    if report and design.top.report:
+        from sweeps.report import write_report
+
+        path = write_report(store, design)
+        _say(quiet, f"wrote {path}")
+    if not quiet:
+        sys.stdout.write(summary_table(store, design) + "\n")
+    sys.stdout.write(f"results: {out}\n")
+    return EXIT_OK
+
+
+def _say(quiet: bool, text: str) -> None:
+    if not quiet:
+        sys.stderr.write(text + "\n")
+
+
+def summary_table(store, design) -> str:
+    """Per configuration: swept values, tasks planned, samples, success, weakest task."""
+    s = store.read("summary")
+    p = store.read("plans")
+    if s.empty:
+        return "(no summary rows)"
+    s = s.assign(config_id=s["config_id"].astype(int))
+    p = p.assign(config_id=p["config_id"].astype(int))
+    head = ["config"] + [f.replace(".", "_")[-18:] for f in design.paths] + \
+        ["planned", "samples", "success", "worst CP low", "dominant failure"]
+    rows = []
+    for cid, g in s.groupby("config_id", sort=True):
+        pg = p[p["config_id"] == cid]
+        n = int(g["n"].sum())
+        k = int(g["n_success"].sum())
+        lows = g["ci_low_one_sided"].dropna()
+        modes = g["dominant_failure_mode"].value_counts()
+        modes = modes[modes.index != "none"]
+        pt = design.points[cid]
+        rows.append([str(cid)] + [_short(pt[x]) for x in design.paths] + [
+            f"{int(pg['planned'].sum())}/{len(pg)}", str(n),
+            f"{k / n:.3f}" if n else "-", f"{lows.min():.3f}" if len(lows) else "-",
+            modes.index[0] if len(modes) else "none"])
+    widths = [max(len(r[i]) for r in rows + [head]) for i in range(len(head))]
+    fmt = "  ".join(f"{{:>{w}}}" for w in widths)
+    lines = [fmt.format(*head), fmt.format(*["-" * w for w in widths])]
+    lines += [fmt.format(*r) for r in rows]
+    return "\n".join(lines)
+
+
+def _short(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}" if math.isfinite(v) else str(v)
+    return str(v)
+
+
+if __name__ == "__main__":
+    run_main(main)

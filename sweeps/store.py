@@ -1,0 +1,158 @@
+"""A run folder: tables in chunks, a manifest, and resuming.
+
+Layout (``../shared/DESIGN.md``)::
+
+    <run>/manifest.json                      what the run is (config as run, design, tables)
+    <run>/chunks.jsonl                       one line per finished unit of work
+    <run>/<table>/config_id=<k>/part-<unit>.parquet
+
+``k`` is written with five digits (``config_id=00003``): Hive partition
+discovery reads it as the integer 3 (pandas shows it as a categorical column
+whose categories are integers, in order), and the folders list in numeric
+order.  Every file is written atomically (:func:`sweeps.parquet.atomic_write`)
+under a deterministic name, so a unit that runs twice (a rerun after a crash,
+a Dask worker that died) replaces its files with identical ones: no row is
+lost or duplicated.  A unit counts as done when its line is in
+``chunks.jsonl`` and its files exist; the line is appended (and fsync'ed)
+only after the files are in place.
+"""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+from typing import Iterable, Optional
+
+import pandas as pd
+import pyarrow as pa
+
+from sweeps.parquet import atomic_write, git_commit, write_table
+
+MANIFEST = "manifest.json"
+LOG = "chunks.jsonl"
+
+
+class RunError(ValueError):
+    """A run folder that cannot be used for this run (one line: what and the fix)."""
+
+
+def check_writable(folder: pathlib.Path) -> None:
+    """Create ``folder`` and check that files can be written there, before any work.
+
+    Raises:
+      RunError: naming the folder and the reason.
+    """
+    folder = pathlib.Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        probe = folder / f".nudge-write-test-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise RunError(f"{folder}: cannot write results there ({exc.strerror or exc}); "
+                       "choose another folder with --out") from None
+
+
+class RunStore:
+    """The files of one run (``root`` = ``results/<study>/<run-id>`` or ``--out``)."""
+
+    def __init__(self, root: pathlib.Path, manifest: dict):
+        self.root = pathlib.Path(root)
+        self.manifest = manifest
+
+    # ---------------------------------------------------------------- opening
+    @classmethod
+    def open(cls, root, manifest: dict) -> "RunStore":
+        """Open (resume) or create the run folder for ``manifest``.
+
+        The manifest's ``config`` (the resolved config text) must equal the one
+        already in the folder, if any: a changed config on an existing run is
+        refused, since mixing rows of two configs would silently corrupt it.
+
+        Raises:
+          RunError: not writable, or another config's run is there.
+        """
+        root = pathlib.Path(root)
+        check_writable(root)
+        path = root / MANIFEST
+        if path.exists():
+            try:
+                old = json.loads(path.read_text())
+            except (OSError, ValueError) as exc:
+                raise RunError(f"{path}: unreadable manifest ({exc}); delete the folder or choose "
+                               "another --out") from None
+            if old.get("config") != manifest.get("config"):
+                diff = _first_difference(old.get("config", ""), manifest.get("config", ""))
+                raise RunError(f"{root}: holds run {old.get('run_id', '?')} of another config "
+                               f"({diff}); choose another --out, or delete the folder to start "
+                               "over")
+            return cls(root, old)
+        body = json.dumps(manifest, indent=1, sort_keys=False) + "\n"
+        atomic_write(path, lambda fh: fh.write(body), mode="w")
+        return cls(root, manifest)
+
+    @property
+    def run_id(self) -> str:
+        return self.manifest["run_id"]
+
+    # ---------------------------------------------------------------- units of work
+    def done(self) -> dict:
+        """``{unit key: log record}`` of the finished units whose files all exist."""
+        out = {}
+        path = self.root / LOG
+        if not path.exists():
+            return out
+        for line in path.read_text().splitlines():
+            try:
+                rec = json.loads(line)
+            except ValueError:  # a line cut by a crash: that unit reruns
+                continue
+            if all((self.root / f).exists() for f in rec.get("files", ())):
+                out[rec["key"]] = rec
+        return out
+
+    def mark_done(self, key: str, files: Iterable, **info) -> None:
+        """Record a finished unit (after its files are written)."""
+        rel = [str(pathlib.Path(f).relative_to(self.root)) for f in files]
+        line = json.dumps({"key": key, "files": rel, **info}, sort_keys=True) + "\n"
+        fd = os.open(self.root / LOG, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+        try:
+            os.write(fd, line.encode())
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+    # ---------------------------------------------------------------- tables
+    def table_path(self, table: str, config_id: int, unit: str) -> pathlib.Path:
+        """Where a unit's file of ``table`` for configuration ``config_id`` goes."""
+        return self.root / table / f"config_id={int(config_id):05d}" / f"part-{unit}.parquet"
+
+    def write(self, table: str, config_id: int, unit: str, df: pd.DataFrame,
+              schema: pa.Schema) -> pathlib.Path:
+        """Write one unit's rows of ``table`` (schema-checked: a column missing or
+        extra is an error, never a silently dropped column)."""
+        path = self.table_path(table, config_id, unit)
+        write_table(df, path, schema, self.manifest["config"], self.manifest["seed"], table)
+        return path
+
+    def read(self, table: str, config_id: Optional[int] = None) -> pd.DataFrame:
+        """A table (or one configuration's part of it) as one frame."""
+        folder = self.root / table
+        if config_id is not None:
+            folder = folder / f"config_id={int(config_id):05d}"
+        if not folder.exists():
+            return pd.DataFrame()
+        return pd.read_parquet(folder)
+
+
+def manifest_for(run_id: str, study: str, config_text: str, seed: int, design: dict) -> dict:
+    """The manifest of a new run (no wall times: a rerun compares equal)."""
+    return {"run_id": run_id, "study": study, "config": config_text, "seed": int(seed),
+            "git_commit": git_commit(), "design": design}
+
+
+def _first_difference(a: str, b: str) -> str:
+    for la, lb in zip(a.splitlines(), b.splitlines()):
+        if la != lb:
+            return f"it has '{la.strip()}' where this run has '{lb.strip()}'"
+    return "the configs differ in length"

@@ -1,0 +1,318 @@
+"""Parameter-study configs: the schema, loading with ``--set`` overrides, tasks,
+and the design (one validated config per configuration id).
+
+A study (YAML; unknown keys are errors; units metres and radians, angles may
+carry ``deg``)::
+
+    study: margins                      # results/<study>/<run-id>/ (default: file stem)
+    kind: push                          # push | tumble (must match the part)
+    part: nice_stable                   # bundled name, a path, or an inline part
+    tasks:                              # explicit list, or sampled goals:
+      sample: {n: 6, annulus: [0.05, 0.15], heading: [-180deg, 180deg]}
+    planner: {margin_deg: 7, safety_factor: 1.15}
+    tolerances: {tau_v: 2.0e-5}         # robustness.GeometryTolerance
+    friction: {mu_f: [0.5, 0.8]}        # robustness.FrictionRange
+    execution: {start_xy: 5.0e-4}       # robustness.ExecutionTolerance
+    eps: {pos_eps_m: 0.002, theta_eps_rad: 0.035}
+    model: quasistatic                  # quasistatic | exact
+    samples: 200                        # Monte-Carlo samples per (configuration, task)
+    chunk_samples: 200                  # samples per unit of work (resume granularity)
+    seed: 0
+    executor: local                     # local | dask | {kind: dask, workers: 2, address: ...}
+    params:                             # the swept axes (sweeps.design)
+      planner.margin_deg: [3, 7, 12]
+      friction.mu_f: {linspace: [0.3, 0.9, 3]}
+"""
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+import pathlib
+from typing import Annotated, Any, Literal, Optional, Union
+
+import numpy as np
+from pydantic import Discriminator, Field, StrictBool, Tag, model_validator
+
+from sweeps import catalog
+from sweeps.config import (Angle, ConfigError, Evaluation, PartInline, Strict, Task, explicit_tasks,
+                           parse_angle, parse_pose, validate)
+from sweeps.design import expand, parse_overrides, set_path
+from sweeps.yamlio import YamlError, dump_yaml, read_yaml
+
+KIND_OF_PART = {"polygon": "push", "polyhedron": "tumble"}
+
+
+class GoalSampling(Strict):
+    """Sampled tasks: ``n`` goals around a start (seeded from the study's seed)."""
+
+    n: int = Field(ge=1, le=100_000)
+    start: Optional[list[Angle]] = None
+    annulus: Optional[tuple[float, float]] = None      # radii (m) about the start position
+    box: Optional[tuple[tuple[float, float], tuple[float, float]]] = None  # [[x0, x1], [y0, y1]] m
+    heading: tuple[Angle, Angle] = ("-180deg", "180deg")   # goal orientation range
+    faces: Optional[list[int]] = None                  # tumble studies: goal faces (default all)
+
+    @model_validator(mode="after")
+    def _one_region(self):
+        if (self.annulus is None) == (self.box is None):
+            raise ValueError("give exactly one goal region: annulus: [r_min, r_max] (metres "
+                             "about the start) or box: [[x_min, x_max], [y_min, y_max]]")
+        if self.annulus is not None and not 0 <= self.annulus[0] <= self.annulus[1]:
+            raise ValueError(f"annulus: expected 0 <= r_min <= r_max (m), got {list(self.annulus)}")
+        if self.box is not None and any(lo > hi for lo, hi in self.box):
+            raise ValueError(f"box: expected [[x_min, x_max], [y_min, y_max]] with min <= max, "
+                             f"got {[list(b) for b in self.box]}")
+        return self
+
+
+class SampledTasks(Strict):
+    sample: GoalSampling
+
+
+class Executor(Strict):
+    """Where the units of work run: in this process, or on Dask distributed."""
+
+    kind: Literal["local", "dask"] = "local"
+    workers: int = Field(2, ge=1, le=1024)          # LocalCluster processes
+    threads_per_worker: int = Field(1, ge=1, le=64)
+    address: Optional[str] = None                   # an existing cluster, e.g. tcp://10.0.0.5:8786
+    dashboard: StrictBool = False                   # LocalCluster's dashboard (off by default)
+
+
+def _tasks_kind(v) -> str:
+    return "list" if isinstance(v, list) else "sample"
+
+
+def _executor_kind(v) -> str:
+    return "name" if isinstance(v, str) else "spec"
+
+
+class Study(Evaluation):
+    """One configuration of a study (``params`` already applied)."""
+
+    study: Optional[str] = Field(None, pattern=r"^[A-Za-z0-9_.-]+$")
+    kind: Literal["push", "tumble"]
+    part: Union[str, PartInline]
+    tasks: Annotated[Union[Annotated[list[Task], Tag("list")],
+                           Annotated[SampledTasks, Tag("sample")]],
+                     Discriminator(_tasks_kind)]
+    samples: int = Field(200, ge=1, le=100_000_000)
+    chunk_samples: Optional[int] = Field(None, ge=1, le=100_000_000)
+    params: dict[str, Any] = Field(default_factory=dict)
+    executor: Annotated[Union[Annotated[Literal["local", "dask"], Tag("name")],
+                              Annotated[Executor, Tag("spec")]],
+                        Discriminator(_executor_kind)] = "local"
+    output: str = "results"
+    bounds: StrictBool = True        # the analytic bounds in the summary (one compile per plan shape)
+    report: StrictBool = True        # report.html at the end
+
+    @property
+    def executor_spec(self) -> Executor:
+        return Executor(kind=self.executor) if isinstance(self.executor, str) else self.executor
+
+
+# --------------------------------------------------------------------------
+# The resolved study
+# --------------------------------------------------------------------------
+class Design:
+    """A study as it will run: the resolved config text, the swept paths and one
+    validated :class:`Study` per configuration id, their parts and tasks.
+
+    Attributes:
+      path: the config file; base: its folder (part paths are relative to it).
+      doc: the resolved document (``--set`` applied); text: its YAML (stored in
+        every file's metadata and in the manifest).
+      name: the study's name; run_id: ``r`` + 10 hex digits of the resolved
+        config's hash (the same command resumes the same run).
+      paths: swept dotted paths; points: their values per configuration.
+      configs: one :class:`Study` per configuration.
+    """
+
+    def __init__(self, path: pathlib.Path, doc: dict):
+        self.path = pathlib.Path(path)
+        self.base = self.path.parent
+        self.doc = doc
+        self.text = dump_yaml(doc)
+        self.name = doc.get("study") or self.path.stem
+        digest = hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()
+        self.run_id = "r" + digest[:10]
+        top = validate(Study, doc)
+        self.paths, self.points = expand(doc.get("params") or {}, top.seed)
+        self.configs = []
+        for i, point in enumerate(self.points):
+            d = copy.deepcopy(doc)
+            d.pop("params", None)
+            for p, v in point.items():
+                _apply(d, p, v)
+            try:
+                self.configs.append(validate(Study, d))
+            except ConfigError as exc:
+                where = ", ".join(f"{p}={v!r}" for p, v in point.items())
+                lines = [f"params: configuration {i} ({where}): {ln}" for ln in exc.lines]
+                raise ConfigError(lines[0], lines) from None
+        self._parts: dict = {}
+
+    @property
+    def top(self) -> Study:
+        return self.configs[0]
+
+    def part(self, config_id: int):
+        """The :class:`~sweeps.partfile.PartFile` of a configuration (cached)."""
+        cfg = self.configs[config_id]
+        key = json.dumps(cfg.part if isinstance(cfg.part, str) else cfg.part.model_dump(),
+                         sort_keys=True)
+        if key not in self._parts:
+            self._parts[key] = load_part_ref(cfg.part, self.base)
+        return self._parts[key]
+
+    def tasks(self, config_id: int) -> list[tuple[str, tuple, tuple]]:
+        """``(name, start, goal)`` of a configuration's tasks."""
+        cfg = self.configs[config_id]
+        part = self.part(config_id)
+        if isinstance(cfg.tasks, list):
+            return explicit_tasks(cfg.tasks, part.kind)
+        return sample_tasks(cfg.tasks.sample, part, cfg.seed)
+
+
+def _apply(doc: dict, path: str, value) -> None:
+    """Set a swept value; a scalar on a range field (``friction.mu_f``) sets both ends."""
+    head, _, last = path.rpartition(".")
+    try:
+        cur = doc
+        for p in head.split(".") if head else []:
+            cur = cur.get(p, {}) if isinstance(cur, dict) else {}
+        old = cur.get(last) if isinstance(cur, dict) else None
+    except AttributeError:
+        old = None
+    if (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and (path in RANGE_FIELDS or (isinstance(old, list) and len(old) == 2))):
+        value = [value, value]
+    set_path(doc, path, value)
+
+
+RANGE_FIELDS = ("friction.mu_f", "friction.mu_s", "friction.c")
+
+
+def load_part_ref(ref, base: pathlib.Path):
+    """A part given as a bundled name, a path (relative to ``base``) or inline."""
+    from sweeps.partfile import PartFileError, load_part, parse_part
+
+    try:
+        if isinstance(ref, str):
+            try:
+                path = catalog.find_part(ref, base)
+            except FileNotFoundError as exc:
+                raise ConfigError(f"part: {ref!r}: {exc}") from None
+            return load_part(path)
+        return parse_part(ref.model_dump(exclude_none=True), base / "<inline part>")
+    except PartFileError as exc:
+        raise ConfigError(f"part: {exc}") from None
+
+
+def sample_tasks(s: GoalSampling, part, seed: int) -> list[tuple[str, tuple, tuple]]:
+    """``n`` goals in the annulus or box with headings uniform in the range
+    (faces uniform among ``faces`` for a polyhedron), seeded by ``seed``."""
+    kind = part.kind
+    start = parse_pose(s.start, "tasks.sample.start", kind) if s.start is not None else \
+        ((0.0, 0.0, 0.0) if kind == "polygon" else (0.0, 0.0, 0.0, 0))
+    h0 = parse_angle(s.heading[0], "tasks.sample.heading[0]")
+    h1 = parse_angle(s.heading[1], "tasks.sample.heading[1]")
+    if h1 < h0:
+        raise ConfigError(f"tasks.sample.heading: expected [low, high], got {list(s.heading)}")
+    rng = np.random.default_rng([int(seed), 0x7a5c])
+    faces = None
+    if kind == "polyhedron":
+        from kernels.polyhedron import make_polyhedron
+
+        n_faces = make_polyhedron(part.vertices, part.com).n_faces
+        faces = s.faces if s.faces is not None else list(range(n_faces))
+        bad = [f for f in faces if not 0 <= f < n_faces]
+        if bad:
+            raise ConfigError(f"tasks.sample.faces: faces {bad} do not exist; the part has faces "
+                              f"0..{n_faces - 1}")
+    elif s.faces is not None:
+        raise ConfigError("tasks.sample.faces: applies to polyhedra only (tumble studies)")
+    out = []
+    for i in range(s.n):
+        if s.annulus is not None:
+            r0, r1 = s.annulus
+            r = math.sqrt(r0 * r0 + rng.random() * (r1 * r1 - r0 * r0))  # uniform in area
+            a = rng.random() * 2 * math.pi
+            x, y = start[0] + r * math.cos(a), start[1] + r * math.sin(a)
+        else:
+            (x0, x1), (y0, y1) = s.box
+            x, y = x0 + rng.random() * (x1 - x0), y0 + rng.random() * (y1 - y0)
+        th = h0 + rng.random() * (h1 - h0)
+        goal = (x, y, th) if faces is None else (x, y, th, int(faces[rng.integers(len(faces))]))
+        out.append((f"goal{i:03d}", start, goal))
+    return out
+
+
+# --------------------------------------------------------------------------
+# Loading
+# --------------------------------------------------------------------------
+def load_design(ref, overrides=()) -> Design:
+    """Read a study (a path, or a bundled study's name), apply ``--set``
+    overrides, validate every configuration, resolve parts and tasks.
+
+    Raises:
+      ConfigError: one line per mistake, naming the field path and the fix.
+    """
+    try:
+        path = catalog.find_study(ref)
+    except FileNotFoundError as exc:
+        raise ConfigError(f"{ref}: {exc}") from None
+    try:
+        doc, _ = read_yaml(path, "study config")
+    except YamlError as exc:
+        raise ConfigError(str(exc)) from None
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{path}: expected a mapping with keys {', '.join(Study.model_fields)}")
+    doc = copy.deepcopy(doc)
+    for p, (v, is_axis) in parse_overrides(overrides).items():
+        axis = p[len("params."):] if p.startswith("params.") else (p if is_axis else None)
+        if not isinstance(doc.get("params"), dict):
+            doc["params"] = {}
+        if axis is not None:
+            doc["params"][axis] = v
+        else:
+            doc["params"].pop(p, None)
+            _apply(doc, p, v)
+    if not doc.get("params"):
+        doc.pop("params", None)
+    _check_param_paths(doc)
+    try:
+        design = Design(path, doc)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc.lines[0]}", [f"{path}: {ln}" for ln in exc.lines]) from None
+    for cid in range(len(design.configs)):
+        part = design.part(cid)
+        want = KIND_OF_PART[part.kind]
+        if design.configs[cid].kind != want:
+            raise ConfigError(f"{path}: kind: the part {part.name!r} is a {part.kind}, so the study "
+                              f"kind must be {want}")
+        design.tasks(cid)
+    return design
+
+
+def _check_param_paths(doc: dict) -> None:
+    """Every swept path names a field of the study (before anything is expanded)."""
+    from sweeps.config import allowed_keys
+
+    params = doc.get("params") or {}
+    if not isinstance(params, dict):
+        raise ConfigError("params: expected a mapping of dotted field paths to axes")
+    for p in params:
+        if p == "zip":
+            continue
+        parts = p.split(".")
+        if parts[0] in ("params", "study", "executor", "output", "report"):
+            raise ConfigError(f"params.{p}: {parts[0]!r} cannot be swept")
+        for i in range(len(parts)):
+            keys = allowed_keys(Study, tuple(parts[:i]))
+            if parts[i] not in keys:
+                where = ".".join(parts[:i]) or "the top level"
+                raise ConfigError(f"params.{p}: no field {parts[i]!r} in {where}; fields: "
+                                  f"{', '.join(keys)}")

@@ -1,0 +1,232 @@
+"""The units of work of a study and what each one writes.
+
+Two kinds of unit, each idempotent (deterministic inputs, keys and file names):
+
+* a **sample block** ``(config_id, task, block)``: samples ``lo..hi-1`` of a
+  task under one configuration, drawn with the key
+  ``fold_in(fold_in(key(seed), task), block)`` and written to
+  ``samples/config_id=<k>/part-t<task>-b<block>.parquet``; block 0 also
+  writes the task's ``plans`` row.  The key does not depend on the
+  configuration: configurations see the same perturbation draws wherever the
+  draws have the same shape (common random numbers, so that a swept parameter's
+  effect is not drowned in sampling noise);
+* a **summary** ``(config_id, task)``: after all of a task's blocks, reads them
+  back and writes its ``summary`` row.
+
+A unit runs in this process or on a Dask worker: it receives a small picklable
+:class:`Context`, rebuilds the study's :class:`~sweeps.study.Design` once per
+process, plans (cached per process), evaluates and writes its own files.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+import json
+import math
+import pathlib
+import time
+from typing import Optional
+
+import pyarrow as pa
+
+from robustness import tables
+
+CONTEXTS: dict = {}
+
+
+@dataclasses.dataclass(frozen=True)
+class Context:
+    """What a worker needs to run any unit of a run (small and picklable)."""
+
+    config_path: str
+    doc_json: str          # the resolved config document (JSON)
+    root: str              # the run folder
+    manifest_json: str
+
+
+@dataclasses.dataclass(frozen=True)
+class Unit:
+    """One unit of work: a sample block (``block >= 0``) or a task's summary (``block = -1``)."""
+
+    config_id: int
+    task_index: int
+    block: int = -1
+    lo: int = 0
+    hi: int = 0
+
+    @property
+    def key(self) -> str:
+        tail = "summary" if self.block < 0 else f"b{self.block:04d}"
+        return f"c{self.config_id:05d}-t{self.task_index:04d}-{tail}"
+
+    @property
+    def samples(self) -> int:
+        return max(0, self.hi - self.lo)
+
+
+class Loaded:
+    """A context unpacked in a worker: design, store, swept columns (cached per process)."""
+
+    def __init__(self, ctx: Context):
+        from sweeps.store import RunStore
+        from sweeps.study import Design
+
+        self.design = Design(pathlib.Path(ctx.config_path), json.loads(ctx.doc_json))
+        self.store = RunStore(pathlib.Path(ctx.root), json.loads(ctx.manifest_json))
+        self.swept = swept_fields(self.design)
+
+    @functools.lru_cache(maxsize=256)
+    def plan(self, config_id: int, task_index: int):
+        """``(plan or None, reason, warnings)`` of a task under a configuration."""
+        from sweeps.tasks import plan_task
+
+        cfg = self.design.configs[config_id]
+        name, start, goal = self.design.tasks(config_id)[task_index]
+        caught: list = []
+        plan, reason = plan_task(self.design.part(config_id), start, goal, cfg.planner, cfg.eps,
+                                 caught)
+        return plan, reason, tuple(" ".join(str(w.message).split()) for w in caught)
+
+    def columns(self, config_id: int) -> dict:
+        """The swept columns' values of a configuration."""
+        point = self.design.points[config_id]
+        return {f.name: _column_value(point[path], f.type)
+                for path, f in zip(self.design.paths, self.swept)}
+
+    def schema(self, table: str) -> pa.Schema:
+        return tables.with_design(tables.schema_for(table), self.swept)
+
+
+def loaded(ctx: Context) -> Loaded:
+    """The unpacked context (one per process and run)."""
+    key = (ctx.root, ctx.doc_json)
+    if key not in CONTEXTS:
+        CONTEXTS.clear()
+        CONTEXTS[key] = Loaded(ctx)
+    return CONTEXTS[key]
+
+
+def swept_fields(design) -> list[pa.Field]:
+    """One column per swept path: ``planner.margin_deg`` -> ``planner_margin_deg``
+    (``param_<name>`` where that clashes with a table's column); int64 when
+    every value is an integer, float64 for numbers, else string (JSON)."""
+    fixed = set()
+    for s in tables.TABLES.values():
+        fixed.update(s.names)
+    out = []
+    for path in design.paths:
+        name = path.replace(".", "_")
+        if name in fixed:
+            name = "param_" + name
+        vals = [p[path] for p in design.points]
+        if all(isinstance(v, int) and not isinstance(v, bool) for v in vals):
+            typ = tables.I64
+        elif all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
+            typ = tables.F64
+        else:
+            typ = tables.STR
+        out.append(pa.field(name, typ))
+    return out
+
+
+def _column_value(v, typ):
+    if typ == tables.STR:
+        return v if isinstance(v, str) else json.dumps(v)
+    return v
+
+
+def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:
+    """The sample blocks and summaries of a study not yet in ``done``."""
+    blocks, summaries = [], []
+    for cid, cfg in enumerate(design.configs):
+        size = cfg.chunk_samples or cfg.samples
+        for ti in range(len(design.tasks(cid))):
+            for b, lo in enumerate(range(0, cfg.samples, size)):
+                u = Unit(cid, ti, b, lo, min(cfg.samples, lo + size))
+                if u.key not in done:
+                    blocks.append(u)
+            s = Unit(cid, ti)
+            if s.key not in done:
+                summaries.append(s)
+    return blocks, summaries
+
+
+def run_block(ctx: Context, unit: Unit) -> dict:
+    """Evaluate one sample block and write its files; returns the log record."""
+    import jax
+    import jax.numpy as jnp
+
+    from robustness.evaluation import evaluate
+
+    t0 = time.perf_counter()
+    L = loaded(ctx)
+    design, store = L.design, L.store
+    cfg = design.configs[unit.config_id]
+    part = design.part(unit.config_id)
+    name, start, goal = design.tasks(unit.config_id)[unit.task_index]
+    plan, reason, warns = L.plan(unit.config_id, unit.task_index)
+    files = []
+    cols = L.columns(unit.config_id)
+    if unit.block == 0:
+        from sweeps.tasks import plan_row
+
+        row = {"run_id": store.run_id, **cols, **plan_row(part, name, start, goal, plan, reason)}
+        files.append(store.write("plans", unit.config_id, f"t{unit.task_index:04d}",
+                                 tables.frame([row], L.schema("plans")), L.schema("plans")))
+    rows = 0
+    if plan is not None:
+        key = jax.random.fold_in(jax.random.fold_in(jax.random.key(cfg.seed), unit.task_index),
+                                 unit.block)
+        ev = evaluate(plan, cfg.sampler(), unit.samples, key, model=cfg.model,
+                      dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
+                      pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+                      confidence=cfg.required.confidence, n_steps=cfg.n_steps, task=name,
+                      bound=False)
+        df = tables.pack_samples(ev.samples, ev.param_columns)
+        df["sample_id"] = df["sample_id"] + unit.lo
+        df.insert(0, "run_id", store.run_id)
+        for c, v in cols.items():
+            df[c] = v
+        schema = L.schema("samples")
+        files.append(store.write("samples", unit.config_id,
+                                 f"t{unit.task_index:04d}-b{unit.block:04d}", df[schema.names],
+                                 schema))
+        rows = len(df)
+    return {"key": unit.key, "files": files, "rows": rows, "seconds": time.perf_counter() - t0,
+            "warnings": list(warns), "no_plan": plan is None}
+
+
+def run_summary(ctx: Context, unit: Unit) -> dict:
+    """Summarise a task's blocks (all finished) and write its summary row."""
+    import pandas as pd
+
+    from robustness.summary import empty_summary, summarise
+
+    t0 = time.perf_counter()
+    L = loaded(ctx)
+    design, store = L.design, L.store
+    cfg = design.configs[unit.config_id]
+    name, _, _ = design.tasks(unit.config_id)[unit.task_index]
+    plan, reason, _ = L.plan(unit.config_id, unit.task_index)
+    kind = cfg.kind
+    model = "exact" if kind == "tumble" else cfg.model
+    if plan is None:
+        s = empty_summary(name, kind, model, cfg.dtype, cfg.eps.pos_eps_m, cfg.eps.theta_eps_rad,
+                          cfg.required.confidence)
+    else:
+        folder = store.table_path("samples", unit.config_id, "x").parent
+        parts = sorted(folder.glob(f"part-t{unit.task_index:04d}-b*.parquet"))
+        df = pd.concat([pd.read_parquet(p) for p in parts], ignore_index=True)
+        s = summarise(df, plan, cfg.sampler(), kind=kind, model=model, dtype=cfg.dtype,
+                      pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+                      confidence=cfg.required.confidence, task=name, bound=cfg.bounds)
+    row = {"run_id": store.run_id, **L.columns(unit.config_id), **s}
+    schema = L.schema("summary")
+    path = store.write("summary", unit.config_id, f"t{unit.task_index:04d}",
+                       tables.frame([row], schema), schema)
+    return {"key": unit.key, "files": [path], "rows": 1, "seconds": time.perf_counter() - t0,
+            "success_rate": _finite(s.get("success_rate")), "n": int(s.get("n", 0))}
+
+
+def _finite(x) -> Optional[float]:
+    return float(x) if x is not None and isinstance(x, (int, float)) and math.isfinite(x) else None
