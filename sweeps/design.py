@@ -173,7 +173,7 @@ def parse_overrides(items) -> dict:
     frictions while ``--set friction.mu_f=[0.3,0.8]`` sets the range."""
     out: dict = {}
     for item in items or ():
-        for tok in str(item).split():
+        for tok in (str(item),):
             if "=" not in tok:
                 raise ConfigError(f"--set {tok}: expected path=value (e.g. --set samples=2000 or "
                                   "--set planner.margin_deg=5,7,9)")

@@ -5,8 +5,8 @@ Both executors take a function ``fn(ctx, unit) -> record`` and yield
 twice (a Dask worker that died and whose task Dask re-ran) writes the same files
 again; the driver records what finished.
 
-Dask: a ``LocalCluster`` on 127.0.0.1 with its dashboard off (unless asked), or
-the cluster at ``address``.  Workers use JAX's persistent compilation cache
+Dask: a ``LocalCluster`` on 127.0.0.1 with its dashboard off (unless asked;
+then at http://127.0.0.1:8787), or the cluster at ``address``.  Workers use JAX's persistent compilation cache
 (:func:`enable_compilation_cache`), so each worker process compiles a kernel
 once per machine and later runs start warm.
 """
@@ -83,9 +83,13 @@ class DaskExecutor:
         if self.address:
             self.client = Client(self.address)
         else:
+            # loopback only; without the dashboard the scheduler's small HTTP server (health,
+            # metrics) takes a free loopback port instead of 8787
             self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=self.threads,
                                         processes=True, host="127.0.0.1",
-                                        dashboard_address=":8787" if self.dashboard else None,
+                                        dashboard_address="127.0.0.1:8787" if self.dashboard
+                                        else "127.0.0.1:0",
+                                        scheduler_kwargs={"dashboard": self.dashboard},
                                         silence_logs=50)
             self.client = Client(self.cluster)
         self.client.register_plugin(_CachePlugin(d))

@@ -54,9 +54,11 @@ def build_parser(prog: str = "python -m sweeps.run") -> Parser:
     p.add_argument("config", metavar="CONFIG.yaml",
                    help="a study file, or the name of a bundled study (e.g. margins.yaml)")
     p.add_argument("--out", metavar="DIR", help="run folder (default results/<study>/<run-id>)")
-    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="PATH=VALUE",
-                   help="override a field by dotted path; a comma list makes it a swept axis "
-                        "(repeatable)")
+    p.add_argument("--set", dest="overrides", action="extend", nargs="+", default=[],
+                   metavar="PATH=VALUE",
+                   help="override fields by dotted path (--set samples=2000 "
+                        "planner.margin_deg=5,7,9); a comma list makes the field a swept axis, "
+                        "[a, b] is a list value")
     p.add_argument("--dry-run", action="store_true", help="print the design and run nothing")
     p.add_argument("--executor", choices=("local", "dask"), help="override the config's executor")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary table")
@@ -144,8 +146,9 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
     from sweeps.store import RunStore, manifest_for
     from sweeps.work import Context, plan_units, run_block, run_summary
 
-    manifest = manifest_for(design.run_id, design.name, design.text, design.top.seed,
-                            {"paths": design.paths, "points": design.points})
+    manifest = manifest_for(design.run_id, design.name, design.identity, design.top.seed,
+                            {"paths": design.paths, "points": design.points},
+                            config_as_run=design.text)
     store = RunStore.open(out, manifest)
     done = store.done()
     blocks, summaries = plan_units(design, done)
@@ -157,6 +160,7 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
                     f"{len(blocks) + len(summaries)} to go")
     bar = Progress(total, quiet=quiet)
     warned: set = set()
+    findings: dict = {}
     try:
         with StopFlag(resume) as flag, make_executor(spec) as ex:
             for phase, fn, units in (("samples", run_block, blocks),
@@ -166,7 +170,9 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
                 for unit, rec in ex.run(fn, ctx, units):
                     store.mark_done(rec["key"], rec["files"], rows=rec["rows"])
                     for w in rec.get("warnings", ()):
-                        if w not in warned:
+                        if _is_finding(w):
+                            findings.setdefault(_finding_kind(w), []).append(w)
+                        elif w not in warned:
                             warned.add(w)
                             bar.note(f"warning: {w}")
                     bar.advance(unit.samples)
@@ -175,6 +181,9 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
             stopped = flag.stop
     finally:
         bar.close()
+    for kind, msgs in findings.items():
+        sys.stderr.write(f"finding: {kind} in {len(msgs)} (configuration, task) pair(s), e.g. "
+                         f"{msgs[0]} (see the summary table's bound columns)\n")
     if stopped:
         sys.stderr.write(f"stopped: finished chunks are kept; {resume}\n")
         return EXIT_INTERRUPTED
@@ -187,6 +196,15 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
         sys.stdout.write(summary_table(store, design) + "\n")
     sys.stdout.write(f"results: {out}\n")
     return EXIT_OK
+
+
+def _is_finding(message: str) -> bool:
+    """A bound exceeded by a Monte-Carlo sample (robustness.evaluation.BoundViolation)."""
+    return "BOUND VIOLATED" in message
+
+
+def _finding_kind(message: str) -> str:
+    return message.split(" (", 1)[0].lower()
 
 
 def _say(quiet: bool, text: str) -> None:

@@ -65,9 +65,11 @@ class RunStore:
     def open(cls, root, manifest: dict) -> "RunStore":
         """Open (resume) or create the run folder for ``manifest``.
 
-        The manifest's ``config`` (the resolved config text) must equal the one
-        already in the folder, if any: a changed config on an existing run is
-        refused, since mixing rows of two configs would silently corrupt it.
+        The manifest's ``config`` (the run's identity: the resolved config text
+        less where and how it runs) must equal the one already in the folder, if
+        any: a changed config on an existing run is refused, since mixing rows of
+        two configs would silently corrupt it.  Files written now carry this
+        invocation's ``config_as_run`` in their metadata.
 
         Raises:
           RunError: not writable, or another config's run is there.
@@ -86,7 +88,8 @@ class RunStore:
                 raise RunError(f"{root}: holds run {old.get('run_id', '?')} of another config "
                                f"({diff}); choose another --out, or delete the folder to start "
                                "over")
-            return cls(root, old)
+            return cls(root, {**old, "config_as_run": manifest.get("config_as_run",
+                                                                    manifest["config"])})
         body = json.dumps(manifest, indent=1, sort_keys=False) + "\n"
         atomic_write(path, lambda fh: fh.write(body), mode="w")
         return cls(root, manifest)
@@ -132,7 +135,8 @@ class RunStore:
         """Write one unit's rows of ``table`` (schema-checked: a column missing or
         extra is an error, never a silently dropped column)."""
         path = self.table_path(table, config_id, unit)
-        write_table(df, path, schema, self.manifest["config"], self.manifest["seed"], table)
+        text = self.manifest.get("config_as_run", self.manifest["config"])
+        write_table(df, path, schema, text, self.manifest["seed"], table)
         return path
 
     def read(self, table: str, config_id: Optional[int] = None) -> pd.DataFrame:
@@ -145,9 +149,13 @@ class RunStore:
         return pd.read_parquet(folder)
 
 
-def manifest_for(run_id: str, study: str, config_text: str, seed: int, design: dict) -> dict:
-    """The manifest of a new run (no wall times: a rerun compares equal)."""
-    return {"run_id": run_id, "study": study, "config": config_text, "seed": int(seed),
+def manifest_for(run_id: str, study: str, config_text: str, seed: int, design: dict,
+                 config_as_run: Optional[str] = None) -> dict:
+    """The manifest of a new run (no wall times: a rerun compares equal).
+    ``config_text`` is the run's identity; ``config_as_run`` the full text of
+    this invocation (default the same)."""
+    return {"run_id": run_id, "study": study, "config": config_text,
+            "config_as_run": config_as_run or config_text, "seed": int(seed),
             "git_commit": git_commit(), "design": design}
 
 

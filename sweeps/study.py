@@ -43,6 +43,9 @@ from sweeps.yamlio import YamlError, dump_yaml, read_yaml
 
 KIND_OF_PART = {"polygon": "push", "polyhedron": "tumble"}
 
+#: Keys that say where and how a study runs, not what it computes.
+OPERATIONAL = ("executor", "output", "report")
+
 
 class GoalSampling(Strict):
     """Sampled tasks: ``n`` goals around a start (seeded from the study's seed)."""
@@ -136,7 +139,11 @@ class Design:
         self.doc = doc
         self.text = dump_yaml(doc)
         self.name = doc.get("study") or self.path.stem
-        digest = hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()
+        # the run's identity leaves out where and how it runs: the same study resumes on
+        # another executor
+        ident = {k: v for k, v in doc.items() if k not in OPERATIONAL}
+        self.identity = dump_yaml(ident)
+        digest = hashlib.sha256(json.dumps(ident, sort_keys=True, default=str).encode()).hexdigest()
         self.run_id = "r" + digest[:10]
         top = validate(Study, doc)
         self.paths, self.points = expand(doc.get("params") or {}, top.seed)

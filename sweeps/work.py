@@ -20,7 +20,6 @@ process, plans (cached per process), evaluates and writes its own files.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import json
 import math
 import pathlib
@@ -75,17 +74,17 @@ class Loaded:
         self.store = RunStore(pathlib.Path(ctx.root), json.loads(ctx.manifest_json))
         self.swept = swept_fields(self.design)
 
-    @functools.lru_cache(maxsize=256)
     def plan(self, config_id: int, task_index: int):
-        """``(plan or None, reason, warnings)`` of a task under a configuration."""
-        from sweeps.tasks import plan_task
-
+        """``(plan or None, reason, warnings)`` of a task under a configuration
+        (cached by the planner's inputs: configurations that differ only in their
+        tolerances or friction share the plan)."""
         cfg = self.design.configs[config_id]
         name, start, goal = self.design.tasks(config_id)[task_index]
-        caught: list = []
-        plan, reason = plan_task(self.design.part(config_id), start, goal, cfg.planner, cfg.eps,
-                                 caught)
-        return plan, reason, tuple(" ".join(str(w.message).split()) for w in caught)
+        part = self.design.part(config_id)
+        key = json.dumps([part.vertices.tolist(), None if part.com is None else part.com.tolist(),
+                          start, goal, cfg.planner.model_dump(), cfg.eps.model_dump()],
+                         sort_keys=True)
+        return _plan_cached(key, part, start, goal, cfg.planner, cfg.eps)
 
     def columns(self, config_id: int) -> dict:
         """The swept columns' values of a configuration."""
@@ -95,6 +94,20 @@ class Loaded:
 
     def schema(self, table: str) -> pa.Schema:
         return tables.with_design(tables.schema_for(table), self.swept)
+
+
+_PLANS: dict = {}
+
+
+def _plan_cached(key: str, part, start, goal, planner, eps):
+    """:func:`sweeps.tasks.plan_task`, once per process for each distinct ``key``."""
+    from sweeps.tasks import plan_task
+
+    if key not in _PLANS:
+        caught: list = []
+        plan, reason = plan_task(part, start, goal, planner, eps, caught)
+        _PLANS[key] = (plan, reason, tuple(" ".join(str(w.message).split()) for w in caught))
+    return _PLANS[key]
 
 
 def loaded(ctx: Context) -> Loaded:
@@ -151,6 +164,26 @@ def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:
     return blocks, summaries
 
 
+def _recording(fn):
+    """Run a unit with its warnings recorded (returned in the record's
+    ``warnings``, one line each) instead of printed by the worker."""
+    import functools
+    import warnings
+
+    @functools.wraps(fn)
+    def wrapper(ctx, unit):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            rec = fn(ctx, unit)
+        lines = list(rec.get("warnings", ()))
+        lines += [" ".join(str(w.message).split()) for w in caught]
+        rec["warnings"] = list(dict.fromkeys(lines))
+        return rec
+
+    return wrapper
+
+
+@_recording
 def run_block(ctx: Context, unit: Unit) -> dict:
     """Evaluate one sample block and write its files; returns the log record."""
     import jax
@@ -196,6 +229,7 @@ def run_block(ctx: Context, unit: Unit) -> dict:
             "warnings": list(warns), "no_plan": plan is None}
 
 
+@_recording
 def run_summary(ctx: Context, unit: Unit) -> dict:
     """Summarise a task's blocks (all finished) and write its summary row."""
     import pandas as pd

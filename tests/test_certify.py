@@ -210,3 +210,26 @@ def test_bench_quick_result_line():
 def test_help_explains_units_and_exit_codes():
     r = nudge("certify", "--help")
     assert r.returncode == 0 and "metres" in r.stdout and "Exit status" in r.stdout
+
+
+def test_tumble_task_without_a_plan_has_zero_steps(tmp_path):
+    text = f"""part: {EXAMPLE.parent / 'cube.yaml'}
+tolerances: {{tau_v: 1e-5}}
+planner: {{tumble_eps: 1e-3}}
+eps: {{pos_eps_m: 0.0025, theta_eps_rad: 0.012}}
+n_samples: 8
+tasks:
+  - {{name: roll_two, goal: [0.2, 0.0, 0.0, 0]}}
+  - {{name: off_lattice, goal: [0.1, 0.1, 90deg, 0]}}
+"""
+    out = tmp_path / "o"
+    r = nudge("certify", _write(tmp_path, text), "--out", out, "--quiet")
+    assert r.returncode == 1, r.stderr
+    c = pd.read_parquet(out / "certificates").set_index("task")
+    assert c.loc["off_lattice", "verdict"] == "no plan" and c.loc["off_lattice", "plan_steps"] == 0
+    assert c.loc["off_lattice", "plan_verdict"] == "no_plan"
+    assert c.loc["roll_two", "plan_steps"] > 0 and c.loc["roll_two", "kind"] == "tumble"
+    s = pd.read_parquet(out / "summary").set_index("task")
+    assert s.loc["off_lattice", "n"] == 0 and s.loc["off_lattice", "dominant_failure_mode"] == "no_plan"
+    p = pd.read_parquet(out / "plans").set_index("task")
+    assert not p.loc["off_lattice", "planned"] and "not_solvable" in p.loc["off_lattice", "reason"]

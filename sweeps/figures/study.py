@@ -119,7 +119,7 @@ def failure_modes(summary: pd.DataFrame, labels: list, axis_label: str = "config
     fig, ax = plt.subplots(figsize=(max(5.2, 0.35 * len(g) + 2), 3.4))
     x = np.arange(len(g))
     bottom = np.zeros(len(g))
-    tot = g.sum(axis=1).to_numpy(float)
+    tot = np.array(g.sum(axis=1), dtype=float)
     tot[tot == 0] = 1.0
     ax.bar(x, g["n_none"] / tot, bottom=bottom, color="tab:green", label="success")
     bottom += g["n_none"].to_numpy() / tot
@@ -212,16 +212,31 @@ def bound_vs_monte_carlo(summary: pd.DataFrame, column: Optional[str], label: st
     series = (("emp_max_pos_in_model_m", "o-", "Monte-Carlo max (in the bound's model)"),
               ("bound_position_m", "s--", "first-order bound"),
               ("paper_bound_position_m", "^:", "Marigo-Bicchi eq. (6)"))
-    drawn = False
-    for col, st, lab in series:
-        v = g[col].max().to_numpy(float)
-        ok = np.isfinite(v) & (v > 0)
-        if ok.any():
-            ax.plot(np.asarray(xs)[ok], v[ok] * 1e3, st, label=lab)
-            drawn = True
-    if not drawn:
+    vals = {col: g[col].max().to_numpy(float) * 1e3 for col, _, _ in series}
+    shown = np.concatenate([v[np.isfinite(v) & (v > 0)] for c, v in vals.items()
+                            if c != "paper_bound_position_m"] or [np.zeros(0)])
+    if not shown.size and not np.isfinite(vals["paper_bound_position_m"]).any():
         plt.close(fig)
         return None
+    lo = shown.min() / 30 if shown.size else None
+    for col, st, lab in series:
+        v = vals[col]
+        ok = np.isfinite(v) & (v > 0)
+        if not ok.any():
+            continue
+        x = np.asarray(xs)[ok]
+        if col == "paper_bound_position_m" and lo is not None and (v[ok] < lo).any():
+            # eq. (6) in metres can collapse far below anything measurable: mark it at the
+            # bottom of the axis with its value instead of stretching the axis to 1e-100
+            below = v[ok] < lo
+            if (~below).any():
+                ax.plot(x[~below], v[ok][~below], st, color="tab:green", label=lab)
+            ax.plot(x[below], np.full(below.sum(), lo), "v", color="tab:green",
+                    label=f"{lab}: below the axis (down to {v[ok].min():.1e} mm)")
+            continue
+        ax.plot(x, v[ok], st, label=lab)
+    if lo is not None:
+        ax.set_ylim(bottom=lo * 0.7)
     if not num:
         ax.set_xticks(xs, [str(v) for v in g.groups], rotation=20)
     _x(ax, s[key], label if column else "configuration")

@@ -1,0 +1,308 @@
+"""Parameter studies: designs, overrides, errors, the run folder, resume after
+SIGKILL and Ctrl-C, the Dask executor (a LocalCluster on loopback, a killed
+worker), the report, and the bundled studies, through the commands a user types."""
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from sweeps.config import ConfigError
+from sweeps.design import expand, parse_overrides
+from sweeps.study import load_design
+from tests.commandline import nudge
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+TABLES = ("samples", "summary", "plans")
+
+TINY = """study: tiny
+kind: push
+part: nice_stable
+tasks:
+  - {name: a, start: [0, 0, 0], goal: [0.08, 0.03, 1.0]}
+  - {name: b, start: [0, 0, 0], goal: [-0.05, 0.06, -2.0]}
+tolerances: {tau_v: 2e-5, tau_com: 1e-4}
+execution: {start_xy: 5e-4, start_theta: 0.01}
+eps: {pos_eps_m: 0.003, theta_eps_rad: 0.05}
+model: exact
+samples: 24
+chunk_samples: 8
+seed: 3
+report: false
+params:
+  planner.margin_deg: [5, 9]
+"""
+
+
+def _study(tmp_path, text=TINY, name="tiny.yaml"):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+def run_module(*args, timeout=600, **kw):
+    """``python -m sweeps.run ARGS`` (the documented main command)."""
+    env = dict(os.environ, JAX_PLATFORMS="cpu")
+    env.pop("NUDGE_DEBUG", None)
+    return subprocess.run([sys.executable, "-m", "sweeps.run", *map(str, args)], cwd=kw.pop("cwd", ROOT),
+                          capture_output=True, text=True, timeout=timeout, env=env, **kw)
+
+
+def _tables(out):
+    got = {}
+    for t in TABLES:
+        df = pd.read_parquet(out / t)
+        key = [c for c in ("config_id", "task", "sample_id") if c in df]
+        got[t] = df.sort_values(key, kind="stable").reset_index(drop=True)
+    return got
+
+
+def _wait_for_chunks(out, n, timeout=300):
+    """Wait until the run in ``out`` has logged ``n`` finished chunks."""
+    log = out / "chunks.jsonl"
+    t0 = time.time()
+    while time.time() - t0 < timeout and (not log.exists() or len(log.read_text().splitlines()) < n):
+        time.sleep(0.01)
+    return log
+
+
+def _same(a, b):
+    for t in TABLES:
+        pd.testing.assert_frame_equal(a[t], b[t], check_exact=True)
+
+
+# ---------------------------------------------------------------- designs
+def test_axes_grid_linspace_range_random_zip():
+    paths, pts = expand({"a": [1, 2], "b": {"linspace": [0.0, 1.0, 3]}}, seed=0)
+    assert paths == ["a", "b"] and len(pts) == 6
+    assert pts[0] == {"a": 1, "b": 0.0} and pts[1] == {"a": 1, "b": 0.5} and pts[5] == {"a": 2, "b": 1.0}
+    _, pts = expand({"r": {"range": [0.0, 1.0, 0.25]}}, seed=0)
+    assert [p["r"] for p in pts] == [0.0, 0.25, 0.5, 0.75]
+    _, u1 = expand({"u": {"uniform": [1.0, 2.0], "n": 4}, "g": [0, 1]}, seed=7)
+    _, u2 = expand({"u": {"uniform": [1.0, 2.0], "n": 4}}, seed=7)
+    assert sorted({p["u"] for p in u1}) == sorted(p["u"] for p in u2)  # draws do not depend on other axes
+    assert all(1.0 <= p["u"] <= 2.0 for p in u2)
+    _, lg = expand({"l": {"loguniform": [1e-6, 1e-3], "n": 5}}, seed=1)
+    assert all(1e-6 <= p["l"] <= 1e-3 for p in lg)
+    paths, pts = expand({"a": [1, 2, 3], "b": [10, 20, 30], "c": [0, 1], "zip": [["a", "b"]]}, 0)
+    assert len(pts) == 6 and {(p["a"], p["b"]) for p in pts} == {(1, 10), (2, 20), (3, 30)}
+
+
+@pytest.mark.parametrize("params,words", [
+    ({"planner.margin_deg": {"lnspace": [1, 2, 3]}}, ["params.planner.margin_deg", "linspace", "uniform"]),
+    ({"x": True}, ["params.x", "a number, a list"]),
+    ({"a": [1, 2], "b": [1], "zip": [["a", "b"]]}, ["params.zip[0]", "equal lengths"]),
+    ({"a": [1], "zip": [["a", "nope"]]}, ["params.zip[0]", "'nope'"]),
+    ({"a": {"range": [0.0, 1.0, -0.1]}}, ["params.a", "step"]),
+    ({"a": []}, ["params.a", "empty"]),
+])
+def test_axis_errors_name_the_path(params, words):
+    with pytest.raises(ConfigError) as info:
+        expand(params, 0)
+    for w in words:
+        assert w in str(info.value), str(info.value)
+
+
+def test_overrides_axis_value_and_range():
+    got = parse_overrides(["planner.margin_deg=5,7,9", "samples=2000", "friction.mu_f=[0.3,0.8]",
+                           "tolerances.tau_v=1e-5"])
+    assert got["planner.margin_deg"] == ([5, 7, 9], True)
+    assert got["samples"] == (2000, False)
+    assert got["friction.mu_f"] == ([0.3, 0.8], False)
+    assert got["tolerances.tau_v"] == (1e-5, False) and isinstance(got["tolerances.tau_v"][0], float)
+    with pytest.raises(ConfigError, match="path=value"):
+        parse_overrides(["samples"])
+
+
+def test_design_applies_overrides_and_sweeps_range_fields(tmp_path):
+    p = _study(tmp_path)
+    d = load_design(p, ["friction.mu_f=0.3,0.8", "samples=16", "planner.margin_deg=7"])
+    assert d.paths == ["friction.mu_f"] and len(d.configs) == 2
+    assert [c.friction.mu_f for c in d.configs] == [(0.3, 0.3), (0.8, 0.8)]
+    assert all(c.samples == 16 and c.planner.margin_deg == 7 for c in d.configs)
+    assert "samples: 16" in d.text and d.run_id != load_design(p).run_id
+
+
+@pytest.mark.parametrize("edit,words", [
+    (("samples: 24", "samples: -1"), ["samples", ">= 1"]),
+    (("planner.margin_deg: [5, 9]", "planner.margin: [5, 9]"), ["params.planner.margin", "no field 'margin'", "margin_deg"]),
+    (("planner.margin_deg: [5, 9]", "planner.margin_deg: [5, 95]"), ["configuration 1", "margin_deg", "< 90"]),
+    (("tau_v: 2e-5", "tau_v: -2e-5"), ["tolerances.tau_v", ">= 0"]),
+    (("kind: push", "kind: tumble"), ["kind", "polygon", "push"]),
+    (("model: exact", "model: exact\nbogus: 1"), ["bogus", "allowed keys"]),
+    (("part: nice_stable", "part: no_such_part"), ["part", "no_such_part", "bundled"]),
+    (("  - {name: b, start: [0, 0, 0], goal: [-0.05, 0.06, -2.0]}", "  - {name: b, goal: [1, 2, 3]}"),
+     ["tasks[1].start", "needs a start"]),
+])
+def test_bad_studies_exit_2_naming_the_field_before_anything_runs(tmp_path, edit, words):
+    p = _study(tmp_path, TINY.replace(*edit))
+    out = tmp_path / "out"
+    r = run_module(p, "--out", out)
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    assert "Traceback" not in r.stderr and r.stdout == ""
+    lines = r.stderr.strip().splitlines()
+    assert all(ln.startswith("error: ") for ln in lines)
+    for w in words:
+        assert w in r.stderr, r.stderr
+    assert not out.exists()
+
+
+def test_one_error_per_mistake(tmp_path):
+    p = _study(tmp_path, TINY.replace("samples: 24", "samples: -1").replace("tau_v: 2e-5", "tau_v: -1"))
+    with pytest.raises(ConfigError) as info:
+        load_design(p)
+    assert len(info.value.lines) == 2
+    assert any("samples" in ln for ln in info.value.lines)
+    assert any("tolerances.tau_v" in ln for ln in info.value.lines)
+
+
+def test_unwritable_output_is_refused_first(tmp_path):
+    p = _study(tmp_path)
+    blocker = tmp_path / "blocker"
+    blocker.write_text("")
+    r = run_module(p, "--out", blocker / "run")
+    assert r.returncode == 2 and "cannot write results" in r.stderr
+
+
+def test_dry_run_prints_the_design_and_writes_nothing(tmp_path):
+    p = _study(tmp_path)
+    r = nudge("sweep", p, "--dry-run", "--out", tmp_path / "out", "--set", "tolerances.tau_v=0,1e-5")
+    assert r.returncode == 0, r.stderr
+    assert "4 configuration(s) x 2 task(s)" in r.stdout and "estimate" in r.stdout
+    assert "planner.margin_deg" in r.stdout and "tolerances.tau_v" in r.stdout
+    assert "chunk" in r.stdout
+    assert not (tmp_path / "out").exists()
+
+
+# ---------------------------------------------------------------- running
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """An uninterrupted run of the tiny study (local executor)."""
+    tmp = tmp_path_factory.mktemp("ref")
+    p = _study(tmp)
+    out = tmp / "out"
+    r = run_module(p, "--out", out)
+    assert r.returncode == 0, r.stderr
+    return p, out, _tables(out), r
+
+
+def test_tables_layout_and_dtypes(reference):
+    p, out, t, r = reference
+    s, summ, plans = t["samples"], t["summary"], t["plans"]
+    assert len(s) == 2 * 2 * 24 and s["sample_id"].max() == 23
+    assert s["run_id"].nunique() == 1 and s["run_id"].iloc[0].startswith("r")
+    assert sorted(s["config_id"].astype(int).unique()) == [0, 1]
+    assert s["planner_margin_deg"].dtype == np.int64
+    assert set(zip(summ["config_id"].astype(int), summ["planner_margin_deg"])) == {(0, 5), (1, 9)}
+    assert summ["n"].tolist() == [24] * 4 and str(summ["bound_violated"].dtype) == "boolean"
+    assert plans["planned"].all() and (plans["n_steps"] > 0).all()
+    assert (out / "manifest.json").is_file()
+    man = json.loads((out / "manifest.json").read_text())
+    assert man["design"]["points"] == [{"planner.margin_deg": 5}, {"planner.margin_deg": 9}]
+    # the summary table at the end names the swept parameter
+    assert "planner_margin_deg" in r.stdout and "results:" in r.stdout
+
+
+def test_resume_after_sigkill_is_bit_identical(reference, tmp_path):
+    p, _, ref, _ = reference
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "sweeps.run", str(p), "--out", str(out), "--quiet"],
+                            cwd=ROOT, env=dict(os.environ, JAX_PLATFORMS="cpu"),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    log = _wait_for_chunks(out, 2)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    done_before = len(log.read_text().splitlines())
+    assert done_before < 2 * 2 * 3 + 4, "the run finished before it could be killed"
+    r = run_module(p, "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert "resuming" in r.stderr
+    _same(_tables(out), ref)
+
+
+def test_ctrl_c_stops_cleanly_and_resumes(reference, tmp_path):
+    p, _, ref, _ = reference
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "sweeps.run", str(p), "--out", str(out)],
+                            cwd=ROOT, env=dict(os.environ, JAX_PLATFORMS="cpu"),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    _wait_for_chunks(out, 1)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 130, err
+    assert "resume" in err and "Traceback" not in err
+    r = run_module(p, "--out", out)
+    assert r.returncode == 0, r.stderr
+    _same(_tables(out), ref)
+
+
+def test_rerun_of_a_finished_run_changes_nothing_and_changed_config_is_refused(reference, tmp_path):
+    p, out, ref, _ = reference
+    r = run_module(p, "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    _same(_tables(out), ref)
+    r = run_module(p, "--out", out, "--set", "samples=25")
+    assert r.returncode == 2 and "another config" in r.stderr
+
+
+def test_dask_executor_matches_local(reference, tmp_path):
+    p, _, ref, _ = reference
+    out = tmp_path / "out"
+    r = nudge("sweep", p, "--out", out, "--executor", "dask", "--quiet")
+    assert r.returncode == 0, r.stderr
+    _same(_tables(out), ref)
+
+
+def test_a_killed_dask_worker_loses_and_duplicates_nothing(reference, tmp_path):
+    from distributed import Client, LocalCluster
+
+    p, _, ref, _ = reference
+    out = tmp_path / "out"
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address="127.0.0.1:0", scheduler_kwargs={"dashboard": False},
+                      silence_logs=50) as cluster, Client(cluster) as client:
+        pids = list(client.run(os.getpid).values())
+        proc = subprocess.Popen([sys.executable, "-m", "sweeps.run", str(p), "--out", str(out),
+                                 "--quiet", "--set", f"executor={{kind: dask, address: '{cluster.scheduler_address}'}}"],
+                                cwd=ROOT, env=dict(os.environ, JAX_PLATFORMS="cpu"),
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        _wait_for_chunks(out, 1)
+        os.kill(pids[0], signal.SIGKILL)   # the nanny restarts it; its tasks are re-run
+        _, err = proc.communicate(timeout=600)
+    assert proc.returncode == 0, err
+    got = _tables(out)
+    assert not got["samples"].duplicated(["config_id", "task", "sample_id"]).any()
+    _same(got, ref)
+
+
+def test_report_is_self_contained(tmp_path):
+    p = _study(tmp_path, TINY.replace("report: false", "report: true").replace("samples: 24", "samples: 8"))
+    out = tmp_path / "out"
+    r = nudge("sweep", p, "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    html = (out / "report.html").read_text()
+    assert html.count("data:image/png;base64,") >= 4
+    assert "http://" not in html and "https://" not in html and "<script" not in html
+    assert "alt=\"success vs planner.margin_deg\"" in html
+
+
+# ---------------------------------------------------------------- bundled studies
+@pytest.mark.parametrize("name", ["margins.yaml", "tolerances.yaml"])
+def test_bundled_studies_are_found_by_name_and_valid(tmp_path, name):
+    r = run_module(name, "--dry-run", cwd=tmp_path)   # not in the working folder: the bundled one
+    assert r.returncode == 0, r.stderr
+    assert "configuration(s)" in r.stdout
+
+
+def test_bundled_margins_runs_small(tmp_path):
+    r = run_module("margins.yaml", "--out", tmp_path / "out", "--set", "samples=8",
+                   "--set", "tasks.sample.n=2", "--quiet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    s = pd.read_parquet(tmp_path / "out" / "summary")
+    assert len(s) == 2 * len(s["config_id"].unique()) and (s["n"] == 8).all()
