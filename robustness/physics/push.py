@@ -1,0 +1,226 @@
+"""Push plans rolled out in MuJoCo: :func:`rollout_push_plan`.
+
+One row per sample, comparable row by row with
+:func:`robustness.evaluation.evaluate`'s quasi-static and exact rows of the
+same draws: the same perturbed hull (nominal order) and centre of mass, the
+same support distribution (feet realising the sampled points and weights,
+:mod:`robustness.physics.geometry`), ``mu_f``, ``mu_s``, start error, fence
+angle and push-distance errors; poses reported for the NOMINAL reference point
+(the simulated centre of mass minus ``R(theta) dcom``).  How the cell runs
+the plan: :mod:`robustness.physics.pushing`.
+"""
+from __future__ import annotations
+
+import math
+import time
+from typing import Optional
+
+import numpy as np
+
+from kernels.planar import wrap_angle_np
+from robustness.physics import geometry as geo
+from robustness.physics import scene
+from robustness.physics.monitor import Recorder, flush_edge, planar_pose, yaw_quat
+from robustness.physics.pushing import FenceStrokes, PushTracker, nominal_polygon, push_parts
+from robustness.physics.runner import check_batch, make_engine, resolve_backend, run_schedule
+from robustness.physics.settings import PhysicsSettings
+
+STROKES = ("planned", "contact")
+
+#: failure modes of a physics row, in the order they are assigned
+PUSH_FAILURE_MODES = ("none", "hull_changed", "left_workspace", "toppled", "fence_strike",
+                      "incomplete_reorientation", "wrong_edge", "slip", "position", "orientation")
+
+
+def _workspace(plan, poly, s) -> tuple:
+    """Default workspace: the planned centre-of-mass positions and the fence's
+    planned strokes, grown by the part's radius, the push offset and 5 cm."""
+    pts = [plan.start[:2]] + [q.pose_after[:2] for q in plan.pushes]
+    xy = np.asarray(pts, np.float64)
+    grow = float(np.max(np.linalg.norm(poly.body, axis=1))) + s.push_offset + 0.05
+    return (xy[:, 0].min() - grow, xy[:, 0].max() + grow, xy[:, 1].min() - grow,
+            xy[:, 1].max() + grow)
+
+
+def _models(parts, idx, s, impratio):
+    models = []
+    for i in idx:
+        mass, inertia = geo.prism_mass_properties(parts.body[i], s.part_thickness, s.part_density)
+        models.append(scene.push_model(parts.body[i], parts.feet[i], mass, inertia,
+                                       float(parts.mu_f[i]), float(parts.mu_s[i]), s, impratio))
+    return models
+
+
+def _initial_state(parts, idx, layout, schedule, s) -> np.ndarray:
+    st = np.zeros((len(idx), layout.nstate))
+    pq, tq = layout.part_qpos, layout.tool_qpos
+    st[:, pq:pq + 2] = parts.start[idx, :2]
+    st[:, pq + 2] = s.foot_radius
+    st[:, pq + 3:pq + 7] = yaw_quat(parts.start[idx, 2])
+    st[:, tq:tq + 4] = np.broadcast_to(schedule.phases[0].start, (len(idx), 4))
+    return st
+
+
+def _simulate(plan, poly, parts, idx, s, backend, workspace, stroke):
+    """Run the valid samples; returns the per-sample pieces for them."""
+    models = _models(parts, idx, s, s.mjx_impratio if backend == "mjx" else s.impratio)
+    lay = scene.layout(models[0])
+    strokes = FenceStrokes(plan, poly, parts, idx, s, stroke == "contact")
+    sched = strokes.schedule
+    settle = 0
+    dwells = [strokes.phase_of[k]["dwell"] for k in range(len(plan.pushes))]
+    rec = Recorder(sched, lay, len(idx), workspace, keep=[settle] + dwells)
+    body = parts.body[idx]
+    trk = PushTracker(sched, lay, body, len(plan.pushes), s)
+    engine = make_engine(backend, models, s)
+    out = {"c_physical": np.full(len(idx), np.nan), "support_ok": np.zeros(len(idx), bool)}
+    before = {settle: 0, **{strokes.phase_of[k]["lift"]: k + 1 for k in range(len(plan.pushes) - 1)}}
+
+    def next_push(state, i_phase):
+        """Contact strokes: push k's stroke from where the part is now."""
+        if stroke == "contact" and i_phase in before:
+            strokes.retarget(before[i_phase], state, lay, body)
+        return state
+
+    def after_settle(state, i_phase):
+        loads = np.abs(rec.sensors[settle][:, list(lay.foot_force)])
+        mus = []
+        for j, i in enumerate(idx):
+            mu, cap, ok = geo.foot_friction(parts.weights[i], loads[j], float(parts.mu_s[i]))
+            mus.append(mu)
+            out["c_physical"][j] = geo.realised_c(parts.feet[i], cap)
+            out["support_ok"][j] = ok and geo.com_inside_feet(parts.feet[i])
+        engine.set_pair_friction(lay.foot_pairs, np.stack(mus))
+        return next_push(state, i_phase)
+
+    hooks = {p: next_push for p in before if stroke == "contact"}
+    hooks[settle] = after_settle
+    try:
+        final = run_schedule(engine, sched, _initial_state(parts, idx, lay, sched, s), [rec, trk],
+                             s.chunk_steps, hooks=hooks)
+    finally:
+        engine.close()
+    dcom = parts.dcom[idx]
+    poses, edges = [], []
+    for p in dwells:
+        pose, _ = planar_pose(rec.ends[p], lay, dcom)
+        poses.append(pose)
+        edges.append(flush_edge(rec.ends[p], lay, body, s.fence_thickness, s.flush_tol,
+                                s.contact_tol))
+    pose_f, tilt_f = planar_pose(final, lay, dcom)
+    out.update(pose=pose_f, final_tilt=tilt_f, pose_after=np.stack(poses, 1),
+               edges=np.stack(edges, 1), slip_per_push=trk.slip, contact=trk.contact,
+               fence_strike=trk.strike, max_tilt=rec.max_tilt, left_workspace=rec.left,
+               steps=sched.total)
+    return out
+
+
+def rollout_push_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
+                      settings: Optional[PhysicsSettings] = None, workspace=None,
+                      pos_eps_m: float = 1e-3, theta_eps_rad: float = math.radians(1.0),
+                      slip_fraction: float = 0.25, stroke: str = "planned") -> dict:
+    """Roll a push plan out in MuJoCo on ``n`` sampled parts and executions.
+
+    Args:
+      plan: a :class:`planning.PushPlan`.
+      params, in_axes: ``robustness.Sampler(...).sample(key, n, n_vertices=m,
+        dim=2, n_pushes=P, body=<nominal body polygon>)``.
+      n: number of samples.
+      backend: ``"c"`` (C engine, ``mujoco.rollout`` threads), ``"mjx"`` (MJX,
+        float32, vmapped) or ``"auto"`` (MJX on an accelerator, else C).
+      settings: :class:`PhysicsSettings` (defaults documented there).
+      workspace: ``(xmin, xmax, ymin, ymax)`` (m, world): leaving it fails
+        the sample; default: the plan's poses and strokes grown by 5 cm and
+        the part's size.
+      pos_eps_m, theta_eps_rad: success tolerances (m; rad).
+      slip_fraction: a failed sample that slipped at least this times
+        ``pos_eps_m`` fails by ``slip`` (as in the evaluation).
+      stroke: ``"planned"`` (open loop: every stroke from the planned pose,
+        as a cell without sensing runs the plan) or ``"contact"`` (each
+        stroke from where the part is before the push: the fence's
+        in-contact travel is the sampled distance, the semantics of the
+        quasi-static and exact models; use it to compare rows).
+
+    Returns:
+      dict of numpy arrays, one entry per sample (n) unless said:
+      ``x``, ``y``, ``theta`` final pose of the nominal reference point
+      (m, rad, world); ``pose_after`` (n, P, 3) after each push's dwell;
+      ``edges`` (n, P) hull edge flush on the fence at the end of each push
+      (-1: none; hull order of :func:`kernels.polygon.make_polygon`),
+      ``complete`` (n, P), ``planned_edges`` (P,); ``slip`` (m, summed),
+      ``slip_per_push`` (n, P), ``contact`` (n, P) the fence touched the
+      part during push k; ``max_tilt``, ``final_tilt`` (rad); flags
+      ``tipped``, ``toppled``, ``fence_strike``, ``left_workspace``,
+      ``hull_changed``, ``simulated``, ``support_ok`` (the feet realise the
+      sampled distribution and the centre of mass stands inside them);
+      ``c`` sampled and ``c_physical`` realised limit-surface ratios (m),
+      ``support_shift`` (m) the sampled weights' centroid off the centre of
+      mass and ``support_centred`` whether the weights were centred;
+      ``err_x``, ``err_y``, ``err_pos`` (m), ``err_theta`` (rad) against the
+      goal, ``success``, ``failure_mode`` (one of ``PUSH_FAILURE_MODES``);
+      and ``backend`` (str), ``steps`` (physics steps per sample),
+      ``seconds`` (wall time).  Samples not simulated (hull changed) hold NaN
+      / -1 / False.
+    """
+    s = settings or PhysicsSettings()
+    backend = resolve_backend(backend)
+    check_batch(params, in_axes, n)
+    if not plan.pushes:
+        raise ValueError("plan: has no pushes; nothing to roll out")
+    if stroke not in STROKES:
+        raise ValueError(f"stroke: expected one of {STROKES}, got {stroke!r}")
+    t0 = time.perf_counter()
+    poly, planned = nominal_polygon(plan)
+    parts = push_parts(plan, poly, params, in_axes, n, s.support)
+    ws = tuple(workspace) if workspace is not None else _workspace(plan, poly, s)
+    idx = np.flatnonzero(parts.valid)
+    P = len(plan.pushes)
+    res = {"x": np.full(n, np.nan), "y": np.full(n, np.nan), "theta": np.full(n, np.nan),
+           "pose_after": np.full((n, P, 3), np.nan), "edges": np.full((n, P), -1, np.int64),
+           "slip_per_push": np.full((n, P), np.nan), "contact": np.zeros((n, P), bool),
+           "max_tilt": np.full(n, np.nan), "final_tilt": np.full(n, np.nan),
+           "fence_strike": np.zeros(n, bool), "left_workspace": np.zeros(n, bool),
+           "support_ok": np.zeros(n, bool), "c_physical": np.full(n, np.nan)}
+    steps = 0
+    for lo in range(0, idx.size, s.batch):
+        grp = idx[lo:lo + s.batch]
+        out = _simulate(plan, poly, parts, grp, s, backend, ws, stroke)
+        steps = out.pop("steps")
+        pose = out.pop("pose")
+        res["x"][grp], res["y"][grp], res["theta"][grp] = pose[:, 0], pose[:, 1], pose[:, 2]
+        for k, v in out.items():
+            res[k][grp] = v
+    _classify(res, plan, planned, parts, pos_eps_m, theta_eps_rad, slip_fraction, s)
+    res.update(backend=backend, steps=int(steps), seconds=time.perf_counter() - t0)
+    return res
+
+
+def _classify(res, plan, planned, parts, pe, te, slip_fraction, s) -> None:
+    """Flags, errors, success and failure mode (in ``PUSH_FAILURE_MODES`` order)."""
+    sim = parts.valid.copy()
+    planned = np.asarray(planned, np.int64)
+    res["planned_edges"] = planned
+    res["complete"] = res["edges"] >= 0
+    res["slip"] = np.nansum(res["slip_per_push"], axis=1)
+    res["tipped"] = sim & (res["max_tilt"] > s.tip_angle)
+    res["toppled"] = sim & (res["final_tilt"] > s.topple_angle)
+    res["hull_changed"] = ~parts.valid
+    res["simulated"] = sim
+    res["c"] = np.asarray(parts.c, np.float64)
+    res["support_shift"] = parts.shift
+    res["support_centred"] = parts.centred
+    goal = np.asarray(plan.goal, np.float64)
+    res["err_x"], res["err_y"] = res["x"] - goal[0], res["y"] - goal[1]
+    res["err_pos"] = np.hypot(res["err_x"], res["err_y"])
+    res["err_theta"] = wrap_angle_np(res["theta"] - goal[2])
+    within = (res["err_pos"] <= pe) & (np.abs(res["err_theta"]) <= te)
+    incomplete = (~res["complete"]).any(axis=1)
+    wrong = (res["complete"] & (res["edges"] != planned[None, :])).any(axis=1)
+    res["success"] = sim & within & ~res["left_workspace"] & ~res["toppled"]
+    conds = [~sim, res["left_workspace"], res["toppled"], res["fence_strike"], incomplete, wrong,
+             res["slip"] >= slip_fraction * pe, res["err_pos"] > pe]
+    mode = np.select(conds, list(PUSH_FAILURE_MODES[1:9]), default="orientation")
+    res["failure_mode"] = np.where(res["success"], "none", mode)
+
+
+__all__ = ["rollout_push_plan", "PUSH_FAILURE_MODES", "STROKES"]

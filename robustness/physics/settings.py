@@ -1,0 +1,183 @@
+"""Settings of the physics rollouts: the cell, the part's material, the
+engine, and the thresholds that classify an outcome.
+
+Every default carries the number that justifies it, measured with the C
+engine (MuJoCo 4.0.0) on this project's scenes by ``bench/fidelity.py`` and
+``bench/physics.py`` (2 CPU cores); the figures are repeated in the closing
+note of issue 9.  Units: metres, seconds, radians, kilograms, newtons.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+BACKENDS = ("auto", "c", "mjx")
+SUPPORT_MODES = ("tripod", "centred", "sampled")
+
+
+def _positive(obj, name: str) -> None:
+    v = getattr(obj, name)
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+    if not ok:
+        raise ValueError(f"{name}: expected a finite number > 0, got {v!r}")
+
+
+def _nonneg_int(obj, name: str) -> None:
+    v = getattr(obj, name)
+    if not (isinstance(v, int) and not isinstance(v, bool) and v >= 0):
+        raise ValueError(f"{name}: expected an integer >= 0, got {v!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class PhysicsSettings:
+    """How the cell runs a plan and how MuJoCo simulates it.
+
+    Engine
+      timestep: 4 ms.  On the rectangle's 7-push plan (goal (0.05, 0.05, 1.0))
+        2 ms moved the final poses by at most 0.07 mm and the summed slips
+        by at most 0.4 mm (of 3.5-9.5 mm); 8 ms moved the poses by up to
+        0.44 mm.  Soft contacts need ``timeconst >= 2 timestep`` (20 ms).
+      noslip_iterations: 20 (C engine).  Without them a sticking contact
+        creeps: the rectangle's 15 cm reorient push at mu_f 1.5 (the
+        quasi-static model sticks) slid 7.99 mm along the fence with
+        impratio 1, 0.23 mm with impratio 100, and 0.058 mm with noslip 20
+        (``bench/physics.py``).  MJX accepts the option and ignores it.
+      impratio: 1 on the C engine (noslip removes the creep);
+        ``mjx_impratio`` 100 on MJX, the remedy there (0.50-0.60 mm of creep
+        on the same push, :mod:`robustness.physics.mjx_engine`).
+      iterations, ls_iterations, tolerance: Newton solver settings.
+      cone: elliptic always (pyramidal cones: 156 mm and 114 deg of error on
+        a plan that elliptic gets to 8 mm, issue 9).  multiccd stays on
+        (MuJoCo 4's default; checked when a model is built): with one contact
+        point per pair a flush edge walks sideways by ~5 % of the travel.
+
+    Push cell (Akella-Mason: a fence moved by a robot, open loop)
+      push_speed: 5 mm/s of fence travel while in contact (quasi-static for
+        15-22 g parts; at 15 mm/s the slip changed sign, issue 9).
+      push_offset: 30 mm, the paper's approach offset before the planned
+        contact line.
+      slow_zone: the last 5 mm of the approach run at ``push_speed`` (the
+        first ``push_offset - slow_zone`` at ``approach_speed``).
+      approach_speed, transit_speed, lift_speed (m/s), yaw_rate (rad/s).
+      retract: back-off along the push direction before lifting, m.
+      clearance: fence (or plate) bottom above the part's top when lifted, m.
+      settle_time, dwell_time: s, rest before the first push and after each
+        push (the pose after a push is read at the end of its dwell).
+      part_thickness: extrusion of a polygonal part, m (3 mm: a plate.  The
+        fence pushes at half the thickness above the support, and that
+        moment shifts the feet's loads: on the rectangle with 16 support
+        points, 10 mm of thickness left 37 % of the feet unloaded during a
+        push, and the planar models know nothing of it).
+      part_density: kg/m^3 of the extruded polygon (7800, steel: the
+        40 x 20 x 3 mm rectangle weighs 18.7 g, in the 15-22 g range that
+        issue 9 found quasi-static at 5 mm/s).
+      support: how the sampled support friction is realised
+        (:mod:`robustness.physics.geometry`): ``"tripod"`` (default) three
+        feet with the sampled ``c``, statically determinate; ``"centred"``
+        feet at the sampled points, weights moved to the nearest with the
+        same ``c`` and their centroid under the centre of mass; ``"sampled"``
+        feet at the sampled points with the sampled weights.
+      foot_radius: radius of the support feet (spheres at the sampled
+        support points), m.
+      fence_length, fence_thickness, fence_gap (bottom above the support), m.
+      tool_mass: kg of the driven fence / plate (gravity-compensated).
+      servo_kp: N/m of the x/y position servos; ``servo_yaw_kp`` N m/rad;
+        velocity servos critically damp them (``2 sqrt(kp m)``) and take the
+        commanded velocity as their reference, so there is no tracking lag.
+
+    Tumble cell (Marigo-Bicchi Fig. 1: a parallel-jaw gripper whose upper
+    plate rolls the part on the lower one, both high-friction pads)
+      plate_speed: largest horizontal speed of the upper plate, m/s.
+      grip_ratio: grasp force of the upper plate in units of the part's
+        weight (passive vertical compliance: a soft spring preloaded to it).
+      plate_compliance: spring preload travel, m (the grasp force changes by
+        ``grip * dz / plate_compliance`` when the part's top is ``dz`` off the
+        nominal prediction).
+      polyhedron_density: kg/m^3.
+
+    Thresholds (outcome classification)
+      contact_tol: a vertex within this of the fence's face touches it, m.
+      flush_tol: an edge within this angle of the fence lies flush, rad.
+      tip_angle: a tilt above this at any time is ``tipped``, rad.
+      topple_angle: a final tilt above this is ``toppled``, rad.
+      face_tol: a face within this angle of the support lies on it, rad.
+      slip_stride: steps between the samples of the contact point's
+        tangential position from which the slip along the fence is summed.
+
+    Runner
+      chunk_steps: steps per engine call (the C rollout and the MJX scan run
+        this many steps between host-side bookkeeping; MJX compiles once for
+        it).
+      threads: C-engine threads (0: one per CPU core available).
+      batch: samples simulated together (memory: each engine call returns
+        ``batch x chunk_steps`` states and sensor rows; MJX compiles once per
+        batch size).
+    """
+
+    timestep: float = 0.004
+    noslip_iterations: int = 20
+    impratio: float = 1.0
+    mjx_impratio: float = 100.0
+    iterations: int = 50
+    ls_iterations: int = 20
+    tolerance: float = 1e-10
+
+    push_speed: float = 0.005
+    push_offset: float = 0.03
+    slow_zone: float = 0.005
+    approach_speed: float = 0.02
+    transit_speed: float = 0.05
+    lift_speed: float = 0.02
+    yaw_rate: float = 1.0
+    retract: float = 0.005
+    clearance: float = 0.01
+    settle_time: float = 0.3
+    dwell_time: float = 0.3
+
+    part_thickness: float = 0.003
+    part_density: float = 7800.0
+    support: str = "tripod"
+    foot_radius: float = 0.0005
+    fence_length: float = 0.2
+    fence_thickness: float = 0.005
+    fence_gap: float = 0.0002
+    tool_mass: float = 1.0
+    servo_kp: float = 2.0e4
+    servo_yaw_kp: float = 100.0
+
+    plate_speed: float = 0.02
+    grip_ratio: float = 2.0
+    plate_compliance: float = 0.02
+    polyhedron_density: float = 500.0
+
+    contact_tol: float = 0.0005
+    flush_tol: float = math.radians(0.5)
+    tip_angle: float = math.radians(5.0)
+    topple_angle: float = math.radians(45.0)
+    face_tol: float = math.radians(5.0)
+    slip_stride: int = 10
+
+    chunk_steps: int = 1000
+    threads: int = 0
+    batch: int = 256
+
+    def __post_init__(self):
+        if self.support not in SUPPORT_MODES:
+            raise ValueError(f"support: expected one of {SUPPORT_MODES}, got {self.support!r}")
+        for f in dataclasses.fields(self):
+            if f.name == "support":
+                continue
+            if f.name in ("noslip_iterations", "iterations", "ls_iterations", "threads"):
+                _nonneg_int(self, f.name)
+            elif f.name in ("slip_stride", "chunk_steps", "batch"):
+                _nonneg_int(self, f.name)
+                if getattr(self, f.name) < 1:
+                    raise ValueError(f"{f.name}: expected an integer >= 1, got "
+                                     f"{getattr(self, f.name)!r}")
+            else:
+                _positive(self, f.name)
+        if self.slow_zone > self.push_offset:
+            raise ValueError(f"slow_zone: must not exceed push_offset ({self.push_offset} m), got "
+                             f"{self.slow_zone}")
+        if self.fence_gap >= self.part_thickness:
+            raise ValueError("fence_gap: must be below part_thickness, or the fence misses the part")

@@ -1,0 +1,280 @@
+"""Physics rollouts (robustness.physics) on the C engine: tiny batches.
+
+The MJX backend has its own file (tests/test_physics_mjx.py: one CPU smoke
+test, the rest need an accelerator).
+"""
+import dataclasses
+import math
+import pathlib
+import warnings
+
+import jax
+import numpy as np
+import pytest
+
+from kernels import polygon as pg
+from planning import plan_pose, plan_tumble
+from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler, evaluate
+from robustness.physics import PhysicsSettings, rollout_push_plan, rollout_tumble_plan
+from robustness.physics import geometry as geo
+from robustness.physics.monitor import mat_to_quat, quat_to_mat, yaw_tilt
+from robustness.physics.schedule import Phase, Schedule
+from sweeps.partfile import load_part
+
+EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
+
+
+def _part(name):
+    return load_part(EXAMPLES / f"{name}.yaml")
+
+
+def _push_params(plan, sampler, n=1, seed=0):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", pg.PartWarning)
+        poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    return sampler.sample(jax.random.key(seed), n, n_vertices=len(plan.vertices), dim=2,
+                          n_pushes=plan.n_pushes, body=poly.body)
+
+
+def _single_push(plan, k, distance=None):
+    """Plan made of push ``k`` of ``plan`` alone (optionally another distance)."""
+    start = plan.start if k == 0 else plan.pushes[k - 1].pose_after
+    push = plan.pushes[k]
+    if distance is not None:
+        push = dataclasses.replace(push, distance=float(distance))
+    return dataclasses.replace(plan, start=tuple(start), goal=tuple(push.pose_after), pushes=(push,))
+
+
+@pytest.fixture(scope="module")
+def rectangle():
+    return _part("rectangle")
+
+
+@pytest.fixture(scope="module")
+def reorient_plan(rectangle):
+    """A single reorient push of the rectangle from the planner."""
+    plan = plan_pose(rectangle.vertices, (0.0, 0.0, 0.0), (0.05, 0.05, 1.0), com=rectangle.com)
+    k = next(i for i, p in enumerate(plan.pushes) if p.kind == "reorient")
+    return _single_push(plan, k)
+
+
+# --------------------------------------------------------------------------
+# Pushes
+# --------------------------------------------------------------------------
+def test_translating_box_neither_turns_nor_walks(rectangle):
+    plan = plan_pose(rectangle.vertices, (0.0, 0.0, 0.0), (0.1, 0.0, 0.0), com=rectangle.com)
+    assert [p.kind for p in plan.pushes] == ["translate"]
+    sam = Sampler(friction=FrictionRange(mu_f=(0.8, 0.8), mu_s=(0.5, 0.5)))
+    r = rollout_push_plan(plan, *_push_params(plan, sam), 1, backend="c")
+    d = np.asarray(plan.pushes[0].direction)
+    sideways = abs(-d[1] * r["x"][0] + d[0] * r["y"][0])
+    assert sideways < 1e-4                       # < 0.1 mm over 10 cm
+    assert abs(r["theta"][0]) < math.radians(0.05)
+    assert r["edges"][0, 0] == r["planned_edges"][0]
+    assert r["success"][0] and r["failure_mode"][0] == "none"
+    assert r["slip"][0] < 1e-4 and not r["fence_strike"][0] and not r["tipped"][0]
+
+
+def test_reorient_push_ends_flush_on_planned_edge(reorient_plan):
+    sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(0.5, 0.5)))
+    r = rollout_push_plan(reorient_plan, *_push_params(reorient_plan, sam), 1, backend="c")
+    assert r["complete"][0, 0] and r["edges"][0, 0] == r["planned_edges"][0]
+    assert abs(r["err_theta"][0]) < math.radians(0.2)
+    assert r["err_pos"][0] < 1e-3
+
+
+def test_push_shorter_than_half_peshkin_stays_incomplete(reorient_plan):
+    push = reorient_plan.pushes[0]
+    peshkin = push.min_distance / reorient_plan.safety_factor
+    plan = _single_push(reorient_plan, 0, distance=0.45 * peshkin)
+    body = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com)).body
+    a = float(np.max(np.linalg.norm(body, axis=1)))
+    sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), c=(a, a)))   # the slowest rotation
+    r = rollout_push_plan(plan, *_push_params(plan, sam), 1, backend="c")
+    assert not r["complete"][0, 0] and r["edges"][0, 0] == -1
+    assert r["failure_mode"][0] == "incomplete_reorientation"
+    qs = evaluate(plan, sam, 1, jax.random.key(0), model="quasistatic", bound=False).samples
+    assert qs["n_incomplete"].iloc[0] == 1
+
+
+def test_sticking_push_agrees_with_quasistatic_model(reorient_plan):
+    sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(0.5, 0.5)))
+    key = jax.random.key(3)
+    qs = evaluate(reorient_plan, sam, 1, key, model="quasistatic", bound=False).samples
+    assert qs["slip_m"].iloc[0] == 0.0               # the model predicts sticking
+    params = _push_params(reorient_plan, sam, seed=3)
+    r = rollout_push_plan(reorient_plan, *params, 1, backend="c", stroke="contact")
+    dpos = math.hypot(r["x"][0] - qs["final_x_m"].iloc[0], r["y"][0] - qs["final_y_m"].iloc[0])
+    assert dpos < 2e-4
+    assert abs(r["theta"][0] - qs["final_theta_rad"].iloc[0]) < math.radians(0.2)
+
+
+def test_row_semantics_match_the_exact_model(rectangle):
+    """Centre-of-mass offset, start and fence errors: the physics row of a
+    sample and its exact-model row describe the same part and execution."""
+    plan = plan_pose(rectangle.vertices, (0.0, 0.0, 0.0), (0.08, 0.0, 0.0), com=rectangle.com)
+    sam = Sampler(geometry=GeometryTolerance(tau_com=0.002),
+                  friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(0.5, 0.5)),
+                  execution=ExecutionTolerance(start_xy=0.001, start_theta=math.radians(2),
+                                               fence_angle=math.radians(0.5)))
+    key = jax.random.key(7)
+    ex = evaluate(plan, sam, 2, key, model="exact", bound=False).samples
+    params = sam.sample(key, 2, n_vertices=4, dim=2, n_pushes=1,
+                        body=pg.make_polygon(rectangle.vertices, rectangle.com).body)
+    r = rollout_push_plan(plan, *params, 2, backend="c", stroke="contact")
+    np.testing.assert_allclose(r["x"], ex["final_x_m"], atol=3e-4)
+    np.testing.assert_allclose(r["y"], ex["final_y_m"], atol=3e-4)
+    np.testing.assert_allclose(r["theta"], ex["final_theta_rad"], atol=math.radians(0.2))
+
+
+# --------------------------------------------------------------------------
+# Tumbles
+# --------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def cube_plan():
+    cube = _part("cube")
+    plan = plan_tumble(cube.vertices, (-0.2, 0.0, -math.pi / 2, 5), com=cube.com, eps=1e-3)
+    assert plan.verdict == "solved" and plan.n_tumbles == 2
+    return plan
+
+
+def test_cube_tumbles_land_the_planned_faces(cube_plan):
+    sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(1.5, 1.5)))
+    params = sam.sample(jax.random.key(0), 1, n_vertices=8, dim=3, n_tumbles=cube_plan.n_tumbles)
+    r = rollout_tumble_plan(cube_plan, *params, 1, backend="c")
+    assert r["faces_ok"][0] and list(r["faces"][0]) == list(cube_plan.faces)
+    assert r["face"][0] == cube_plan.goal[3]
+    assert r["err_pos"][0] < 1.5e-3 and abs(r["err_theta"][0]) < math.radians(0.2)
+    assert np.all(r["slip_per_tumble"][0] < 1e-3)
+
+
+def test_tumble_rows_match_the_exact_model(cube_plan):
+    """Perturbed centre of mass, start position error and slips after each
+    tumble: the physics row lands where the exact model's does, up to the
+    pivot slips (~0.4 mm per tumble)."""
+    sam = Sampler(geometry=GeometryTolerance(tau_com=0.003),
+                  friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(1.5, 1.5)),
+                  execution=ExecutionTolerance(start_xy=0.002, tumble_slip_xy=0.001))
+    key = jax.random.key(5)
+    ex = evaluate(cube_plan, sam, 1, key, bound=False).samples
+    params = sam.sample(key, 1, n_vertices=8, dim=3, n_tumbles=cube_plan.n_tumbles)
+    r = rollout_tumble_plan(cube_plan, *params, 1, backend="c")
+    assert r["face"][0] == ex["final_face"].iloc[0]
+    dpos = math.hypot(r["x"][0] - ex["final_x_m"].iloc[0], r["y"][0] - ex["final_y_m"].iloc[0])
+    assert dpos <= 1.5e-3
+    assert abs(r["theta"][0] - ex["final_theta_rad"].iloc[0]) < math.radians(0.1)
+
+
+def test_rolling_plate_squares_a_yawed_cube(cube_plan):
+    """A finding, not a model: dragged along the planned direction, a cube
+    placed 0.44 degrees off turns square to the plate's motion; the exact
+    kinematics keep the error."""
+    sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(1.5, 1.5)),
+                  execution=ExecutionTolerance(start_theta=math.radians(1)))
+    key = jax.random.key(5)
+    ex = evaluate(cube_plan, sam, 1, key, bound=False).samples
+    params = sam.sample(key, 1, n_vertices=8, dim=3, n_tumbles=cube_plan.n_tumbles)
+    r = rollout_tumble_plan(cube_plan, *params, 1, backend="c")
+    assert abs(ex["err_theta_rad"].iloc[0]) > math.radians(0.3)
+    assert abs(r["err_theta"][0]) < 0.25 * abs(ex["err_theta_rad"].iloc[0])
+
+
+# --------------------------------------------------------------------------
+# Bad input
+# --------------------------------------------------------------------------
+def test_bad_input_is_named(reorient_plan, cube_plan):
+    sam = Sampler()
+    params = _push_params(reorient_plan, sam)
+    with pytest.raises(ValueError, match="backend"):
+        rollout_push_plan(reorient_plan, *params, 1, backend="gpu")
+    with pytest.raises(ValueError, match="stroke"):
+        rollout_push_plan(reorient_plan, *params, 1, stroke="closed")
+    with pytest.raises(ValueError, match="n:"):
+        rollout_push_plan(reorient_plan, *params, 0)
+    with pytest.raises(ValueError, match="plan: has no pushes"):
+        rollout_push_plan(dataclasses.replace(reorient_plan, pushes=()), *params, 1)
+    with pytest.raises(ValueError, match="plan: has no tumbles"):
+        rollout_tumble_plan(dataclasses.replace(cube_plan, tumbles=()), *params, 1)
+    with pytest.raises(ValueError, match="timestep"):
+        PhysicsSettings(timestep=0.0)
+    with pytest.raises(ValueError, match="support"):
+        PhysicsSettings(support="uniform")
+
+
+# --------------------------------------------------------------------------
+# Helpers (fast)
+# --------------------------------------------------------------------------
+def test_mass_properties_of_a_box_and_a_cube():
+    b = np.array([[-0.02, -0.01], [0.02, -0.01], [0.02, 0.01], [-0.02, 0.01]])
+    m, inertia = geo.prism_mass_properties(b, 0.003, 7800.0)
+    assert m == pytest.approx(0.04 * 0.02 * 0.003 * 7800.0)
+    np.testing.assert_allclose(inertia[:3], m / 12 * np.array([0.02 ** 2 + 0.003 ** 2,
+                                                               0.04 ** 2 + 0.003 ** 2,
+                                                               0.04 ** 2 + 0.02 ** 2]))
+    V = np.array([[x, y, z] for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (-0.05, 0.05)])
+    m, inertia = geo.polyhedron_mass_properties(V, np.zeros(3), 500.0)
+    assert m == pytest.approx(0.5)
+    np.testing.assert_allclose(inertia, [m * 0.1 ** 2 / 6] * 3 + [0, 0, 0], atol=1e-12)
+
+
+def test_support_realisations_keep_c_and_centre_the_friction():
+    rng = np.random.default_rng(2)
+    body = np.array([[-0.02, -0.01], [0.02, -0.01], [0.02, 0.01], [-0.02, 0.01]])
+    pts = rng.uniform(-1, 1, (16, 2)) * [0.019, 0.009]
+    w = rng.dirichlet(np.ones(16))
+    c = float(w @ np.linalg.norm(pts, axis=1))
+    q, ok = geo.centred_weights(pts, w, c)
+    assert ok and np.all(q >= 0) and q.sum() == pytest.approx(1.0)
+    np.testing.assert_allclose(q @ pts, 0.0, atol=1e-8)
+    assert q @ np.linalg.norm(pts, axis=1) == pytest.approx(c, rel=1e-6)
+    tp, tw = geo.tripod_feet(c, body)
+    np.testing.assert_allclose(np.linalg.norm(tp, axis=1), c)
+    np.testing.assert_allclose(tw @ tp, 0.0, atol=1e-15)
+    for cc in (0.002, 0.015, 0.021):
+        fp, fw = geo.feet_for_c(cc, body)
+        assert geo.realised_c(fp, fw) == pytest.approx(min(cc, geo.RING_SCALE
+                                                           * np.max(np.linalg.norm(body, axis=1))))
+    # friction coefficients from uneven loads realise the weights as capacities
+    loads = np.array([0.05, 0.02, 0.09])
+    mu, cap, ok = geo.foot_friction(tw, loads, 0.5)
+    assert ok
+    np.testing.assert_allclose(cap, 0.5 * loads.sum() * tw)
+
+
+def test_schedule_controls_are_linear_targets_with_their_velocity():
+    a = np.array([[0.0, 0.0, 0.01, 0.0], [1.0, 0.0, 0.01, 0.5]])
+    b = a + np.array([0.01, -0.02, 0.0, 0.1])
+    sched = Schedule([Phase("push", 0, 10, a, b), Phase("dwell", 0, 6, b, b, hook=True)], 0.01)
+    assert sched.total == 16 and sched.hook_ends() == {16: 1}
+    u = np.concatenate([sched.controls(0, 7, 2), sched.controls(7, 16, 2)], axis=1)
+    np.testing.assert_allclose(u[:, 9, :4], b)
+    np.testing.assert_allclose(u[:, 10:, :4], np.repeat(b[:, None], 6, axis=1))
+    np.testing.assert_allclose(u[:, :10, 4:], np.repeat(((b - a) / 0.1)[:, None], 10, axis=1))
+    np.testing.assert_allclose(u[:, 10:, 4:], 0.0)
+    # targets integrate their velocities
+    np.testing.assert_allclose(a + u[:, :10, 4:].sum(axis=1) * 0.01, b)
+
+
+def test_quaternion_helpers_round_trip():
+    rng = np.random.default_rng(0)
+    q = rng.normal(size=(5, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    q *= np.sign(q[:, :1])
+    back = mat_to_quat(quat_to_mat(q))
+    back *= np.sign(back[:, :1])                 # q and -q are the same rotation
+    np.testing.assert_allclose(back, q, atol=1e-12)
+    yaw, tilt = yaw_tilt(np.array([[math.cos(0.3), 0, 0, math.sin(0.3)]]))
+    assert yaw[0] == pytest.approx(0.6) and tilt[0] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_batches_do_not_change_the_rows(rectangle):
+    plan = plan_pose(rectangle.vertices, (0.0, 0.0, 0.0), (0.02, 0.0, 0.0), com=rectangle.com)
+    sam = Sampler(friction=FrictionRange(mu_f=(0.5, 1.0), mu_s=(0.4, 0.6)),
+                  execution=ExecutionTolerance(start_xy=5e-4))
+    params = _push_params(plan, sam, n=2)
+    a = rollout_push_plan(plan, *params, 2, backend="c")
+    b = rollout_push_plan(plan, *params, 2, backend="c", settings=PhysicsSettings(batch=1))
+    for k in ("x", "y", "theta", "slip", "edges"):
+        np.testing.assert_array_equal(a[k], b[k])
+    with pytest.raises(ValueError, match="n: the sampled params hold"):
+        rollout_push_plan(plan, *params, 3, backend="c")
