@@ -56,9 +56,6 @@ for p in (str(ROOT), str(ROOT / "bench")):
         sys.path.insert(0, p)
 
 import jax  # noqa: E402
-
-jax.config.update("jax_enable_x64", True)
-
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -93,6 +90,13 @@ def random_walk(poly, rng, start_face: int, length: int) -> list[int]:
 
 
 def throughput(n_parts: int, n_numpy: int, repeat: int) -> dict:
+    """Replay throughput (see the module doc); kernels are called on float64
+    arrays, so this runs inside ``jax.enable_x64(True)`` (scoped)."""
+    with jax.enable_x64(True):
+        return _throughput(n_parts, n_numpy, repeat)
+
+
+def _throughput(n_parts: int, n_numpy: int, repeat: int) -> dict:
     import yaml
 
     from oracles import tumble_numpy as oracle
@@ -194,15 +198,16 @@ def make_walk_goals(poly, n: int, seed: int) -> list[tuple]:
     """Reachable goals: the configuration after a random walk of 10..40 tumbles from
     (0, 0, 0, 0), replayed by the float64 kernel."""
     rng = np.random.default_rng(10_000 + seed)
-    geom = poly.geometry(jnp.float64)
     goals = []
-    for _ in range(n):
-        seq = random_walk(poly, rng, 0, int(rng.integers(10, 41)))
-        pad = np.full(64, -1, dtype=np.int32)
-        pad[: len(seq)] = seq
-        f, _ = replay(geom, make_config(0.0, 0.0, 0.0, 0), jnp.asarray(pad))
-        xy = np.asarray(f.xy, float)
-        goals.append((float(xy[0]), float(xy[1]), float(f.theta), int(f.face)))
+    with jax.enable_x64(True):
+        geom = poly.geometry(jnp.float64)
+        for _ in range(n):
+            seq = random_walk(poly, rng, 0, int(rng.integers(10, 41)))
+            pad = np.full(64, -1, dtype=np.int32)
+            pad[: len(seq)] = seq
+            f, _ = replay(geom, make_config(0.0, 0.0, 0.0, 0, dtype=jnp.float64), jnp.asarray(pad))
+            xy = np.asarray(f.xy, float)
+            goals.append((float(xy[0]), float(xy[1]), float(f.theta), int(f.face)))
     return goals
 
 
@@ -220,11 +225,13 @@ def verify(poly, plan) -> float:
     else:
         pad = np.full(_bucket(len(seq)), -1, dtype=np.int32)
         pad[: len(seq)] = seq
-        geom = poly.geometry(jnp.float64)
-        f, ok = replay(geom, make_config(*plan.start[:3], int(plan.start[3])), jnp.asarray(pad))
-        if not bool(ok):
-            return math.inf
-        face, xy, th = int(f.face), np.asarray(f.xy, float), float(f.theta)
+        with jax.enable_x64(True):
+            geom = poly.geometry(jnp.float64)
+            f, ok = replay(geom, make_config(*plan.start[:3], int(plan.start[3]), dtype=jnp.float64),
+                           jnp.asarray(pad))
+            if not bool(ok):
+                return math.inf
+            face, xy, th = int(f.face), np.asarray(f.xy, float), float(f.theta)
     g = plan.goal
     if face != int(g[3]):
         return 1.0
@@ -253,7 +260,7 @@ def plan_part(task) -> dict:
                  "walk": make_walk_goals(poly, n_walk, seed)}
     k = 0
     for family, goals in goal_sets.items():
-        res = out[family] = dict(n=len(goals), times=[], paper=[], short=[], errs=[], ver=0)
+        res = out[family] = dict(n=len(goals), times=[], paper=[], short=[], errs=[], ver=0, ops=[])
         for goal in goals:
             t0 = time.perf_counter()
             try:
@@ -273,6 +280,7 @@ def plan_part(task) -> dict:
                 res["times"].append(dt)
             k += 1
             out["classes"].add(plan.reachable_class)
+            res["ops"].append(plan.effort_used)
             if plan.verdict == "solved":
                 res["paper"].append(int(plan.n_tumbles_paper))
                 res["short"].append(plan.n_tumbles)
@@ -287,6 +295,12 @@ def plan_part(task) -> dict:
           f"median {_med(r['times'] + out['walk']['times']) * 1e3:8.1f} ms/goal",
           file=sys.stderr, flush=True)
     return out
+
+
+def _default_effort() -> float:
+    from planning.tumbling.effort import DEFAULT_EFFORT
+
+    return float(DEFAULT_EFFORT)
 
 
 def _med(x):
@@ -340,7 +354,7 @@ def print_planning(res: dict, n_goals: int, n_walk: int) -> None:
           f"{GOAL_RADIUS_DIAM:g} diameters; walk goals ({n_walk} per part): the configuration "
           "after a random walk of 10..40 tumbles (reachable exactly)")
     hdr = (f"{'part':20s} {'F':>3s} {'m':>3s} {'class':>11s} {'eps mm':>6s} {'1st s':>6s} "
-           f"{'med ms':>7s} | {'solved':>7s} {'paper':>9s} {'short':>6s} {'ratio':>9s} "
+           f"{'med ms':>7s} {'Mops':>5s} | {'solved':>7s} {'paper':>9s} {'short':>6s} {'ratio':>9s} "
            f"{'err mm':>6s} {'ok':>3s} | {'walk':>5s} {'paper':>9s} {'short':>6s} {'ratio':>9s}")
     print(hdr)
     print("-" * len(hdr))
@@ -349,7 +363,8 @@ def print_planning(res: dict, n_goals: int, n_walk: int) -> None:
         times = a["times"] + w["times"]
         ra, rw = _ratios(a), _ratios(w)
         print(f"{r['name']:20s} {r['F']:3d} {r['m']:3d} {'/'.join(sorted(r['classes'])) or '-':>11s} "
-              f"{r['eps'] * 1e3:6.2f} {r['t_first']:6.2f} {_med(times) * 1e3:7.0f} | "
+              f"{r['eps'] * 1e3:6.2f} {r['t_first']:6.2f} {_med(times) * 1e3:7.0f} "
+              f"{max(a['ops'] + w['ops'], default=0) / 1e6:5.2f} | "
               f"{len(a['short']):3d}/{a['n']:<3d} "
               f"{_fmt_big(statistics.median_low(a['paper']) if a['paper'] else None):>9s} "
               f"{_fmt_big(_med(a['short'])):>6s} "
@@ -360,7 +375,8 @@ def print_planning(res: dict, n_goals: int, n_walk: int) -> None:
               f"{_fmt_big(_med(w['short'])):>6s} "
               f"{_fmt_big(statistics.median_low(rw) if rw else None):>9s}")
     print("1st s: the part's first goal (analysis + compilations); med ms: median over its other "
-          "goals; paper / short: median tumbles of the paper's construction (purged) / of the "
+          "goals; Mops: the largest effort of a goal (millions of planner operations, default budget "
+          f"{_default_effort() / 1e6:g}); paper / short: median tumbles of the paper's construction (purged) / of the "
           "returned plan over solved goals; ratio: median of paper/short; ok: solved plans whose "
           "float64 kernel replay ends within eps")
     reasons = {}

@@ -52,7 +52,7 @@ import jax.numpy as jnp
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from kernels.errors import PartError, PartWarning
+from kernels.errors import PartError, PartWarning, warn_implausible_size
 from kernels.planar import TWO_PI
 
 #: Default relative tolerance (times the part's diameter) for merging Qhull's
@@ -98,6 +98,15 @@ def _diameter(v: np.ndarray) -> float:
     return float(np.max(np.linalg.norm(v - v.mean(axis=0), axis=1))) * 2.0
 
 
+def _extent(hull_points: np.ndarray) -> float:
+    """Largest distance between two hull vertices (the part's largest extent, m)."""
+    best = 0.0
+    for i in range(0, len(hull_points), 256):  # chunks: O(m) memory
+        d = hull_points[i:i + 256, None, :] - hull_points[None, :, :]
+        best = max(best, float(np.max(np.einsum("ijk,ijk->ij", d, d))))
+    return math.sqrt(best)
+
+
 def _check_not_flat(v: np.ndarray) -> None:
     centred = v - v.mean(axis=0)
     s = np.linalg.svd(centred, compute_uv=False)
@@ -122,20 +131,25 @@ def _merge_hull_faces(v: np.ndarray, tol: float):
             f"vertices: Qhull could not build the convex hull ({str(exc).splitlines()[0]}); "
             "check that the points span a volume"
         ) from None
-    diam = _diameter(v)
-    dist_tol = tol * diam
-    simp = hull.simplices
-    eqs = hull.equations
-    nbrs = hull.neighbors
-    nt = len(simp)
+    dist_tol = tol * _diameter(v)
+    rings = [_face_ring(v, hull, members, dist_tol) for members in _coplanar_groups(v, hull, dist_tol)]
+    cycles = []
+    for ring in _drop_collinear(rings, v, dist_tol):
+        k0 = int(np.argmin(ring))
+        cycles.append(tuple(ring[k0:] + ring[:k0]))
+    return cycles
+
+
+def _coplanar_groups(v: np.ndarray, hull, dist_tol: float) -> list:
+    """Qhull's triangles grouped into faces: from the largest unassigned
+    triangle, grow over neighbours whose corners lie within ``dist_tol``
+    (metres) of its plane."""
+    simp, eqs, nbrs = hull.simplices, hull.equations, hull.neighbors
     p0 = v[simp[:, 0]]
-    areas = 0.5 * np.linalg.norm(
-        np.cross(v[simp[:, 1]] - p0, v[simp[:, 2]] - p0), axis=1
-    )
-    order = np.argsort(-areas, kind="stable")
-    group = -np.ones(nt, dtype=int)
+    areas = 0.5 * np.linalg.norm(np.cross(v[simp[:, 1]] - p0, v[simp[:, 2]] - p0), axis=1)
+    group = -np.ones(len(simp), dtype=int)
     groups: list[list[int]] = []
-    for seed in order:
+    for seed in np.argsort(-areas, kind="stable"):
         if group[seed] >= 0:
             continue
         gid = len(groups)
@@ -146,71 +160,112 @@ def _merge_hull_faces(v: np.ndarray, tol: float):
         while stack:
             t = stack.pop()
             for u in nbrs[t]:
-                if group[u] >= 0:
+                if group[u] >= 0 or np.dot(eqs[u, :3], n_seed) <= 0.0:
                     continue
-                if np.dot(eqs[u, :3], n_seed) <= 0.0:
-                    continue
-                dist = np.abs(v[simp[u]] @ n_seed + d_seed)
-                if np.all(dist <= dist_tol):
+                if np.all(np.abs(v[simp[u]] @ n_seed + d_seed) <= dist_tol):
                     group[u] = gid
                     members.append(u)
                     stack.append(u)
         groups.append(members)
+    return groups
 
-    cycles = []
-    for members in groups:
-        idx = np.unique(simp[members].ravel())
-        pts = v[idx]
-        # Plane fit: area-weighted normal of the member triangles.
-        n = np.zeros(3)
-        for t in members:
-            a, b, c = v[simp[t]]
-            cr = np.cross(b - a, c - a)
-            if np.dot(cr, eqs[t, :3]) < 0:
-                cr = -cr
-            n += cr
-        nn = np.linalg.norm(n)
-        n = n / nn if nn > 0 else eqs[members[0], :3]
-        # 2-D basis (u, w) with u x w = n (outward): CCW in (u, w) = CCW from outside.
-        u = np.cross(n, [1.0, 0.0, 0.0])
-        if np.linalg.norm(u) < 0.5:
-            u = np.cross(n, [0.0, 1.0, 0.0])
-        u /= np.linalg.norm(u)
-        w = np.cross(n, u)
-        c = pts.mean(axis=0)
-        xy = np.stack([(pts - c) @ u, (pts - c) @ w], axis=1)
-        if len(idx) == 3:
-            ring = [0, 1, 2]
-            d1, d2 = xy[1] - xy[0], xy[2] - xy[0]
-            if d1[0] * d2[1] - d1[1] * d2[0] < 0:
-                ring = [0, 2, 1]
-        else:
-            try:
-                h2 = ConvexHull(xy)
-            except QhullError:  # pragma: no cover
-                raise PartError(
-                    "vertices: a face of the hull is degenerate; remove "
-                    "near-duplicate or near-collinear points"
-                ) from None
-            ring = list(h2.vertices)  # CCW in 2-D for scipy
-        ring = [int(idx[r]) for r in ring]
-        # drop corners that are collinear within tolerance
-        changed = True
-        while changed and len(ring) > 3:
-            changed = False
-            for k in range(len(ring)):
-                a, b, cc = v[ring[k - 1]], v[ring[k]], v[ring[(k + 1) % len(ring)]]
-                ab, bc = b - a, cc - b
-                area2 = np.dot(np.cross(ab, bc), n)
-                base = np.linalg.norm(cc - a)
-                if base > 0 and area2 / base <= dist_tol:
-                    del ring[k]
-                    changed = True
-                    break
-        k0 = int(np.argmin(ring))
-        ring = ring[k0:] + ring[:k0]
-        cycles.append(tuple(ring))
-    return cycles
+
+def _face_ring(v: np.ndarray, hull, members: list, dist_tol: float):
+    """``(ring, normal)`` of a group of triangles: its corners CCW seen from
+    outside (the 2-D hull in the fitted plane, plus points within ``dist_tol``
+    of its edges) and the area-weighted outward normal."""
+    simp, eqs = hull.simplices, hull.equations
+    idx = np.unique(simp[members].ravel())
+    pts = v[idx]
+    n = np.zeros(3)
+    for t in members:
+        a, b, c = v[simp[t]]
+        cr = np.cross(b - a, c - a)
+        n += -cr if np.dot(cr, eqs[t, :3]) < 0 else cr
+    nn = np.linalg.norm(n)
+    n = n / nn if nn > 0 else eqs[members[0], :3]
+    # 2-D basis (u, w) with u x w = n (outward): CCW in (u, w) = CCW from outside.
+    u = np.cross(n, [1.0, 0.0, 0.0])
+    if np.linalg.norm(u) < 0.5:
+        u = np.cross(n, [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    w = np.cross(n, u)
+    c = pts.mean(axis=0)
+    xy = np.stack([(pts - c) @ u, (pts - c) @ w], axis=1)
+    if len(idx) == 3:
+        d1, d2 = xy[1] - xy[0], xy[2] - xy[0]
+        ring = [0, 1, 2] if d1[0] * d2[1] - d1[1] * d2[0] >= 0 else [0, 2, 1]
+    else:
+        try:
+            h2 = ConvexHull(xy)
+        except QhullError:  # pragma: no cover
+            raise PartError(
+                "vertices: a face of the hull is degenerate; remove "
+                "near-duplicate or near-collinear points"
+            ) from None
+        ring = _insert_on_edges(list(h2.vertices), xy, dist_tol)  # CCW in 2-D for scipy
+    return [int(idx[r]) for r in ring], n
+
+
+def _insert_on_edges(ring: list, xy: np.ndarray, tol: float) -> list:
+    """Insert into a face's 2-D hull ring (CCW indices into ``xy``) the face's
+    other points that lie within ``tol`` of one of its edges, in order along
+    the edge: they may be corners of a neighbouring face, and whether they are
+    corners is decided for all faces at once (:func:`_drop_collinear`)."""
+    on = set(ring)
+    extra = [i for i in range(len(xy)) if i not in on]
+    if not extra:
+        return ring
+    out = []
+    for k in range(len(ring)):
+        a, b = xy[ring[k]], xy[ring[(k + 1) % len(ring)]]
+        ab = b - a
+        L2 = float(ab @ ab)
+        out.append(ring[k])
+        if L2 == 0.0:
+            continue
+        found = []
+        for i in extra:
+            t = float((xy[i] - a) @ ab) / L2
+            if 0.0 < t < 1.0 and abs(float(ab[0] * (xy[i] - a)[1] - ab[1] * (xy[i] - a)[0])) \
+                    <= tol * math.sqrt(L2):
+                found.append((t, i))
+        out.extend(i for _, i in sorted(found))
+    return out
+
+
+def _drop_collinear(rings: list, v: np.ndarray, dist_tol: float) -> list:
+    """Drop corners that are collinear within ``dist_tol`` (metres) -- from
+    every face at once: a vertex is dropped only when it is a straight corner
+    in every face that has it (a point on an edge, or in a face), so that the
+    faces still close up when nearly coplanar faces were kept apart."""
+    faces = [list(r) for r, _ in rings]
+    normals = [n for _, n in rings]
+    where: dict = {}
+    for f, ring in enumerate(faces):
+        for x in ring:
+            where.setdefault(x, set()).add(f)
+
+    def straight(f: int, x: int) -> bool:
+        ring = faces[f]
+        if len(ring) <= 3:
+            return False
+        k = ring.index(x)
+        a, b, c = v[ring[k - 1]], v[x], v[ring[(k + 1) % len(ring)]]
+        base = np.linalg.norm(c - a)
+        return bool(base > 0 and np.dot(np.cross(b - a, c - b), normals[f]) / base <= dist_tol)
+
+    changed = True
+    while changed:
+        changed = False
+        for x in sorted(where):
+            fs = where[x]
+            if fs and all(straight(f, x) for f in fs):
+                for f in fs:
+                    faces[f].remove(x)
+                where[x] = set()
+                changed = True
+    return faces
 
 
 def _validate_topology(cycles):
@@ -485,6 +540,13 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
         triangles are merged into one planar face and collinear corners
         dropped.
 
+    Warns:
+      :class:`PartWarning` when points are dropped, when faces are coplanar
+      to within ``NEARLY_FLAT_RAD``, and when the part's largest extent is
+      implausible for metres (:func:`kernels.errors.warn_implausible_size`,
+      e.g. coordinates in millimetres).  All tolerances here are relative to
+      the part's size, so a part is accepted the same way at any scale.
+
     Raises:
       ValueError naming ``vertices`` or ``com`` and saying how to fix it.
     """
@@ -495,6 +557,7 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
     directed = _validate_topology(cycles)
 
     hull_vertices = tuple(sorted({i for c in cycles for i in c}))
+    warn_implausible_size(_extent(v[list(hull_vertices)]))
     dropped = tuple(i for i in range(m) if i not in set(hull_vertices))
     if dropped:
         warnings.warn(
@@ -506,25 +569,69 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
         )
 
     volume, centroid = _volume_centroid(v, cycles)
-    diam = _diameter(v)
-    F = len(cycles)
     normals = np.array([_newell(v[list(c)]) for c in cycles])
     offsets = np.array([np.mean(v[list(c)] @ n) for c, n in zip(cycles, normals)])
+    c = centroid if com is None else _read_com(com)
+    _check_com_inside(c, normals, offsets, cycles, _diameter(v))
+    origins, rots, corners2d = _face_frames(v, cycles, normals, offsets, c)
+    edges, edge_faces, topo = _adjacency(cycles, directed, m)
+    face_angles, dihedral, defects = _angles(v, cycles, hull_vertices, normals, edge_faces)
+    flat = [edges[i] for i in np.flatnonzero(dihedral > math.pi - NEARLY_FLAT_RAD)]
+    if flat:
+        warnings.warn(
+            f"vertices: edges {flat} join faces that are coplanar to within "
+            f"{NEARLY_FLAT_RAD:g} rad; if they should be one face (rounded "
+            "coordinates), pass a larger tol to make_polyhedron or fix the points",
+            PartWarning,
+            stacklevel=2,
+        )
+    normals, origins, rots, dihedral, defects = map(_ro, (normals, origins, rots, dihedral, defects))
+    return Polyhedron(
+        vertices=_ro(v),
+        com=_ro(c),
+        volume=float(volume),
+        hull_vertices=hull_vertices,
+        dropped=dropped,
+        faces=tuple(tuple(sorted(cc)) for cc in topo.face_cycles),
+        face_cycles=topo.face_cycles,
+        normals=normals,
+        face_origins=origins,
+        face_rotations=rots,
+        face_corners_2d=tuple(_ro(a) for a in corners2d),
+        edges=tuple(edges),
+        edge_faces=tuple(edge_faces),
+        face_angles=tuple(_ro(a) for a in face_angles),
+        dihedral_angles=dihedral,
+        defect_angles=defects,
+        topology=topo,
+    )
 
-    if com is None:
-        c = centroid
-    else:
-        try:
-            c = np.asarray(com, dtype=float)
-        except (TypeError, ValueError):
-            raise PartError("com: could not be read as [x, y, z] floats; give "
-                             "the centre of mass in metres or omit it") from None
-        if c.shape != (3,):
-            raise PartError(f"com: expected [x, y, z] (shape (3,)), got shape "
-                             f"{c.shape}; give the centre of mass in metres or omit it")
-        if not np.all(np.isfinite(c)):
-            raise PartError("com: is not finite (NaN or inf); give the centre "
-                             "of mass in metres or omit it for the volume centroid")
+
+def _ro(a) -> np.ndarray:
+    """A read-only float copy."""
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+def _read_com(com) -> np.ndarray:
+    try:
+        c = np.asarray(com, dtype=float)
+    except (TypeError, ValueError):
+        raise PartError("com: could not be read as [x, y, z] floats; give "
+                        "the centre of mass in metres or omit it") from None
+    if c.shape != (3,):
+        raise PartError(f"com: expected [x, y, z] (shape (3,)), got shape "
+                        f"{c.shape}; give the centre of mass in metres or omit it")
+    if not np.all(np.isfinite(c)):
+        raise PartError("com: is not finite (NaN or inf); give the centre "
+                        "of mass in metres or omit it for the volume centroid")
+    return c
+
+
+def _check_com_inside(c, normals, offsets, cycles, diam: float) -> None:
+    """PartError unless ``c`` lies strictly inside every face plane (to 1e-9 x
+    the part's size)."""
     margin = normals @ c - offsets  # > 0 outside
     worst = int(np.argmax(margin))
     if margin[worst] >= -1e-9 * diam:
@@ -536,7 +643,11 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
             "com for the volume centroid"
         )
 
-    # face frames
+
+def _face_frames(v, cycles, normals, offsets, c):
+    """Face frames (origin: ``c`` projected on the face plane; x along edge
+    slot 0; z the inward normal) and the corners in them (see the module doc)."""
+    F = len(cycles)
     origins = np.empty((F, 3))
     rots = np.empty((F, 3, 3))
     corners2d = []
@@ -547,13 +658,17 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
         x = e - np.dot(e, n) * n
         x /= np.linalg.norm(x)
         z = -n
-        y = np.cross(z, x)
-        R = np.stack([x, y, z])
+        R = np.stack([x, np.cross(z, x), z])
         origins[f] = o
         rots[f] = R
         corners2d.append(((v[list(cyc)] - o) @ R.T)[:, :2].copy())
+    return origins, rots, corners2d
 
-    # edges and adjacency
+
+def _adjacency(cycles, directed: dict, m: int):
+    """Edges (sorted ``(a, b)``, ``a < b``), the two faces of each, and the
+    :class:`TumbleTopology` (face across each edge slot, its slot there, the
+    edge's number; padded with -1)."""
     edges = sorted({(min(a, b), max(a, b)) for (a, b) in directed})
     edge_id = {e: i for i, e in enumerate(edges)}
     edge_faces = []
@@ -562,7 +677,7 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
         edge_faces.append((min(f1, f2), max(f1, f2)))
     K = max(len(c) for c in cycles)
     next_face, next_slot, edge_index = [], [], []
-    for f, cyc in enumerate(cycles):
+    for cyc in cycles:
         s = len(cyc)
         nf, ns, ei = [], [], []
         for k in range(s):
@@ -575,31 +690,6 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
         next_face.append(tuple(nf + pad))
         next_slot.append(tuple(ns + pad))
         edge_index.append(tuple(ei + pad))
-
-    face_angles = []
-    vertex_sum = {i: 0.0 for i in hull_vertices}
-    for f, cyc in enumerate(cycles):
-        s = len(cyc)
-        ang = np.empty(s)
-        for k in range(s):
-            p, q, r = v[cyc[k - 1]], v[cyc[k]], v[cyc[(k + 1) % s]]
-            ang[k] = _angle(p - q, r - q)
-            vertex_sum[cyc[k]] += ang[k]
-        face_angles.append(ang)
-    dihedral = np.array([
-        math.pi - _angle(normals[f], normals[g]) for (f, g) in edge_faces
-    ])
-    defects = np.array([TWO_PI - vertex_sum[i] for i in hull_vertices])
-    flat = [edges[i] for i in np.flatnonzero(dihedral > math.pi - NEARLY_FLAT_RAD)]
-    if flat:
-        warnings.warn(
-            f"vertices: edges {flat} join faces that are coplanar to within "
-            f"{NEARLY_FLAT_RAD:g} rad; if they should be one face (rounded "
-            "coordinates), pass a larger tol to make_polyhedron or fix the points",
-            PartWarning,
-            stacklevel=2,
-        )
-
     topo = TumbleTopology(
         n_vertices=m,
         face_cycles=tuple(tuple(int(i) for i in c) for c in cycles),
@@ -607,33 +697,25 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
         next_slot=tuple(next_slot),
         edge_index=tuple(edge_index),
     )
-    def ro(a):
-        a = np.array(a, dtype=float)
-        a.setflags(write=False)
-        return a
+    return edges, edge_faces, topo
 
-    normals, origins, rots, dihedral, defects = map(ro, (normals, origins, rots, dihedral, defects))
-    corners2d = [ro(a) for a in corners2d]
-    face_angles = [ro(a) for a in face_angles]
-    return Polyhedron(
-        vertices=ro(v),
-        com=ro(c),
-        volume=float(volume),
-        hull_vertices=hull_vertices,
-        dropped=dropped,
-        faces=tuple(tuple(sorted(cc)) for cc in topo.face_cycles),
-        face_cycles=topo.face_cycles,
-        normals=normals,
-        face_origins=origins,
-        face_rotations=rots,
-        face_corners_2d=tuple(corners2d),
-        edges=tuple(edges),
-        edge_faces=tuple(edge_faces),
-        face_angles=tuple(face_angles),
-        dihedral_angles=dihedral,
-        defect_angles=defects,
-        topology=topo,
-    )
+
+def _angles(v, cycles, hull_vertices, normals, edge_faces):
+    """Face angles (per face, at each corner), dihedral angles (per edge) and
+    defect angles (per hull vertex: 2 pi minus its face angles), radians."""
+    face_angles = []
+    vertex_sum = {i: 0.0 for i in hull_vertices}
+    for cyc in cycles:
+        s = len(cyc)
+        ang = np.empty(s)
+        for k in range(s):
+            p, q, r = v[cyc[k - 1]], v[cyc[k]], v[cyc[(k + 1) % s]]
+            ang[k] = _angle(p - q, r - q)
+            vertex_sum[cyc[k]] += ang[k]
+        face_angles.append(ang)
+    dihedral = np.array([math.pi - _angle(normals[f], normals[g]) for (f, g) in edge_faces])
+    defects = np.array([TWO_PI - vertex_sum[i] for i in hull_vertices])
+    return face_angles, dihedral, defects
 
 
 def combinatorics_changed(vertices, polyhedron: Polyhedron, tol: float = 1e-6) -> bool:

@@ -16,7 +16,7 @@ from planning.pushing.batch import PushPlanBatch, plan_pose_batch
 from planning.pushing.part import PlanningError, PushPart, prepare_part
 from planning.pushing.plan import Push, PushPlan
 from planning.pushing.planner import plan_pose
-from planning.tumbling.generators import TumbleAnalysis
+from planning.tumbling.analysis import TumbleAnalysis
 from planning.tumbling.plan import Tumble, TumblePlan
 from planning.tumbling.planner import analyze_polyhedron, plan_tumble
 

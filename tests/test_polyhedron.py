@@ -15,6 +15,7 @@ import pytest  # noqa: E402
 import yaml  # noqa: E402
 from hypothesis import given, settings, strategies as st  # noqa: E402
 
+from tests.polyhedra import polyhedra  # noqa: E402
 from kernels.polyhedron import (  # noqa: E402
     PartWarning,
     Polyhedron,
@@ -131,7 +132,9 @@ def _check_structure(P: Polyhedron):
         assert P.shared_edge(f, g) == (a, b)
         assert g in P.neighbors(f) and f in P.neighbors(g)
         n1, n2 = P.normals[f], P.normals[g]
-        assert dih == pytest.approx(PI - math.acos(np.clip(n1 @ n2, -1, 1)), abs=1e-9)
+        # atan2, not acos: accurate for nearly coplanar faces (dihedral near pi)
+        assert dih == pytest.approx(PI - math.atan2(np.linalg.norm(np.cross(n1, n2)), n1 @ n2),
+                                    abs=1e-9)
     for f, cyc in enumerate(P.face_cycles):
         n = P.normals[f]
         s = len(cyc)
@@ -344,3 +347,58 @@ def test_combinatorics_changed():
     assert combinatorics_changed(V, make_polyhedron(OCTA))
     with pytest.raises(ValueError, match="vertices"):
         combinatorics_changed(CUBE[:6], P)
+
+
+# ---------------------------------------------------------------- hard families
+@settings(derandomize=True, max_examples=40, deadline=None)
+@given(polyhedra())
+def test_hard_families_are_consistent(case):
+    """Non-triangular faces (prisms, frustums), nearly coplanar faces (a ridge
+    from 1e-11 to 1e-4 of the size high: merged, or kept apart with
+    nearly straight corners) and slivers: a closed, consistent hull."""
+    family, V = case
+    P = quiet(V)
+    assert P.n_vertices - P.n_edges + P.n_faces == 2
+    np.testing.assert_allclose(P.defect_angles.sum(), 4 * PI, atol=1e-9)
+    assert np.all(P.defect_angles > -1e-9)
+    for cyc, fa in zip(P.face_cycles, P.face_angles):
+        assert fa.sum() == pytest.approx((len(cyc) - 2) * PI, abs=1e-9)
+    _check_structure(P)
+    if family in ("prism", "frustum", "box"):
+        assert max(len(c) for c in P.face_cycles) >= 4
+
+
+def test_nearly_coplanar_ridge_keeps_faces_closed():
+    """A ridge just above the merge tolerance on a box's top: the two halves
+    stay separate faces and the ridge's ends stay corners of the end faces
+    (a per-face choice dropped them from one face only: 'faces do not close
+    up')."""
+    V = np.array([[x, y, z] for x in (-0.04, 0.04) for y in (-0.03, 0.03) for z in (-0.02, 0.02)])
+    for h in (3e-11, 5.9e-11, 8e-11, 1e-10, 1.5e-10, 1e-9, 1e-6):
+        W = np.concatenate([V, [[0.0, -0.03, 0.02 + h], [0.0, 0.03, 0.02 + h]]])
+        P = quiet(W)
+        assert P.n_vertices - P.n_edges + P.n_faces == 2
+        _check_structure(P)
+        if 8 in P.hull_vertices:
+            assert P.n_faces == 7 and sorted(len(c) for c in P.face_cycles) == [4] * 5 + [5] * 2
+        else:
+            assert P.n_faces == 6 and P.dropped == (8, 9)
+
+
+@pytest.mark.parametrize("scale, warns", [(1.0, False), (0.05, False), (1e-4, False), (30.0, True),
+                                          (1e-6, True), (1e9, True)])
+def test_implausible_sizes_warn(scale, warns):
+    """A part given in millimetres (30 'metres' across) or nanometres is
+    accepted, with a PartWarning that says what was assumed; metres do not warn."""
+    V = CUBE * scale
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        P = make_polyhedron(V)
+    msgs = [str(w.message) for w in caught if issubclass(w.category, PartWarning)]
+    assert bool(msgs) == warns, msgs
+    if warns:
+        assert "implausible" in msgs[0] and "metres" in msgs[0]
+        assert f"{math.sqrt(3) * scale:.3g} m across" in msgs[0]
+    # the same part at any scale: relative tolerances, same combinatorics and angles
+    assert P.faces == make_polyhedron(CUBE).faces
+    np.testing.assert_allclose(P.defect_angles, PI / 2, atol=1e-12)

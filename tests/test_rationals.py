@@ -1,4 +1,5 @@
-"""Exact tests of planning.rationals (continued fractions, approximations, GCD)."""
+"""Tests of planning.rationals (continued fractions, rational approximations)
+and planning.tumbling.angle_gcd (GCD of rational angles, Bezout coefficients)."""
 
 from __future__ import annotations
 
@@ -14,12 +15,11 @@ from planning.rationals import (
     best_rational_within,
     continued_fraction,
     convergents,
-    extended_gcd_coeffs,
     min_denominator_for_tol,
     rational_approx,
-    rational_gcd,
-    rotation_step,
+    rational_at_tolerance,
 )
+from planning.tumbling.angle_gcd import extended_gcd_coeffs, rational_gcd, rotation_step
 
 SETTINGS = settings(derandomize=True, max_examples=150, deadline=None)
 
@@ -225,10 +225,14 @@ def test_gcd_examples():
     assert rational_gcd([]) == 0 and rational_gcd([0, 0]) == 0
     # cube: defect angles pi/2 at every vertex
     assert rational_gcd([F(1, 2)] * 7) == F(1, 2)
-    g, n, h, _ = extended_gcd_coeffs([F(4, 3), F(6, 5), F(1, 7)], modulus_twopi=False)
-    assert g == F(1, 105) and n == (-1, 1, 1) and h == (140, 126, 15)
-    g, n, h, _ = extended_gcd_coeffs([F(4, 3), F(6, 5), F(1, 7)])
-    assert n == (5, 1, 1)
+    # Bezout coefficients are not unique: check the identities, not one answer
+    fs = [F(4, 3), F(6, 5), F(1, 7)]
+    g, n, h, _ = extended_gcd_coeffs(fs, modulus_twopi=False)
+    assert g == F(1, 105) and h == (140, 126, 15)  # 4/3 = 140/105, 6/5 = 126/105, 1/7 = 15/105
+    assert sum(ni * fi for ni, fi in zip(n, fs)) == g
+    g, n, h, _ = extended_gcd_coeffs(fs)
+    assert ((sum(ni * fi for ni, fi in zip(n, fs)) - g) / 2).denominator == 1  # == g (mod 2)
+    assert all(0 <= ni < 2 * fi.denominator for ni, fi in zip(n, fs))
     assert rotation_step([F(4, 3)]) == F(2, 3)  # p even: 2 beta
     assert rotation_step([F(1, 3)]) == F(1, 3)  # p odd: beta
     assert rotation_step([0]) == 2
@@ -236,3 +240,39 @@ def test_gcd_examples():
         rational_gcd([0.1, F(1, 2)])
     with pytest.raises(TypeError):
         extended_gcd_coeffs([0.25])
+
+
+def test_rational_at_tolerance():
+    """The rational a tolerance determines: the smallest denominator s in the
+    interval, accepted when s <= max_den and 2 tol s^2 <= 1 (then it is the only
+    fraction of denominator <= s there)."""
+    assert rational_at_tolerance(0.5 + 3e-10, 3e-8, 1000) == F(1, 2)
+    assert rational_at_tolerance(F(1, 3), 0, 10) == F(1, 3)
+    assert rational_at_tolerance(0.1, 0, 10) is None  # 0.1 as a float is not 1/10 exactly
+    assert rational_at_tolerance(17 / 23 + 1e-7, 1e-6, 1000) == F(17, 23)
+    assert rational_at_tolerance(17 / 23 + 1e-7, 1e-6, 20) is None  # beyond max_den
+    # sqrt(2): 577/408 is the smallest denominator within 1e-5, but 2 tol s^2 > 1
+    assert rational_at_tolerance(math.sqrt(2), 1e-5, 1000) is None
+    assert rational_at_tolerance(math.pi / 10, 0.6, 1000) is None  # 0 and 1 both fit
+    with pytest.raises(ValueError, match="max_den"):
+        rational_at_tolerance(0.5, 1e-3, 0)
+    with pytest.raises(ValueError, match="tol"):
+        rational_at_tolerance(0.5, -1e-3, 10)
+
+
+@SETTINGS
+@given(st.fractions(min_value=-5, max_value=5, max_denominator=40),
+       st.floats(min_value=0.0, max_value=1e-4), st.floats(min_value=-1.0, max_value=1.0))
+def test_rational_at_tolerance_is_unique(r, tol, u):
+    """Whatever point of the interval the value is, a determined answer is the
+    only fraction of its denominator or less within tol."""
+    x = float(r) + u * tol
+    got = rational_at_tolerance(x, tol, 1000)
+    if got is None:
+        return
+    assert abs(F(x) - got) <= F(tol)
+    s = got.denominator
+    for q in range(1, s + 1):
+        for p in (math.floor(x * q), math.ceil(x * q)):
+            if F(p, q) != got:
+                assert abs(F(x) - F(p, q)) > F(tol)

@@ -17,6 +17,9 @@ import pytest  # noqa: E402
 
 from tests.commandline import nudge_executable  # noqa: E402
 from kernels.polyhedron import make_polyhedron  # noqa: E402
+from planning.tumbling import planner as tumble_planner  # noqa: E402  (an import error fails the suite)
+from planning.tumbling.development import development_poses, face_footprint  # noqa: E402
+from planning.tumbling.trajectory import sample_reached_positions  # noqa: E402
 from sweeps.partfile import load_part  # noqa: E402
 from sweeps.figures import tumble as tumble_plots  # noqa: E402
 
@@ -47,7 +50,7 @@ def load_poly(name: str):
 
 
 def planner():
-    return pytest.importorskip("planning.tumbling.planner")
+    return tumble_planner
 
 
 # ---------------------------------------------------------------- plots, direct
@@ -60,18 +63,18 @@ def test_plot_development_from_polyhedron(name, tmp_path):
     assert sorted(poses) == list(range(poly.n_faces))
     assert poses[0] == (0.0, 0.0, 0.0)
     # each face's copy shares its hinge edge with its parent's copy (a development)
-    P, parent = tumble_plots.development_poses(poly, 0)
+    P, parent = development_poses(poly, 0)
     for f, g in parent.items():
         if g is None:
             continue
         a, b = poly.shared_edge(f, g)
         for v in (a, b):
-            wf = tumble_plots.face_footprint(poly, f, P[f])[poly.face_cycles[f].index(v)]
-            wg = tumble_plots.face_footprint(poly, g, P[g])[poly.face_cycles[g].index(v)]
+            wf = face_footprint(poly, f, P[f])[poly.face_cycles[f].index(v)]
+            wg = face_footprint(poly, g, P[g])[poly.face_cycles[g].index(v)]
             np.testing.assert_allclose(wf, wg, atol=1e-12)
     # and every copy is congruent to its face (areas match)
     for f in P:
-        w = tumble_plots.face_footprint(poly, f, P[f])
+        w = face_footprint(poly, f, P[f])
         x, y = w[:, 0], w[:, 1]
         area = 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
         q = poly.face_corners_2d[f]
@@ -81,7 +84,7 @@ def test_plot_development_from_polyhedron(name, tmp_path):
 
 def test_cube_development_is_the_cross(tmp_path):
     _, poly = load_poly("cube")
-    P, _ = tumble_plots.development_poses(poly, 0)
+    P, _ = development_poses(poly, 0)
     origins = sorted((round(p[0] / A), round(p[1] / A)) for p in P.values())
     # five unit steps around the root plus one face two steps away: a cross of six squares
     assert len(set(origins)) == 6
@@ -131,7 +134,7 @@ def test_plot_reachable_dense_zooms(name, tmp_path):
 
 def test_sample_reached_positions_cube_on_grid():
     _, poly = load_poly("cube")
-    pts = tumble_plots.sample_reached_positions(poly, 0, 0.35, n_walks=100)
+    pts = sample_reached_positions(poly, 0, 0.35, n_walks=100)
     assert len(pts) > 10
     assert np.all(np.linalg.norm(pts, axis=1) <= 0.35 + 1e-12)
     # the cube's face 0 only ever lands on the a-grid

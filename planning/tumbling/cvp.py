@@ -16,7 +16,6 @@ caller recomputes the achieved translation.
 """
 from __future__ import annotations
 
-
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -32,11 +31,15 @@ def _gso(B: np.ndarray):
     return mu, d * d
 
 
-def lll_reduce(B: np.ndarray, delta: float = 0.99, max_swaps: int = 200_000):
+def lll_reduce(B: np.ndarray, delta: float = 0.99, max_swaps: int = 200_000, effort=None,
+               stats: dict | None = None):
     """LLL-reduce the rows of ``B`` (float64, linearly independent).
 
     Returns ``(Bred, T)`` with ``Bred = T @ B`` (up to float rounding) and
     ``T`` an integer unimodular matrix (numpy object array of Python ints).
+    ``effort`` (an :class:`~planning.tumbling.effort.Effort`) is consulted
+    every few swaps (a swap re-orthogonalises: ``n^2`` operations); ``stats``
+    receives the operations spent (``stats["cost"]``).
     """
     B = np.array(B, dtype=float)
     n = B.shape[0]
@@ -47,6 +50,7 @@ def lll_reduce(B: np.ndarray, delta: float = 0.99, max_swaps: int = 200_000):
     mu, bs = _gso(B)
     k = 1
     swaps = 0
+    cost = n * n
     while k < n and swaps < max_swaps:
         for j in range(k - 1, -1, -1):
             q = round(mu[k, j])
@@ -62,14 +66,24 @@ def lll_reduce(B: np.ndarray, delta: float = 0.99, max_swaps: int = 200_000):
             T[[k - 1, k]] = T[[k, k - 1]]
             mu, bs = _gso(B)
             swaps += 1
+            cost += n * n
+            if effort is not None and swaps % 64 == 0:
+                effort.check(cost, "LLL reduction")
             k = max(k - 1, 1)
+    if effort is not None:
+        effort.check(cost, "LLL reduction")
+    if stats is not None:
+        stats["cost"] = cost
     return B, T
 
 
 class CVPSolver:
-    """Babai rounding over an LLL-reduced embedding (see module doc)."""
+    """Babai rounding over an LLL-reduced embedding (see module doc).
 
-    def __init__(self, vecs, costs, weight: float):
+    ``cost``: operations spent building it (LLL swaps x n^2), charged by the
+    caller on every use (:mod:`planning.tumbling.effort`)."""
+
+    def __init__(self, vecs, costs, weight: float, effort=None):
         t = np.asarray(vecs, dtype=complex)
         L = np.asarray(costs, dtype=float)
         n = t.size
@@ -79,7 +93,9 @@ class CVPSolver:
         B[:, n + 1] = weight * t.imag
         self.n = n
         self.weight = weight
-        self.Bred, self.T = lll_reduce(B)
+        stats: dict = {}
+        self.Bred, self.T = lll_reduce(B, effort=effort, stats=stats)
+        self.cost = stats["cost"]
         Q, R = np.linalg.qr(self.Bred.T)
         self.Q = Q  # columns: normalised Gram-Schmidt directions
         self.R = R
@@ -110,14 +126,20 @@ class CVPSolver:
 
 class Sumset:
     """All sums ``sum c_i t_i``, ``c_i in -r..r``, of a few generators, split in
-    two halves (meet in the middle, KD-tree on the first half)."""
+    two halves (meet in the middle, KD-tree on the first half).
 
-    def __init__(self, vecs: list, costs: list, combos: list, r: int = 2):
+    ``scale`` (metres, the part's size): vectors closer than ``1e-12 scale``
+    are one vector.  ``cost``: operations to build it (one per combination)."""
+
+    def __init__(self, vecs: list, costs: list, combos: list, r: int = 2, scale: float = 1.0):
         # vecs: complex; costs: per unit count; combos: per generator a dict
         # {base index: count} (what one unit means in base generators)
         n = len(vecs)
         h = (3 * n + 4) // 5  # the KD-tree half is the larger one: fewer queries
         self.halves = []
+        self.scale = float(scale)
+        self.quantum = 1e-12 * self.scale
+        self.cost = 0
         for part in (range(0, h), range(h, n)):
             part = list(part)
             coefs = np.array(np.meshgrid(*[np.arange(-r, r + 1)] * len(part), indexing="ij")).reshape(
@@ -125,7 +147,8 @@ class Sumset:
             v = coefs @ np.array([vecs[i] for i in part], dtype=complex) if part else np.zeros(1, complex)
             c = np.abs(coefs) @ np.array([costs[i] for i in part], dtype=float) if part else np.zeros(1)
             # keep the cheapest combination per distinct vector
-            q = np.round(np.stack([v.real, v.imag], 1) / 1e-12).astype(np.int64)
+            q = np.round(np.stack([v.real, v.imag], 1) / self.quantum).astype(np.int64)
+            self.cost += len(v)
             order = np.lexsort((c, q[:, 1], q[:, 0]))
             qo = q[order]
             first = np.ones(len(order), dtype=bool)
@@ -137,6 +160,7 @@ class Sumset:
         self.vecs = vecs
         self.costs = costs
         self.combos = combos
+        self.smallest_cost = 8 * len(self.halves[1][2])
 
     def query(self, r: complex, tol: float, k: int = 4):
         """Cheapest combination within ``tol`` of ``r`` (or the nearest one):
@@ -170,7 +194,9 @@ class Sumset:
         return {b: c for b, c in coef.items() if c}, vec, float(total[i2, j]), float(dist[i2, j])
 
     def smallest_nonzero(self, count: int):
-        """``count`` short non-zero vectors ``sum c_i t_i`` (cheap refinements)."""
+        """``count`` short non-zero vectors ``sum c_i t_i`` (cheap refinements),
+        as ``(vector, cost, coef)``.  About ``8 len(second half)`` operations
+        (:attr:`smallest_cost`)."""
         p1, c1, v1, k1 = self.halves[0]
         p2, c2, v2, k2 = self.halves[1]
         kk = min(4, len(v1))
@@ -178,18 +204,19 @@ class Sumset:
         if kk == 1:
             dist, idx = dist[:, None], idx[:, None]
         cands = []
+        floor = 1e-12 * max(self.scale, float(np.max(np.abs(v1))))
         for i2 in range(len(v2)):
             for j in range(kk):
                 i1 = int(idx[i2, j])
                 vec = v1[i1] + v2[i2]
-                if abs(vec) <= 1e-12 * max(1.0, float(np.max(np.abs(v1)))):
+                if abs(vec) <= floor:
                     continue
                 cands.append((abs(vec), float(k1[i1] + k2[i2]), i1, i2, vec))
         cands.sort()
         out = []
         seen = []
         for nrm, cost, i1, i2, vec in cands:
-            if any(abs(vec - s) < 1e-12 or abs(vec + s) < 1e-12 for s in seen):
+            if any(abs(vec - s) < self.quantum or abs(vec + s) < self.quantum for s in seen):
                 continue
             coef = {}
             for gi, c in list(zip(p1, c1[i1])) + list(zip(p2, c2[i2])):

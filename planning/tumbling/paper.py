@@ -1,5 +1,5 @@
 """The paper's planning algorithm (Marigo-Bicchi Sec. III steps 1-5, III-A, IV)
-for one goal, on a :class:`~planning.tumbling.generators.TumbleAnalysis`.
+for one goal, on a :class:`~planning.tumbling.analysis.TumbleAnalysis`.
 
 Everything is expressed in the start face's frame at the start (the analysis
 is rooted there): the goal is the target motion ``M = T_start^-1 o T_goal``
@@ -33,11 +33,11 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Optional
 
-from planning.lattice import closest_lattice_point
-from planning.tumbling.generators import TumbleAnalysis, loop_power_length
-from planning.tumbling.motions import Motion, compose, inverse_motion
 from kernels.planar import wrap_angle_np
-from planning.tumbling.words import power, purge
+from planning.lattice import closest_lattice_point
+from planning.tumbling.analysis import TumbleAnalysis
+from planning.tumbling.motions import Motion, compose, inverse_motion
+from planning.tumbling.words import loop_power_length, power, purge
 
 PAPER_MATERIALISE_CAP = 200_000
 
@@ -46,6 +46,15 @@ __all__ = ["PaperResult", "paper_plan", "PAPER_MATERIALISE_CAP", "nearest_rotati
 
 @dataclass
 class PaperResult:
+    """The paper's steps 1-5 for one goal: ``gamma1`` (rad, heading the loop
+    must turn), ``k`` (power of ``R_bar``) and ``orientation_residual`` (rad,
+    step 3), ``t_star`` (translation left, complex m), ``k12`` (lattice
+    coordinates) and ``position_residual`` (m, step 4), ``U_i`` (generator
+    counts), ``n_tumbles`` (purged; ``count_exact`` when the word was built),
+    ``word`` (None when too long to build), the checks of steps 1 and 5 with
+    their reasons, the analytic ``bounds``, and ``budget_skipped`` (the word
+    was small enough to build but did not fit the effort budget)."""
+
     gamma1: float
     k: int
     orientation_residual: float
@@ -61,6 +70,7 @@ class PaperResult:
     step5_ok: bool
     step5_reasons: list
     bounds: dict
+    budget_skipped: bool = False
 
 
 def _log(x: float) -> float:
@@ -111,22 +121,20 @@ def nearest_rotation_power(A: TumbleAnalysis, gamma: float) -> tuple[int, float]
     return int(k), ang
 
 
-def paper_plan(A: TumbleAnalysis, M: Motion, goal_face: int, eps: float) -> PaperResult:
+def paper_plan(A: TumbleAnalysis, M: Motion, goal_face: int, eps: float, effort=None) -> PaperResult:
     """Steps 1-5 of the paper for target motion ``M`` (start frame) ending on
-    ``goal_face``; see the module docstring."""
-    F = A.start_face
+    ``goal_face``; see the module docstring.  ``effort`` (an
+    :class:`~planning.tumbling.effort.Effort`): the word is only built when its
+    unpurged length fits the remaining budget, and is then counted."""
     L = A.transit_paths[goal_face]
-    E_L = A.table.word_motion(F, L)
-    loop = compose(M, inverse_motion(E_L))
+    loop = compose(M, inverse_motion(A.table.word_motion(A.start_face, L)))
     gamma1 = float(wrap_angle_np(loop.angle))
-    z1 = loop.z
 
     # ---- step 3 ----
     k, ang_k = nearest_rotation_power(A, gamma1)
     r3 = abs(float(wrap_angle_np(ang_k - gamma1)))
     cbar = complex(*A.rbar_centre)
-    z_rk = cbar - cmath.exp(1j * ang_k) * cbar
-    t_star = z1 - z_rk
+    t_star = loop.z - (cbar - cmath.exp(1j * ang_k) * cbar)
 
     # ---- step 4 ----
     k12 = None
@@ -135,22 +143,39 @@ def paper_plan(A: TumbleAnalysis, M: Motion, goal_face: int, eps: float) -> Pape
     if A.rank == 2:
         k1, k2 = closest_lattice_point(A.lattice_basis, (t_star.real, t_star.imag))
         X1, X2 = A.lattice_basis
-        px = k1 * X1[0] + k2 * X2[0]
-        py = k1 * X1[1] + k2 * X2[1]
-        r4 = math.hypot(px - t_star.real, py - t_star.imag)
+        r4 = math.hypot(k1 * X1[0] + k2 * X2[0] - t_star.real, k1 * X1[1] + k2 * X2[1] - t_star.imag)
         k12 = (int(k1), int(k2))
         U_i = [row[0] * k1 + row[1] * k2 for row in A.U]
-    elif abs(t_star) < 1e-12:
+    elif abs(t_star) < 1e-12 * A.size:
         r4 = abs(t_star)
 
-    # ---- step 5: the word and its length ----
+    # ---- step 5: the word, its length, the checks ----
+    word, n_tumbles, skipped = _step5_word(A, U_i, k, L, effort)
+    bounds = paper_bounds(A, abs(M.z), sum(abs(u) for u in U_i))
+    reasons1, reasons5 = _checks(A, float(eps), r3, r4, bounds)
+    return PaperResult(
+        gamma1=gamma1, k=k, orientation_residual=r3, t_star=t_star, k12=k12,
+        position_residual=r4, U_i=U_i, n_tumbles=int(n_tumbles), count_exact=word is not None,
+        word=word, step1_ok=not reasons1, step1_reasons=reasons1, step5_ok=not reasons5,
+        step5_reasons=reasons5, bounds=bounds, budget_skipped=bool(skipped),
+    )
+
+
+def _step5_word(A: TumbleAnalysis, U_i: list, k: int, L: tuple, effort):
+    """Step 5's word ``prod v_i^{U_i}, R_bar^k, L_f`` (purged) when small enough
+    to build (and affordable), else None; its tumble count (exact, or the sum
+    of the purged blocks); whether the budget alone kept it from being built."""
+    F = A.start_face
     gens = A.translation_generators
     unpurged = sum(abs(u) * g["length"] for u, g in zip(U_i, gens) if u)
     unpurged += k * A.rbar_length + len(L)
     have_words = all(g["word"] is not None for u, g in zip(U_i, gens) if u) and (
         k == 0 or A.rbar_word is not None)
-    word = None
-    if have_words and unpurged <= PAPER_MATERIALISE_CAP:
+    buildable = have_words and unpurged <= PAPER_MATERIALISE_CAP
+    skipped = buildable and effort is not None and not effort.affordable(2 * unpurged)
+    if buildable and not skipped:
+        if effort is not None:
+            effort.add(unpurged)
         parts = []
         for u, g in zip(U_i, gens):
             if u:
@@ -159,17 +184,14 @@ def paper_plan(A: TumbleAnalysis, M: Motion, goal_face: int, eps: float) -> Pape
             parts.extend(A.rbar_word * k)
         parts.extend(L)
         word = purge(tuple(parts), F)
-        n_tumbles = len(word)
-        exact = True
-    else:
-        n_tumbles = sum(loop_power_length(g["length"], g["cancel"], u) for u, g in zip(U_i, gens) if u)
-        n_tumbles += loop_power_length(A.rbar_length, A.rbar_cancel, k) + len(L)
-        exact = False
+        return word, len(word), False
+    n = sum(loop_power_length(g["length"], g["cancel"], u) for u, g in zip(U_i, gens) if u)
+    n += loop_power_length(A.rbar_length, A.rbar_cancel, k) + len(L)
+    return None, n, skipped
 
-    # ---- bounds (Sec. III-A and IV) ----
-    d_f = abs(M.z)
-    bounds = paper_bounds(A, d_f, sum(abs(u) for u in U_i))
-    eps = float(eps)
+
+def _checks(A: TumbleAnalysis, eps: float, r3: float, r4: float, bounds: dict):
+    """The reasons steps 1 and 5 give (empty lists when the checks hold)."""
     beta = math.pi / A.q
     reasons1 = []
     if beta > 2 * eps:
@@ -189,12 +211,7 @@ def paper_plan(A: TumbleAnalysis, M: Motion, goal_face: int, eps: float) -> Pape
         if not pos <= eps:
             reasons5.append(f"step 5: position residual + propagated error = {pos:.4g} > eps "
                             f"(eq. 6 with tau_v = {A.tau_v:g})")
-    return PaperResult(
-        gamma1=gamma1, k=k, orientation_residual=r3, t_star=t_star, k12=k12,
-        position_residual=r4, U_i=U_i, n_tumbles=int(n_tumbles), count_exact=exact, word=word,
-        step1_ok=not reasons1, step1_reasons=reasons1, step5_ok=not reasons5,
-        step5_reasons=reasons5, bounds=bounds,
-    )
+    return reasons1, reasons5
 
 
 def paper_bounds(A: TumbleAnalysis, d_f: float, sum_U: int = 0) -> dict:

@@ -17,21 +17,30 @@ from typing import Optional
 
 from kernels.planar import angle_distance
 
-VERDICTS = ("solved", "not_solvable")
+VERDICTS = ("solved", "not_solvable", "budget_exhausted")
 REACHABLE_CLASSES = ("discrete", "dense", "dense_lines")
 BOUND_KEYS = ("Delta_D", "Delta_beta", "Delta_gen", "E", "U_max", "Delta_theta_f", "Delta_C_f",
               "tumbles_L_f", "tumbles_R_bar_k", "tumbles_translation", "lattice_mesh_Delta", "beta")
 
-__all__ = ["Tumble", "TumblePlan", "config_error", "VERDICTS", "REACHABLE_CLASSES", "BOUND_KEYS"]
+__all__ = ["Tumble", "TumblePlan", "config_error", "reaches", "VERDICTS", "REACHABLE_CLASSES",
+           "BOUND_KEYS"]
 
 
 def config_error(c1, c2) -> float:
     """The paper's distance between configurations ``(x, y, theta, face)``:
-    ``max(|dxy|, |dtheta| wrapped, 1 - delta(face1, face2))``."""
+    ``max(|dxy|, |dtheta| wrapped, 1 - delta(face1, face2))`` (metres and
+    radians; 1 for a wrong face).  Use :func:`reaches` to decide success: with
+    ``eps >= 1`` this distance alone would accept a wrong face."""
     dxy = math.hypot(float(c1[0]) - float(c2[0]), float(c1[1]) - float(c2[1]))
     dth = angle_distance(c1[2], c2[2])
     df = 0.0 if int(c1[3]) == int(c2[3]) else 1.0
     return max(dxy, dth, df)
+
+
+def reaches(final, goal, eps: float) -> bool:
+    """Whether configuration ``final`` solves ``goal`` to accuracy ``eps``:
+    the same face, and ``config_error(final, goal) <= eps``."""
+    return int(final[3]) == int(goal[3]) and config_error(final, goal) <= eps
 
 
 def _config(x, name: str) -> tuple[float, float, float, int]:
@@ -88,11 +97,21 @@ class TumblePlan:
         Delta_theta_f (eq. 5), Delta_C_f (eq. 6), tumbles_L_f, tumbles_R_bar_k,
         tumbles_translation (Sec. IV), lattice_mesh_Delta, beta; and a few
         extra planner numbers (orientation_residual, position_residual ...).
-      verdict: ``"solved"`` or ``"not_solvable"``.
+      verdict: ``"solved"`` (the plan ends on the goal face within eps),
+        ``"not_solvable"`` or ``"budget_exhausted"`` (the effort budget ran out
+        first; the plan is the best one found); see
+        :mod:`planning.tumbling.verdict`.
       reason: a human-readable explanation.
-      reachable_class: ``"discrete"``, ``"dense"`` or ``"dense_lines"``.
+      reachable_class: ``"discrete"``, ``"dense"`` or ``"dense_lines"``, at
+        the part's tolerance ``tau_v`` (the class the planner used).
       n_tumbles_paper: tumble count of the paper's construction (steps 1-5,
         purged) for this goal (a Python int; it can exceed 2**63).
+      reachable_class_exact: the class of the coordinates as given
+        (rationality decided at 1e-12; None in plans made before it existed).
+      step5_ok: with ``tau_v > 0``, whether the paper's step-5 checks (eqs. 5,
+        6: worst case over every part within tau_v) hold; None for tau_v = 0.
+      effort_used: operations the planner spent (see
+        :mod:`planning.tumbling.effort`).
     """
 
     vertices: tuple[tuple[float, float, float], ...]
@@ -110,6 +129,9 @@ class TumblePlan:
     reason: str
     reachable_class: str
     n_tumbles_paper: int
+    reachable_class_exact: Optional[str] = None
+    step5_ok: Optional[bool] = None
+    effort_used: int = 0
 
     @property
     def n_tumbles(self) -> int:
@@ -138,6 +160,9 @@ class TumblePlan:
             "reason": self.reason,
             "reachable_class": self.reachable_class,
             "n_tumbles_paper": int(self.n_tumbles_paper),
+            "reachable_class_exact": self.reachable_class_exact,
+            "step5_ok": self.step5_ok,
+            "effort_used": int(self.effort_used),
         }
 
     @classmethod
@@ -145,9 +170,10 @@ class TumblePlan:
         """Inverse of :meth:`to_dict`."""
         if d["verdict"] not in VERDICTS:
             raise ValueError(f"verdict: expected one of {VERDICTS}, got {d['verdict']!r}")
-        if d["reachable_class"] not in REACHABLE_CLASSES:
-            raise ValueError(f"reachable_class: expected one of {REACHABLE_CLASSES}, "
-                             f"got {d['reachable_class']!r}")
+        for k in ("reachable_class", "reachable_class_exact"):
+            if d.get(k) is not None and d[k] not in REACHABLE_CLASSES:
+                raise ValueError(f"{k}: expected one of {REACHABLE_CLASSES}, got {d[k]!r}")
+        step5 = d.get("step5_ok")
         return cls(
             vertices=tuple(tuple(float(c) for c in v) for v in d["vertices"]),
             com=tuple(float(c) for c in d["com"]),
@@ -164,6 +190,10 @@ class TumblePlan:
             reason=str(d["reason"]),
             reachable_class=str(d["reachable_class"]),
             n_tumbles_paper=int(d["n_tumbles_paper"]),
+            reachable_class_exact=(None if d.get("reachable_class_exact") is None
+                                   else str(d["reachable_class_exact"])),
+            step5_ok=None if step5 is None else bool(step5),
+            effort_used=int(d.get("effort_used", 0)),
         )
 
     def summary(self) -> str:
@@ -171,8 +201,11 @@ class TumblePlan:
         s, g, p = self.start, self.goal, self.predicted_final
         npaper = self.n_tumbles_paper
         np_txt = f"{npaper}" if npaper < 10**12 else f"~{float(npaper):.3e}"
+        cls = f"{self.reachable_class} reachable set"
+        if self.reachable_class_exact not in (None, self.reachable_class):
+            cls += f" at tau_v = {self.tau_v:g} m, {self.reachable_class_exact} exactly"
         lines = [
-            f"tumble plan: {self.verdict} ({self.reachable_class} reachable set), "
+            f"tumble plan: {self.verdict} ({cls}), "
             f"{self.n_tumbles} tumbles (paper's construction: {np_txt}); "
             f"error {self.error:.3e} (eps {self.eps:g})",
             f"  start  ({s[0]:.6g}, {s[1]:.6g}, {s[2]:.6g}, face {s[3]})",

@@ -3,32 +3,34 @@
 ``analyze_polyhedron`` computes (and caches, per part, start face, tau_v and
 tau_g) the paper's structure of the part: plane development, transit paths,
 rotations ``R_j``, GCD of the defect angles, ``R_bar``, the translation
-generators ``t_jk``, their lattice (HNF) and the class of the reachable set
-(:mod:`planning.tumbling.generators`).
+generators ``t_jk``, their lattice (HNF) and the class of the reachable set,
+exactly and at the part's tolerance (:mod:`planning.tumbling.analysis`).
 
-``plan_tumble`` plans one goal:
+``plan_tumble`` plans one goal within an effort budget
+(:mod:`planning.tumbling.effort`):
 
 1. the paper's algorithm (steps 1-5, :mod:`planning.tumbling.paper`): its
    residuals, verdict checks, analytic bounds and tumble count
    (``n_tumbles_paper``, never materialised when huge);
 2. with ``shorten=True`` (default) a short plan
    (:mod:`planning.tumbling.shorten`): meet-in-the-middle cores plus short
-   translation loops (and, for irrational defect angles, short rotation loops);
+   translation loops (and, for irrational defect angles, short rotation
+   loops).  A near-tame part is planned on its class at the part's tolerance
+   first, then, if that gives no plan within ``eps``, on its exact class;
 3. every candidate plan (the short plan; the paper's own plan when it is
    small enough to build, at most ``PAPER_MATERIALISE_CAP`` tumbles, and
    shorter than the short plan or needed as a fallback) is replayed from
    ``start`` with the JAX kernel :func:`kernels.tumble.replay` in float64;
-   the shortest one within ``eps`` is returned, else the most accurate one
-   (verdict ``not_solvable``).
+   the shortest one on the goal face within ``eps`` is returned, else the
+   most accurate one.
 
 ``plan.bounds`` holds the paper's bounds (keys of
 :data:`planning.tumbling.plan.BOUND_KEYS`) plus ``orientation_residual`` (rad)
 and ``position_residual`` (m) of the paper's steps 3 and 4 (exact for a
-discrete reachable set).
+discrete reachable set).  Verdicts: :mod:`planning.tumbling.verdict`.
 
 The error is the paper's metric ``max(|dxy|, |dtheta| wrapped, 1 - delta(face))``
-between the replayed final configuration and the goal.  "solved" needs
-error <= eps and, when ``tau_v > 0``, the paper's step-5 checks (eqs. 5, 6).
+between the replayed final configuration and the goal.
 """
 from __future__ import annotations
 
@@ -40,15 +42,18 @@ from typing import Optional
 import jax.numpy as jnp
 import numpy as np
 
+from kernels.planar import wrap_angle_np
 from kernels.polyhedron import make_polyhedron
 from kernels.precision import float64
 from kernels.tumble import make_config, replay
-from planning.tumbling.generators import TumbleAnalysis, build_analysis
+from planning.tumbling.analysis import TumbleAnalysis, build_analysis
+from planning.tumbling.effort import (DEFAULT_EFFORT, DEFAULT_TIME_LIMIT_S, VECTOR_OPS,
+                                      BudgetExhausted, Effort)
 from planning.tumbling.motions import Motion, compose, inverse_motion
-from kernels.planar import wrap_angle_np
 from planning.tumbling.paper import paper_plan
 from planning.tumbling.plan import Tumble, TumblePlan, config_error
-from planning.tumbling.shorten import ShortPlanner
+from planning.tumbling.shorten import ShortPlanner, tame_model_usable
+from planning.tumbling.verdict import verdict
 from planning.tumbling.words import purge
 
 __all__ = ["analyze_polyhedron", "plan_tumble", "TumbleAnalysis", "replay_faces", "clear_cache"]
@@ -57,6 +62,9 @@ _CACHE_SIZE = 32
 _analyses: "OrderedDict[tuple, TumbleAnalysis]" = OrderedDict()
 _parts: "OrderedDict[tuple, object]" = OrderedDict()
 REPLAY_BUCKETS = (256, 4096, 65536, 1 << 20)
+#: The paper's R_bar^k is offered to the short planner as a core when at most
+#: this many tumbles long.
+PAPER_CORE_CAP = 20_000
 
 
 def clear_cache() -> None:
@@ -104,6 +112,18 @@ def _check_tol(x, name: str, allow_none: bool):
     return xf
 
 
+def _check_budget(effort, time_limit):
+    if effort is not None and (isinstance(effort, bool) or not isinstance(effort, numbers.Integral)
+                               or effort <= 0):
+        raise ValueError(f"effort: must be a positive number of operations (int) or None for no "
+                         f"limit, got {effort!r} (default {DEFAULT_EFFORT})")
+    if time_limit is not None and (isinstance(time_limit, bool) or
+                                   not isinstance(time_limit, numbers.Real) or
+                                   not float(time_limit) > 0 or math.isnan(float(time_limit))):
+        raise ValueError(f"time_limit: must be a positive number of seconds or None for no cap, "
+                         f"got {time_limit!r} (default {DEFAULT_TIME_LIMIT_S:g})")
+
+
 @float64
 def analyze_polyhedron(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[float] = None,
                        start_face: int = 0) -> TumbleAnalysis:
@@ -112,13 +132,17 @@ def analyze_polyhedron(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[f
     Args:
       vertices: (m, 3) body-frame points (metres), any order (hull taken).
       com: optional centre of mass (default: volume centroid).
-      tau_v: vertex tolerance (m, >= 0); > 0 sets the defect-angle
-        representation tolerance ``Delta_beta = 2 (l - 1) tau_v / d_min``.
+      tau_v: vertex tolerance (m, >= 0): the precision to which the part is
+        known.  > 0 sets the defect-angle representation tolerance
+        ``Delta_beta = 2 (l - 1) tau_v / d_min`` and decides the reachable
+        class at that tolerance (``reachable_class``; the class of the
+        coordinates as given is ``reachable_class_exact``).
       tau_g: generator-coefficient tolerance (eq. 3); None (or 0) = exact when
-        the coefficients are rational (discrete case), else ``DEFAULT_TAU_G``.
+        the coefficients are rational (discrete case), rationals determined by
+        tau_v when they are so only within it, else ``DEFAULT_TAU_G``.
       start_face: the paper's ``F_1``.
 
-    Returns a :class:`~planning.tumbling.generators.TumbleAnalysis`.
+    Returns a :class:`~planning.tumbling.analysis.TumbleAnalysis`.
     Raises ValueError naming the bad argument (part errors come from
     :func:`kernels.polyhedron.make_polyhedron`).
     """
@@ -135,10 +159,15 @@ def analyze_polyhedron(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[f
         P.vertices, P.com, tau_v=tau_v, tau_g=tau_g, start_face=int(start_face), polyhedron=P))
 
 
-def _short_planner(A: TumbleAnalysis) -> ShortPlanner:
-    if "short" not in A.cache:
-        A.cache["short"] = ShortPlanner(A)
-    return A.cache["short"]
+def _short_planner(A: TumbleAnalysis, at_tolerance: bool, effort: Effort) -> ShortPlanner:
+    """The cached short planner (built within ``effort`` if missing); its
+    build cost is charged once per call."""
+    key = ("short", at_tolerance)
+    if key not in A.cache:
+        A.cache[key] = ShortPlanner(A, at_tolerance=at_tolerance, effort=effort)
+    SP = A.cache[key]
+    effort.charge_once(SP, SP.cost, "short-plan tables")
+    return SP
 
 
 def _geom(A: TumbleAnalysis):
@@ -173,7 +202,7 @@ def _config(x, name: str, n_faces: Optional[int]):
         raise ValueError(f"{name}: expected 4 entries (x, y, theta, face), got {len(t)}; "
                          "give x, y in metres, theta in radians and a face number")
     vals = []
-    for i, (v, lab) in enumerate(zip(t[:3], ("x", "y", "theta"))):
+    for v, lab in zip(t[:3], ("x", "y", "theta")):
         if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(float(v)):
             raise ValueError(f"{name}: {lab} = {v!r} is not a finite number; give {lab} in "
                              f"{'radians' if lab == 'theta' else 'metres'}")
@@ -189,83 +218,130 @@ def _config(x, name: str, n_faces: Optional[int]):
     return (vals[0], vals[1], vals[2], f)
 
 
+def _inputs(vertices, com, goal, start, eps, tau_v, tau_g, effort, time_limit):
+    """Validated ``(eps, tau_v, tau_g, start, goal, polyhedron)`` of a plan
+    call; ValueError naming the first bad field (cheap checks first)."""
+    if isinstance(eps, bool) or not isinstance(eps, numbers.Real) or not (float(eps) > 0) \
+            or not math.isfinite(float(eps)):
+        raise ValueError(f"eps: must be a finite number > 0 (the accuracy in metres / radians), "
+                         f"got {eps!r}")
+    tau_v = _check_tol(tau_v, "tau_v", False)
+    tau_g = _check_tol(tau_g, "tau_g", True)
+    _check_budget(effort, time_limit)
+    start = (0.0, 0.0, 0.0, 0) if start is None else start
+    goal_c = _config(goal, "goal", None)
+    start_c = _config(start, "start", None)
+    P = _polyhedron(vertices, com)
+    return (float(eps), tau_v, tau_g, _config(start_c, "start", P.n_faces),
+            _config(goal_c, "goal", P.n_faces), P)
+
+
 def _pose(c) -> Motion:
     return Motion(float(c[2]), complex(c[0], c[1]))
 
 
+def _short_candidates(A, M: Motion, G: int, eps: float, paper, effort: Effort):
+    """Short plans (words) and the stage where the budget ran out (or None):
+    on the class at the part's tolerance, then, for a near-tame part whose
+    model gives no plan within eps, on the exact class (only the latter when
+    the model's rotation grid is too fine for its tolerance to guide the
+    search, :func:`~planning.tumbling.shorten.tame_model_usable`)."""
+    F = A.start_face
+    words, exhausted = [], None
+    pc = None
+    if A.rbar_word is not None and paper.k * A.rbar_length <= PAPER_CORE_CAP:
+        effort.add(paper.k * A.rbar_length)
+        pc = purge(tuple(A.rbar_word) * paper.k + tuple(A.transit_paths[G]), F)
+    tries = (True,) if not A.near_tame else (True, False) if tame_model_usable(A) else (False,)
+    for at_tol in tries:
+        try:
+            res = _short_planner(A, at_tol, effort).plan(M, G, eps, paper_core=pc, effort=effort)
+        except BudgetExhausted as exc:
+            return words, exhausted or exc.stage
+        if res is not None:
+            exhausted = exhausted or res.exhausted
+            if res.word is not None:
+                words.append(res.word)
+            if res.error <= eps or res.exhausted:
+                break
+    return words, exhausted
+
+
+def _replay_candidates(A, start_c, goal_c, eps, cands, paper, effort: Effort) -> list:
+    """``(kind, word, final, err)`` for every candidate replayed by the kernel
+    (the paper's word only when shorter than the best short plan or needed)."""
+    checked = []
+    for kind, word in cands:
+        effort.add(len(word) // VECTOR_OPS + 1)  # replays are never cut short
+        final, ok = replay_faces(A, start_c, word)
+        checked.append((kind, word, final, config_error(final, goal_c) if ok else math.inf))
+    ok_lens = [len(w) for _, w, f, e in checked if e <= eps and f[3] == goal_c[3]]
+    shortest_ok = min(ok_lens, default=None)
+    if paper.word is not None and (shortest_ok is None or len(paper.word) < shortest_ok):
+        effort.add(len(paper.word) // VECTOR_OPS + 1)
+        final, ok = replay_faces(A, start_c, paper.word)
+        checked.append(("paper", paper.word, final, config_error(final, goal_c) if ok else math.inf))
+    return checked
+
+
 @float64
 def plan_tumble(vertices, goal, start=None, com=None, eps: float = 1e-3, tau_v: float = 0.0,
-                tau_g: Optional[float] = None, shorten: bool = True) -> TumblePlan:
+                tau_g: Optional[float] = None, shorten: bool = True,
+                effort: Optional[int] = DEFAULT_EFFORT,
+                time_limit: Optional[float] = DEFAULT_TIME_LIMIT_S) -> TumblePlan:
     """Plan a sequence of tumbles from ``start`` to ``goal`` (see module doc).
 
     Args:
       vertices, com: the part (body frame, metres).
       goal: ``(x, y, theta, face)``; start: the same, default ``(0, 0, 0, 0)``.
-      eps: required accuracy in the paper's metric (> 0).
-      tau_v: vertex tolerance (m, >= 0); tau_g: generator tolerance (>= 0 or
-        None).
+        Metres and radians, world frame; faces numbered as in
+        :func:`kernels.polyhedron.make_polyhedron`.
+      eps: required accuracy in the paper's metric (> 0; metres and radians).
+      tau_v: vertex tolerance (m, >= 0; see :func:`analyze_polyhedron`);
+        tau_g: generator tolerance (>= 0 or None).
       shorten: False returns the paper's own construction (when it is small
         enough to build).
+      effort: operation budget (~1 microsecond each, deterministic: the same
+        call gives the same plan); None for no limit.
+      time_limit: wall-clock cap in seconds (a backstop); None for no cap.
 
-    Returns a :class:`~planning.tumbling.plan.TumblePlan`.
+    Returns a :class:`~planning.tumbling.plan.TumblePlan`; its verdict is
+    ``solved``, ``not_solvable`` or ``budget_exhausted``
+    (:mod:`planning.tumbling.verdict`), and it carries the best plan found.
     Raises ValueError naming the bad field and how to fix it.
     """
-    if isinstance(eps, bool) or not isinstance(eps, numbers.Real) or not (float(eps) > 0) \
-            or not math.isfinite(float(eps)):
-        raise ValueError(f"eps: must be a finite number > 0 (the accuracy in metres / radians), "
-                         f"got {eps!r}")
-    eps = float(eps)
-    tau_v = _check_tol(tau_v, "tau_v", False)
-    tau_g = _check_tol(tau_g, "tau_g", True)
-    start = (0.0, 0.0, 0.0, 0) if start is None else start
-    goal_c = _config(goal, "goal", None)
-    start_c = _config(start, "start", None)
-    P = _polyhedron(vertices, com)
-    goal_c = _config(goal_c, "goal", P.n_faces)
-    start_c = _config(start_c, "start", P.n_faces)
+    eps, tau_v, tau_g, start_c, goal_c, P = _inputs(vertices, com, goal, start, eps, tau_v, tau_g,
+                                                     effort, time_limit)
     A = analyze_polyhedron(vertices, com, tau_v=tau_v, tau_g=tau_g, start_face=start_c[3])
-    F, G = start_c[3], goal_c[3]
+    G = goal_c[3]
     M = compose(inverse_motion(_pose(start_c)), _pose(goal_c))
+    budget = Effort(effort, time_limit)
 
-    paper = paper_plan(A, M, G, eps)
-
-    # ---- candidates, verified by the kernel ----
-    cands = []
+    paper = paper_plan(A, M, G, eps, effort=budget)
+    exhausted = "paper's construction" if paper.budget_skipped else None
+    words = []
     if shorten:
-        SP = _short_planner(A)
-        pc = None
-        if A.rbar_word is not None and paper.k * A.rbar_length <= 20_000:
-            pc = purge(tuple(A.rbar_word) * paper.k + tuple(A.transit_paths[G]), F)
-        res = SP.plan(M, G, eps, paper_core=pc)
-        if res is not None:
-            cands.append(("short", res.word))
-    checked = []
-    for kind, word in cands:
-        final, ok = replay_faces(A, start_c, word)
-        err = config_error(final, goal_c) if ok else math.inf
-        checked.append((kind, word, final, err))
-    shortest_ok = min((len(w) for _, w, _, e in checked if e <= eps), default=None)
-    if paper.word is not None and (shortest_ok is None or len(paper.word) < shortest_ok):
-        final, ok = replay_faces(A, start_c, paper.word)
-        err = config_error(final, goal_c) if ok else math.inf
-        checked.append(("paper", paper.word, final, err))
+        words, why = _short_candidates(A, M, G, eps, paper, budget)
+        exhausted = exhausted or why
+    checked = _replay_candidates(A, start_c, goal_c, eps, [("short", w) for w in words], paper,
+                                 budget)
     if checked:
-        good = [c for c in checked if c[3] <= eps]
+        good = [c for c in checked if c[3] <= eps and c[2][3] == G]
         pick = (min(good, key=lambda c: len(c[1])) if good else
-                min(checked, key=lambda c: (round(c[3], 9), len(c[1]))))
+                min(checked, key=lambda c: (round(c[3] / A.size, 9), len(c[1]))))
         kind, word, final, err = pick
     else:
         kind, word = "none", ()
         final, _ = replay_faces(A, start_c, ())
         err = config_error(final, goal_c)
 
-    # ---- verdict ----
-    verdict, reason = _verdict(A, paper, M, G, eps, err, kind, len(word), shorten)
+    verd, reason = verdict(A, paper, G, eps, err, int(final[3]), kind, len(word), shorten,
+                           exhausted, budget)
     bounds = dict(paper.bounds)
     bounds["orientation_residual"] = float(paper.orientation_residual)
     bounds["position_residual"] = float(paper.position_residual)
     tumbles = []
-    prev = F
+    prev = start_c[3]
     for g in word:
         tumbles.append(Tumble(edge=tuple(int(i) for i in P.shared_edge(prev, g)), face=int(g)))
         prev = g
@@ -275,49 +351,8 @@ def plan_tumble(vertices, goal, start=None, com=None, eps: float = 1e-3, tau_v: 
         start=start_c, goal=goal_c, eps=eps, tau_v=tau_v, tau_g=tau_g,
         tumbles=tuple(tumbles),
         predicted_final=(final[0], final[1], float(wrap_angle_np(final[2])), int(final[3])),
-        error=float(err), bounds=bounds, verdict=verdict, reason=reason,
+        error=float(err), bounds=bounds, verdict=verd, reason=reason,
         reachable_class=A.reachable_class, n_tumbles_paper=int(paper.n_tumbles),
+        reachable_class_exact=A.reachable_class_exact,
+        step5_ok=(bool(paper.step5_ok) if tau_v > 0 else None), effort_used=int(budget.used),
     )
-
-
-def _fmt_count(n: int) -> str:
-    return str(n) if n < 10**12 else f"~1e{len(str(n)) - 1}"
-
-
-def _verdict(A: TumbleAnalysis, paper, M: Motion, G: int, eps: float, err: float, kind: str,
-             n: int, shorten: bool) -> tuple[str, str]:
-    exact_heading = A.all_rational
-    exact_lattice = A.all_rational and A.reachable_class == "discrete"
-    if err <= eps and (A.tau_v == 0 or paper.step5_ok):
-        src = {"short": "short plan", "paper": "paper's construction"}.get(kind, kind)
-        extra = "; step 5 checks passed (tau_v = %g)" % A.tau_v if A.tau_v > 0 else ""
-        return "solved", (f"{src}: {n} tumbles (paper's construction: "
-                          f"{_fmt_count(paper.n_tumbles)}), error {err:.3g} <= eps {eps:g} "
-                          f"({A.reachable_class} reachable set){extra}")
-    parts = []
-    beta = math.pi / A.q
-    if exact_heading and paper.orientation_residual > eps:
-        step = float(A.smallest_rotation) * math.pi
-        parts.append(f"orientation residual {paper.orientation_residual:.4g} rad > eps: face {G} "
-                     f"only reaches headings spaced {step:.4g} rad apart")
-        if beta > 2 * eps:
-            parts.append(f"beta = pi/{A.q} = {beta:.4g} > 2 eps: orientation grid too coarse")
-    elif exact_lattice and paper.position_residual > eps:
-        parts.append(f"position residual {paper.position_residual:.4g} m > eps: the nearest "
-                     f"reachable position (translation lattice, mesh Delta = "
-                     f"{A.mesh_area:.4g} m^2) is too far")
-        if 2 * math.sqrt(A.mesh_area / math.pi) >= eps:
-            parts.append(f"lattice mesh too coarse: 2 sqrt(Delta/pi) = "
-                         f"{2 * math.sqrt(A.mesh_area / math.pi):.4g} >= eps")
-    elif err <= eps and A.tau_v > 0 and not paper.step5_ok:
-        parts.extend(paper.step5_reasons)
-    elif not shorten and paper.word is None:
-        parts.append(f"paper's construction needs {_fmt_count(paper.n_tumbles)} tumbles, more "
-                     "than this planner builds; use shorten=True")
-    else:
-        what = "dense reachable set: a longer plan exists; " if A.reachable_class != "discrete" else ""
-        parts.append(f"search limit: best plan error {err:.4g} > eps {eps:g} ({what}"
-                     "increase eps or the search budgets)")
-    if A.tau_v > 0 and not paper.step5_ok and not any(p.startswith("step 5") for p in parts):
-        parts.extend(paper.step5_reasons)
-    return "not_solvable", "; ".join(parts)

@@ -15,13 +15,16 @@ Public API
 ``power(word, n, start_face) -> tuple``
 ``purge(word, start_face, adjacency=None) -> tuple``
 ``is_walk(word, start_face, adjacency) -> bool``
+``junction_cancel(word, start_face) -> int``     (``|p|`` of a loop ``p c p^-1``)
+``loop_power_length(word_len, junction_cancel, n) -> int``   (``|purge(w^n)|``)
 """
 
 from __future__ import annotations
 
 from typing import Hashable, Iterable, Mapping, Sequence
 
-__all__ = ["concat", "end_face", "inverse", "is_walk", "power", "purge"]
+__all__ = ["concat", "end_face", "inverse", "is_walk", "power", "purge", "junction_cancel",
+           "loop_power_length", "WORD_CAP"]
 
 Word = tuple
 
@@ -129,3 +132,30 @@ def purge(
         else:
             stack.append(f)
     return tuple(stack[1:])
+
+
+# --------------------------------------------------------------------------
+# lengths of loop powers (without building them)
+# --------------------------------------------------------------------------
+#: Words longer than this (before purging) are not materialised by the
+#: analysis: they are handled by their length and their effect (motion
+#: algebra) only.
+WORD_CAP = 100_000
+
+
+def junction_cancel(word: Sequence[Hashable], start_face: Hashable) -> int:
+    """``|p|`` for a reduced loop ``w = p c p^-1`` at ``start_face`` (the
+    tumbles that cancel where two copies of ``w`` meet): ``(2|w| - |purge(w w)|) / 2``."""
+    w = tuple(word)
+    if not w:
+        return 0
+    return (2 * len(w) - len(purge(w + w, start_face))) // 2
+
+
+def loop_power_length(word_len: int, junction_cancel: int, n: int) -> int:
+    """Length of ``purge(w^n)`` for a reduced loop ``w = p c p^-1`` with
+    ``|w| = word_len`` and ``|p| = junction_cancel``:
+    ``|n| (|w| - 2|p|) + 2|p|`` (0 for ``n = 0`` or the empty loop)."""
+    if n == 0 or word_len == 0:
+        return 0
+    return abs(n) * (word_len - 2 * junction_cancel) + 2 * junction_cancel

@@ -9,6 +9,10 @@
 * :func:`plot_plan` draws the footprints (the face on the plane) along a
   tumble plan, replayed with the exact kernel.
 
+Drawing only: the mathematics (developments, footprints, kernel replays,
+lattice enumeration sizes) lives in :mod:`planning.tumbling.development`,
+:mod:`planning.tumbling.trajectory` and :mod:`planning.tumbling.reachability`.
+
 Conventions as in :mod:`kernels.polyhedron`: a configuration
 ``(x, y, theta, face)`` puts ``face`` on the plane with its frame at world
 ``(x, y)`` and heading ``theta``; a face-frame point ``q`` is at
@@ -18,8 +22,6 @@ path given.
 from __future__ import annotations
 
 import math
-import warnings
-from collections import deque
 from fractions import Fraction
 from typing import Mapping, Optional
 
@@ -27,45 +29,32 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-import jax.numpy as jnp  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-
-from kernels.planar import rot2_np  # noqa: E402
-from kernels.precision import float64  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import FancyArrowPatch, Patch, Polygon as PolyPatch  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
-from kernels.polyhedron import PartWarning, Polyhedron, make_polyhedron  # noqa: E402
-from kernels.tumble import make_config, replay_trajectory, tumble  # noqa: E402
+from kernels.planar import rot2_np  # noqa: E402
+from kernels.polyhedron import Polyhedron  # noqa: E402
+from planning.tumbling.development import development_poses, face_footprint, pose3  # noqa: E402
+from planning.tumbling.reachability import (lattice_count_bound, radius_for_count,  # noqa: E402
+                                            reduced_basis)
+from planning.tumbling.trajectory import (plan_trajectory, quiet_polyhedron,  # noqa: E402
+                                          sample_reached_positions)
 
 START_COLOR = "tab:blue"
 GOAL_COLOR = "tab:green"
 FINAL_COLOR = "tab:orange"
 MID_COLOR = "0.45"
 
-__all__ = ["development_poses", "face_footprint", "plot_development", "plot_reachable", "plot_plan"]
+__all__ = ["plot_development", "plot_reachable", "plot_plan", "MAX_DRAWN_POINTS"]
 
 
 # --------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------
-def face_footprint(poly: Polyhedron, face: int, pose) -> np.ndarray:
-    """World corners (s, 2) of ``face`` on the plane at planar pose
-    ``(x, y, theta)``, in ``face_cycles[face]`` order."""
-    q = np.asarray(poly.face_corners_2d[int(face)], dtype=float)
-    return q @ rot2_np(float(pose[2])).T + np.asarray(pose[:2], dtype=float)
-
-
-def _polyhedron(vertices, com) -> Polyhedron:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PartWarning)
-        return make_polyhedron(np.asarray(vertices, dtype=float),
-                               None if com is None else np.asarray(com, dtype=float))
-
-
 def _unwrap_part(obj):
     """(Polyhedron, analysis or None, name) from an analysis, a Polyhedron, a
     PartFile or a vertex array."""
@@ -76,54 +65,8 @@ def _unwrap_part(obj):
     if hasattr(obj, "vertices") and hasattr(obj, "kind"):  # PartFile
         if obj.kind != "polyhedron":
             raise ValueError(f"kind: a plane development needs a polyhedron part, got {obj.kind!r}")
-        return _polyhedron(obj.vertices, obj.com), None, obj.name
-    return _polyhedron(obj, None), None, ""
-
-
-def _pose3(p) -> tuple[float, float, float]:
-    """(x, y, theta) from a tuple/array (3 or 4 numbers) or a TumbleConfig-like."""
-    if hasattr(p, "xy") and hasattr(p, "theta"):
-        xy = np.asarray(p.xy, dtype=float)
-        return float(xy[0]), float(xy[1]), float(np.asarray(p.theta))
-    if isinstance(p, Mapping):
-        return float(p["x"]), float(p["y"]), float(p["theta"])
-    a = [float(v) for v in list(p)[:3]]
-    return a[0], a[1], a[2]
-
-
-@float64
-def development_poses(poly: Polyhedron, root: int = 0) -> tuple[dict, dict]:
-    """Plane development rooted at face ``root`` (paper Sec. III, Steps 1-2).
-
-    Breadth-first over the face-adjacency graph (neighbours in edge-slot
-    order); each new face is placed by one elementary tumble of the exact
-    kernel (:func:`kernels.tumble.tumble`) from its parent's copy, the root
-    at ``(0, 0, 0)``.
-
-    Returns:
-      ``(poses, parent)``: ``poses[f] = (x, y, theta)`` of face ``f``'s copy,
-      ``parent[f]`` the face it was unfolded from (``None`` for the root).
-    """
-    root = int(root)
-    if not 0 <= root < poly.n_faces:
-        raise ValueError(f"root: face {root} does not exist; faces are 0..{poly.n_faces - 1}")
-    geom = poly.geometry()
-    poses = {root: (0.0, 0.0, 0.0)}
-    parent: dict = {root: None}
-    queue = deque([root])
-    while queue:
-        f = queue.popleft()
-        cfg = make_config(*poses[f], f, dtype=geom.dtype)
-        for g in poly.neighbors(f):
-            if g in poses:
-                continue
-            new, ok = tumble(geom, cfg, g)
-            if not bool(ok):  # pragma: no cover - neighbours are adjacent
-                raise RuntimeError(f"faces {f} and {g} are not adjacent")
-            poses[g] = _pose3(new)
-            parent[g] = f
-            queue.append(g)
-    return poses, parent
+        return quiet_polyhedron(obj.vertices, obj.com), None, obj.name
+    return quiet_polyhedron(obj, None), None, ""
 
 
 def _fmt_frac_pi(x) -> str:
@@ -159,7 +102,6 @@ def _ticks(ax) -> None:
 # --------------------------------------------------------------------------
 # Plane development (Fig. 3)
 # --------------------------------------------------------------------------
-@float64
 def plot_development(polyhedron_or_analysis, path, root: Optional[int] = None,
                      title: Optional[str] = None, name: str = "", dpi: int = 150) -> dict:
     """Draw the plane development rooted at a face (paper Fig. 3); save to ``path``.
@@ -193,7 +135,7 @@ def plot_development(polyhedron_or_analysis, path, root: Optional[int] = None,
     if analysis is not None and getattr(analysis, "development", None) is not None:
         dev = analysis.development
         items = dev.items() if isinstance(dev, Mapping) else enumerate(dev)
-        poses = {int(f): _pose3(p) for f, p in items}
+        poses = {int(f): pose3(p) for f, p in items}
         zero = [f for f, p in poses.items() if np.allclose(p, 0.0, atol=1e-12)]
         guess = getattr(analysis, "start_face", zero[0] if zero else 0)
         if root is None:
@@ -272,44 +214,6 @@ def plot_development(polyhedron_or_analysis, path, root: Optional[int] = None,
 MAX_DRAWN_POINTS = 20_000
 
 
-@float64
-def sample_reached_positions(poly: Polyhedron, root: int, radius: float, n_walks: int = 1000,
-                             seed: int = 0) -> np.ndarray:
-    """Positions of face ``root``'s frame, any heading, reached by random tumble walks.
-
-    ``n_walks`` seeded random walks from ``(0, 0, 0, root)`` (each step lands
-    a uniformly chosen neighbour), replayed with the exact kernel
-    (``jax.vmap(replay_trajectory)``); every configuration with ``root`` on
-    the plane and within ``radius`` of the start contributes its ``(x, y)``.
-    Walk length grows with ``radius`` (about ``4 (radius / face size)^2``,
-    20..400 tumbles).  Returns an (n, 2) array (the start included).
-    """
-    import jax
-
-    F = poly.n_faces
-    sizes = [len(poly.neighbors(f)) for f in range(F)]
-    K = max(sizes)
-    table = np.array([list(poly.neighbors(f)) + [-1] * (K - len(poly.neighbors(f)))
-                      for f in range(F)], dtype=np.int32)
-    deg = np.array(sizes)
-    step = max(float(np.max(np.linalg.norm(q, axis=1))) for q in poly.face_corners_2d)
-    L = int(np.clip(4.0 * (radius / max(step, 1e-12)) ** 2, 20, 400))
-    rng = np.random.default_rng(seed)
-    seqs = np.empty((n_walks, L), dtype=np.int32)
-    cur = np.full(n_walks, int(root))
-    for t in range(L):
-        pick = np.minimum((rng.uniform(size=n_walks) * deg[cur]).astype(int), deg[cur] - 1)
-        cur = table[cur, pick]
-        seqs[:, t] = cur
-    geom = poly.geometry()
-    start = make_config(0.0, 0.0, 0.0, int(root), dtype=geom.dtype)
-    _, _, traj = jax.vmap(replay_trajectory, in_axes=(None, None, 0))(geom, start, jnp.asarray(seqs))
-    xy = np.asarray(traj.xy, dtype=float).reshape(-1, 2)
-    face = np.asarray(traj.face).reshape(-1)
-    keep = (face == int(root)) & (np.linalg.norm(xy, axis=1) <= radius)
-    return np.concatenate([np.zeros((1, 2)), xy[keep]])
-
-
 def _fmt_angle(x) -> str:
     """A rotation step given as a Fraction of pi: exact when short, else in rad."""
     if isinstance(x, Fraction) and x.denominator > 10**6:
@@ -324,44 +228,6 @@ def _unit_scale(r: float) -> tuple[float, str]:
         return 1.0, "m"
     e = int(math.floor(math.log10(r)))
     return 10.0 ** e, f"1e{e} m"
-
-
-def _reduced_basis(basis) -> tuple[np.ndarray, np.ndarray]:
-    """Lagrange-Gauss reduced basis (floats) of the lattice spanned by ``basis``."""
-    from planning.lattice import lagrange_gauss_reduce
-
-    X1, X2 = list(basis)[:2]
-    r1, r2, _ = lagrange_gauss_reduce(X1, X2)
-    return _vec2(r1), _vec2(r2)
-
-
-def _count_bound(r: float, b1: np.ndarray, b2: np.ndarray) -> float:
-    """About how many points ``reachable_points(r)`` enumerates (its box in the
-    reduced basis: the short vector's line, times the lines within ``r``);
-    unlike ``pi r^2 / Delta`` it stays right for very skewed lattices."""
-    n1 = float(np.linalg.norm(b1))
-    det = abs(float(b1[0] * b2[1] - b1[1] * b2[0]))
-    if n1 <= 0 or det <= 0:
-        return math.inf
-    h = det / n1  # distance between the lattice lines parallel to b1
-    n2 = float(np.linalg.norm(b2))
-    return (2.0 * r * n2 / det + 3.0) * (2.0 * r * n1 / det + 3.0) if h > 0 else math.inf
-
-
-def _radius_for(count: float, b1, b2, hi: float) -> float:
-    """Largest radius <= ``hi`` whose enumeration stays under ``count`` points."""
-    lo_r, hi_r = 0.0, hi
-    if _count_bound(hi, b1, b2) <= count:
-        return hi
-    for _ in range(200):
-        mid = 0.5 * (lo_r + hi_r) if lo_r > 0 else hi_r * 1e-3
-        if _count_bound(mid, b1, b2) <= count:
-            lo_r = mid
-        else:
-            hi_r = mid
-        if lo_r > 0 and hi_r / lo_r < 1.01:
-            break
-    return lo_r if lo_r > 0 else hi_r * 1e-6
 
 
 def _draw_basis(ax, basis, scale: float, handles: Optional[list], view: float):
@@ -387,7 +253,6 @@ def _draw_basis(ax, basis, scale: float, handles: Optional[list], view: float):
                                   label=f"X{k + 1} = ({X[0]:.4g}, {X[1]:.4g}) m"))
 
 
-@float64
 def plot_reachable(analysis, path, radius: float, title: Optional[str] = None,
                    name: str = "", n_walks: int = 1000, dpi: int = 150) -> np.ndarray:
     """Draw the reachable positions around the start (paper Fig. 2); save to ``path``.
@@ -424,8 +289,8 @@ def plot_reachable(analysis, path, radius: float, title: Optional[str] = None,
     est = math.pi * radius ** 2 / area if area > 0 else math.inf
     b1 = b2 = None
     if basis is not None and area > 0:
-        b1, b2 = _reduced_basis(basis)
-    zoom = b1 is None or not _count_bound(radius, b1, b2) <= MAX_DRAWN_POINTS
+        b1, b2 = reduced_basis(basis)
+    zoom = b1 is None or not lattice_count_bound(radius, b1, b2) <= MAX_DRAWN_POINTS
     if zoom:
         fig, (ax, zx) = plt.subplots(1, 2, figsize=(14.5, 7.2),
                                      gridspec_kw=dict(width_ratios=[1, 1], wspace=0.28))
@@ -487,8 +352,8 @@ def plot_reachable(analysis, path, radius: float, title: Optional[str] = None,
                              "mesh area); nothing to draw")
         bl = max(float(np.linalg.norm(_vec2(X))) for X in list(basis)[:2])
         # enough to show the basis, but never more than ~MAX_DRAWN_POINTS points
-        rz = _radius_for(MAX_DRAWN_POINTS / 4.0, b1, b2, 1.15 * bl)
-        rz = max(rz, _radius_for(300.0, b1, b2, radius))
+        rz = radius_for_count(MAX_DRAWN_POINTS / 4.0, b1, b2, 1.15 * bl)
+        rz = max(rz, radius_for_count(300.0, b1, b2, radius))
         pts = np.asarray(analysis.reachable_points(rz, max_points=10**9), dtype=float).reshape(-1, 2)
         scale, unit = _unit_scale(rz)
         ps = pts / scale
@@ -557,31 +422,6 @@ def _heading(ax, poly, face, pose, color, scale):
                                 mutation_scale=10), zorder=8)
 
 
-@float64
-def plan_trajectory(plan):
-    """Replay a plan's tumbles with the exact kernel.
-
-    Returns ``(poly, configs, ok)``: ``configs`` an (L+1, 4) array of
-    ``(x, y, theta, face)`` from the start through every tumble.
-    """
-    poly = _polyhedron(plan.vertices, plan.com)
-    geom = poly.geometry()
-    start = tuple(plan.start)
-    seq = [int(t.face) for t in plan.tumbles]
-    rows = [(float(start[0]), float(start[1]), float(start[2]), int(start[3]))]
-    ok = True
-    if seq:
-        cfg = make_config(*start[:3], int(start[3]), dtype=geom.dtype)
-        _, okj, traj = replay_trajectory(geom, cfg, jnp.asarray(seq, dtype=jnp.int32))
-        ok = bool(okj)
-        xy = np.asarray(traj.xy, dtype=float)
-        th = np.asarray(traj.theta, dtype=float)
-        fc = np.asarray(traj.face)
-        rows += [(xy[i, 0], xy[i, 1], th[i], int(fc[i])) for i in range(len(seq))]
-    return poly, np.array(rows, dtype=float), ok
-
-
-@float64
 def plot_plan(plan, path, title: Optional[str] = None, name: str = "",
               dpi: int = 150) -> np.ndarray:
     """Draw the footprints along a tumble plan; save to ``path``.
