@@ -73,7 +73,8 @@ def build_parser(prog: str = "nudge plan-tumble") -> argparse.ArgumentParser:
                     "within eps of a goal, and optionally draw it.",
         epilog="Configurations: x,y,theta,face in metres, radians (or ...deg) and a face number; "
                "the face lies on the plane with its frame at (x, y), heading theta. "
-               "Exit status: 0 solved, 1 not solvable, 2 bad input.")
+               "Exit status: 0 solved, 1 not solvable or the effort budget ran out (the best plan "
+               "found is printed), 2 bad input, 3 internal error.")
     p.add_argument("part", metavar="PART.yaml", help="part file with kind: polyhedron "
                    "(see sweeps.partfile)")
     p.add_argument("--goal", metavar="X,Y,THETA,FACE", help="goal configuration")
@@ -85,6 +86,11 @@ def build_parser(prog: str = "nudge plan-tumble") -> argparse.ArgumentParser:
                    "coordinates, metres (default 0)")
     p.add_argument("--tau-g", metavar="T", default=None, help="tolerance of the rational "
                    "approximation of the translation generators (default: from eps)")
+    p.add_argument("--effort", metavar="OPS", default=None,
+                   help="effort budget of the planner in elementary operations (default "
+                        "10000000; 0 for no limit)")
+    p.add_argument("--time-limit", metavar="S", default=None,
+                   help="wall-clock cap of the planner, seconds (default 30; 0 for no limit)")
     p.add_argument("--no-shorten", action="store_true",
                    help="keep the paper's construction (no shortening of the tumble sequence)")
     p.add_argument("--json", action="store_true", help="print the plan as JSON on stdout")
@@ -137,6 +143,15 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
             raise InputError("--eps: required with --goal (accuracy in metres / radians)")
         tau_v = _number(args.tau_v, "--tau-v", positive=True, allow_zero=True)
         tau_g = None if args.tau_g is None else _number(args.tau_g, "--tau-g", positive=True)
+        budget = {}
+        if args.effort is not None:
+            v = _number(args.effort, "--effort", positive=True, allow_zero=True)
+            if not float(v).is_integer():
+                raise InputError(f"--effort: must be a whole number of operations, got {args.effort!r}")
+            budget["effort"] = int(v) or None
+        if args.time_limit is not None:
+            v = _number(args.time_limit, "--time-limit", positive=True, allow_zero=True)
+            budget["time_limit"] = v or None
         radius = None
         if args.lattice_radius is not None:
             radius = _number(args.lattice_radius, "--lattice-radius", positive=True)
@@ -175,7 +190,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
             if goal is not None:
                 from planning.tumbling.planner import plan_tumble
                 plan = plan_tumble(part.vertices, goal, start=start, com=part.com, eps=eps,
-                                   tau_v=tau_v, tau_g=tau_g, shorten=not args.no_shorten)
+                                   tau_v=tau_v, tau_g=tau_g, shorten=not args.no_shorten, **budget)
             if args.lattice or (args.development and plan is not None):
                 # the planner's own analysis (cached by plan_tumble: same part, tolerances
                 # and start face), so the figures show what the plan was built from
@@ -195,7 +210,9 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
             sys.stdout.write(f"{part.name}: {part.path}\n{plan.summary()}\n")
         if plan.verdict != "solved":
             code = EXIT_NOT_SOLVABLE
-            sys.stderr.write(f"not solvable: {' '.join(str(plan.reason).split())}\n")
+            what = ("effort budget exhausted (raise --effort or --time-limit)"
+                    if plan.verdict == "budget_exhausted" else "not solvable")
+            sys.stderr.write(f"{what}: {' '.join(str(plan.reason).split())}\n")
     elif not args.json:
         sys.stdout.write(f"{part.name}: {part.path}: {poly.n_faces} faces, {poly.n_vertices} "
                          f"vertices, {poly.n_edges} edges\n")

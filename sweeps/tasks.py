@@ -39,7 +39,8 @@ def plan_task(part, start, goal, planner: Planner, eps: Eps, caught: Optional[li
 
     Returns:
       ``(plan, reason)``: a plan and ``""``, or ``None`` and the planner's reason
-      (no feasible plan, not solvable within eps, the effort budget ran out).
+      (no feasible plan; a tumble plan's verdict first, ``not_solvable: ...`` or
+      ``budget_exhausted: ...``).
 
     Raises:
       PlanInputError: the planner rejected the part or a setting (its message
@@ -85,7 +86,9 @@ def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[
                n_steps=0, total_distance_m=math.nan, length_ratio=math.nan, plan_class=None,
                n_tumbles_paper=-1, plan_error=math.nan, plan_json=None)
     if plan is None:
-        row["verdict"] = verdict or "no_plan"
+        head = reason.split(":", 1)[0] if reason else ""
+        row["verdict"] = verdict or (head if head in ("not_solvable", "budget_exhausted")
+                                     else "no_plan")
         return row
     row["plan_json"] = json.dumps(plan.to_dict(), default=_json_default, sort_keys=True)
     if tumble:

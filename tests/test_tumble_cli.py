@@ -252,3 +252,16 @@ def test_bench_quick_result_line():
     assert m, last
     float(m.group(1))  # a number (nan when nothing was solved)
     assert int(m.group(2)) > 0
+
+
+def test_cli_effort_budget_runs_out_with_its_own_message(tmp_path):
+    # a unit cube whose vertices carry 1e-9 of noise: dense at tau_v = 0, and this goal is
+    # off its lattice; with a tiny budget the planner returns the best plan it has
+    p = tmp_path / "noisy_cube.yaml"
+    p.write_text("vertices: [[1e-9, 0, 0], [1, 2e-9, 0], [1, 1, 1e-9], [0, 1, 0], [0, 0, 1], "
+                 "[1, 0, 1.000000003], [1, 1, 1], [2e-9, 1, 1]]\n")
+    r = run_cli(p, "--goal=-3,1.5,0,0", "--eps", "1e-6", "--effort", "100000")
+    assert r.returncode == 1, r.stderr
+    assert "effort budget exhausted" in r.stderr and "Traceback" not in r.stderr
+    r = run_cli(p, "--goal=-3,1.5,0,0", "--eps", "1e-6", "--effort", "1.5")
+    assert r.returncode == 2 and "--effort" in r.stderr
