@@ -16,7 +16,8 @@ radians, CCW positive.
 """
 from kernels.planar import rot2, wrap_angle
 from kernels.polygon import PartError, PartWarning, Polygon, PolygonGeometry, make_polygon, polygon_geometry
-from kernels.polyhedron import Polyhedron, TumbleGeometry, make_polyhedron, tumble_geometry
+from kernels.polyhedron import Polyhedron, make_polyhedron
+from kernels.tumble_geometry import TumbleGeometry, tumble_geometry
 from kernels.push import PushOutcome, replay_push, replay_pushes
 from kernels.quasistatic import SimOutcome, limit_surface_ratio, simulate_push, simulate_pushes
 from kernels.tumble import TumbleConfig, make_config, replay, tumble

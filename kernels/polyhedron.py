@@ -1,6 +1,11 @@
 """Convex polyhedral parts for tumbling (Marigo & Bicchi).
 
-Two layers live here:
+(About 490 lines: the :class:`Polyhedron` record and the construction of every
+table it holds - frames, adjacency, angles - are one unit that is read
+together; the hull's faces are in :mod:`kernels.facets`, the kernel's JAX
+geometry in :mod:`kernels.tumble_geometry`.)
+
+Two layers meet here:
 
 * :func:`make_polyhedron` validates a caller's part on the host (numpy +
   scipy): vertices in any order, optional centre of mass.  It returns a
@@ -42,17 +47,16 @@ the centre of mass is a point of that frame) and keep the caller's indices:
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 import warnings
 from typing import Sequence
 
-import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 from kernels.errors import PartError, PartWarning, warn_implausible_size
+from kernels.facets import (angle_between, as_points, check_not_flat, diameter, extent,
+                            merge_hull_faces, newell, validate_topology, volume_centroid)
 from kernels.planar import TWO_PI
 
 #: Default relative tolerance (times the part's diameter) for merging Qhull's
@@ -62,266 +66,6 @@ DEFAULT_MERGE_TOL = 1e-9
 #: Edges whose dihedral angle is within this of pi (nearly coplanar faces
 #: that were not merged) raise a PartWarning.
 NEARLY_FLAT_RAD = 1e-6
-
-
-# --------------------------------------------------------------------------
-# Host-side construction (numpy / scipy)
-# --------------------------------------------------------------------------
-def _as_points(vertices) -> np.ndarray:
-    try:
-        v = np.asarray(vertices, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise PartError(
-            f"vertices: could not be read as an (m, 3) array of floats ({exc}); "
-            "give a list of [x, y, z] triples in metres"
-        ) from None
-    if v.ndim != 2 or v.shape[1] != 3:
-        raise PartError(
-            f"vertices: expected an (m, 3) array of [x, y, z] points in metres, "
-            f"got shape {v.shape}; give one [x, y, z] triple per vertex"
-        )
-    bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
-    if bad.size:
-        raise PartError(
-            f"vertices: rows {bad.tolist()} are not finite (NaN or inf); "
-            "replace them by finite coordinates in metres"
-        )
-    if v.shape[0] < 4:
-        raise PartError(
-            f"vertices: a polyhedron needs at least 4 non-coplanar points, got "
-            f"{v.shape[0]}; add points (or use a polygon part, kind: polygon)"
-        )
-    return v
-
-
-def _diameter(v: np.ndarray) -> float:
-    return float(np.max(np.linalg.norm(v - v.mean(axis=0), axis=1))) * 2.0
-
-
-def _extent(hull_points: np.ndarray) -> float:
-    """Largest distance between two hull vertices (the part's largest extent, m)."""
-    best = 0.0
-    for i in range(0, len(hull_points), 256):  # chunks: O(m) memory
-        d = hull_points[i:i + 256, None, :] - hull_points[None, :, :]
-        best = max(best, float(np.max(np.einsum("ijk,ijk->ij", d, d))))
-    return math.sqrt(best)
-
-
-def _check_not_flat(v: np.ndarray) -> None:
-    centred = v - v.mean(axis=0)
-    s = np.linalg.svd(centred, compute_uv=False)
-    if s[0] == 0.0 or s[2] <= 1e-10 * s[0]:
-        raise PartError(
-            "vertices: all points are coplanar (or collinear / coincident), so "
-            "they span no volume; a polyhedron needs at least 4 non-coplanar "
-            "points (for a flat part use kind: polygon)"
-        )
-
-
-def _merge_hull_faces(v: np.ndarray, tol: float):
-    """Merge Qhull's triangles into maximal planar faces.
-
-    Returns a list of face cycles (caller indices, CCW seen from outside,
-    starting at the smallest index).  ``tol`` is relative to the diameter.
-    """
-    try:
-        hull = ConvexHull(v)
-    except QhullError as exc:  # pragma: no cover - _check_not_flat catches most
-        raise PartError(
-            f"vertices: Qhull could not build the convex hull ({str(exc).splitlines()[0]}); "
-            "check that the points span a volume"
-        ) from None
-    dist_tol = tol * _diameter(v)
-    rings = [_face_ring(v, hull, members, dist_tol) for members in _coplanar_groups(v, hull, dist_tol)]
-    cycles = []
-    for ring in _drop_collinear(rings, v, dist_tol):
-        k0 = int(np.argmin(ring))
-        cycles.append(tuple(ring[k0:] + ring[:k0]))
-    return cycles
-
-
-def _coplanar_groups(v: np.ndarray, hull, dist_tol: float) -> list:
-    """Qhull's triangles grouped into faces: from the largest unassigned
-    triangle, grow over neighbours whose corners lie within ``dist_tol``
-    (metres) of its plane."""
-    simp, eqs, nbrs = hull.simplices, hull.equations, hull.neighbors
-    p0 = v[simp[:, 0]]
-    areas = 0.5 * np.linalg.norm(np.cross(v[simp[:, 1]] - p0, v[simp[:, 2]] - p0), axis=1)
-    group = -np.ones(len(simp), dtype=int)
-    groups: list[list[int]] = []
-    for seed in np.argsort(-areas, kind="stable"):
-        if group[seed] >= 0:
-            continue
-        gid = len(groups)
-        n_seed, d_seed = eqs[seed, :3], eqs[seed, 3]
-        members = [seed]
-        group[seed] = gid
-        stack = [seed]
-        while stack:
-            t = stack.pop()
-            for u in nbrs[t]:
-                if group[u] >= 0 or np.dot(eqs[u, :3], n_seed) <= 0.0:
-                    continue
-                if np.all(np.abs(v[simp[u]] @ n_seed + d_seed) <= dist_tol):
-                    group[u] = gid
-                    members.append(u)
-                    stack.append(u)
-        groups.append(members)
-    return groups
-
-
-def _face_ring(v: np.ndarray, hull, members: list, dist_tol: float):
-    """``(ring, normal)`` of a group of triangles: its corners CCW seen from
-    outside (the 2-D hull in the fitted plane, plus points within ``dist_tol``
-    of its edges) and the area-weighted outward normal."""
-    simp, eqs = hull.simplices, hull.equations
-    idx = np.unique(simp[members].ravel())
-    pts = v[idx]
-    n = np.zeros(3)
-    for t in members:
-        a, b, c = v[simp[t]]
-        cr = np.cross(b - a, c - a)
-        n += -cr if np.dot(cr, eqs[t, :3]) < 0 else cr
-    nn = np.linalg.norm(n)
-    n = n / nn if nn > 0 else eqs[members[0], :3]
-    # 2-D basis (u, w) with u x w = n (outward): CCW in (u, w) = CCW from outside.
-    u = np.cross(n, [1.0, 0.0, 0.0])
-    if np.linalg.norm(u) < 0.5:
-        u = np.cross(n, [0.0, 1.0, 0.0])
-    u /= np.linalg.norm(u)
-    w = np.cross(n, u)
-    c = pts.mean(axis=0)
-    xy = np.stack([(pts - c) @ u, (pts - c) @ w], axis=1)
-    if len(idx) == 3:
-        d1, d2 = xy[1] - xy[0], xy[2] - xy[0]
-        ring = [0, 1, 2] if d1[0] * d2[1] - d1[1] * d2[0] >= 0 else [0, 2, 1]
-    else:
-        try:
-            h2 = ConvexHull(xy)
-        except QhullError:  # pragma: no cover
-            raise PartError(
-                "vertices: a face of the hull is degenerate; remove "
-                "near-duplicate or near-collinear points"
-            ) from None
-        ring = _insert_on_edges(list(h2.vertices), xy, dist_tol)  # CCW in 2-D for scipy
-    return [int(idx[r]) for r in ring], n
-
-
-def _insert_on_edges(ring: list, xy: np.ndarray, tol: float) -> list:
-    """Insert into a face's 2-D hull ring (CCW indices into ``xy``) the face's
-    other points that lie within ``tol`` of one of its edges, in order along
-    the edge: they may be corners of a neighbouring face, and whether they are
-    corners is decided for all faces at once (:func:`_drop_collinear`)."""
-    on = set(ring)
-    extra = [i for i in range(len(xy)) if i not in on]
-    if not extra:
-        return ring
-    out = []
-    for k in range(len(ring)):
-        a, b = xy[ring[k]], xy[ring[(k + 1) % len(ring)]]
-        ab = b - a
-        L2 = float(ab @ ab)
-        out.append(ring[k])
-        if L2 == 0.0:
-            continue
-        found = []
-        for i in extra:
-            t = float((xy[i] - a) @ ab) / L2
-            if 0.0 < t < 1.0 and abs(float(ab[0] * (xy[i] - a)[1] - ab[1] * (xy[i] - a)[0])) \
-                    <= tol * math.sqrt(L2):
-                found.append((t, i))
-        out.extend(i for _, i in sorted(found))
-    return out
-
-
-def _drop_collinear(rings: list, v: np.ndarray, dist_tol: float) -> list:
-    """Drop corners that are collinear within ``dist_tol`` (metres) -- from
-    every face at once: a vertex is dropped only when it is a straight corner
-    in every face that has it (a point on an edge, or in a face), so that the
-    faces still close up when nearly coplanar faces were kept apart."""
-    faces = [list(r) for r, _ in rings]
-    normals = [n for _, n in rings]
-    where: dict = {}
-    for f, ring in enumerate(faces):
-        for x in ring:
-            where.setdefault(x, set()).add(f)
-
-    def straight(f: int, x: int) -> bool:
-        ring = faces[f]
-        if len(ring) <= 3:
-            return False
-        k = ring.index(x)
-        a, b, c = v[ring[k - 1]], v[x], v[ring[(k + 1) % len(ring)]]
-        base = np.linalg.norm(c - a)
-        return bool(base > 0 and np.dot(np.cross(b - a, c - b), normals[f]) / base <= dist_tol)
-
-    changed = True
-    while changed:
-        changed = False
-        for x in sorted(where):
-            fs = where[x]
-            if fs and all(straight(f, x) for f in fs):
-                for f in fs:
-                    faces[f].remove(x)
-                where[x] = set()
-                changed = True
-    return faces
-
-
-def _validate_topology(cycles):
-    directed = {}
-    for f, cyc in enumerate(cycles):
-        s = len(cyc)
-        for k in range(s):
-            e = (cyc[k], cyc[(k + 1) % s])
-            if e in directed:
-                raise PartError(
-                    "vertices: the hull is numerically degenerate (an edge is "
-                    "used twice in the same direction); remove near-duplicate "
-                    "or nearly coplanar points"
-                )
-            directed[e] = f
-    for (a, b) in directed:
-        if (b, a) not in directed:
-            raise PartError(
-                "vertices: the hull is numerically degenerate (faces do not "
-                "close up); remove near-duplicate or nearly coplanar points"
-            )
-    verts = {i for cyc in cycles for i in cyc}
-    n_edges = len(directed) // 2
-    if len(verts) - n_edges + len(cycles) != 2:
-        raise PartError(
-            "vertices: the hull is numerically degenerate (Euler characteristic "
-            "is not 2); remove near-duplicate or nearly coplanar points"
-        )
-    return directed
-
-
-def _volume_centroid(v: np.ndarray, cycles) -> tuple[float, np.ndarray]:
-    ref = v[sorted({i for c in cycles for i in c})].mean(axis=0)
-    vol = 0.0
-    mom = np.zeros(3)
-    for cyc in cycles:
-        a = v[cyc[0]]
-        for k in range(1, len(cyc) - 1):
-            b, c = v[cyc[k]], v[cyc[k + 1]]
-            # cycle CCW from outside -> positive volume
-            dv = np.dot(np.cross(a - ref, b - ref), c - ref) / 6.0
-            vol += dv
-            mom += dv * (ref + a + b + c) / 4.0
-    return vol, mom / vol
-
-
-def _newell(pts: np.ndarray) -> np.ndarray:
-    n = np.zeros(3)
-    s = len(pts)
-    for k in range(s):
-        n += np.cross(pts[k], pts[(k + 1) % s])
-    return n / np.linalg.norm(n)
-
-
-def _angle(u: np.ndarray, w: np.ndarray) -> float:
-    return float(math.atan2(np.linalg.norm(np.cross(u, w)), np.dot(u, w)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -521,7 +265,7 @@ class Polyhedron:
 
 
 def _face_cycles(v: np.ndarray, tol: float) -> list[tuple[int, ...]]:
-    cycles = _merge_hull_faces(v, tol)
+    cycles = merge_hull_faces(v, tol)
     cycles.sort(key=lambda c: tuple(sorted(c)))
     return cycles
 
@@ -550,14 +294,14 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
     Raises:
       ValueError naming ``vertices`` or ``com`` and saying how to fix it.
     """
-    v = _as_points(vertices)
-    _check_not_flat(v)
+    v = as_points(vertices)
+    check_not_flat(v)
     m = v.shape[0]
     cycles = _face_cycles(v, tol)
-    directed = _validate_topology(cycles)
+    directed = validate_topology(cycles)
 
     hull_vertices = tuple(sorted({i for c in cycles for i in c}))
-    warn_implausible_size(_extent(v[list(hull_vertices)]))
+    warn_implausible_size(extent(v[list(hull_vertices)]))
     dropped = tuple(i for i in range(m) if i not in set(hull_vertices))
     if dropped:
         warnings.warn(
@@ -568,11 +312,11 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
             stacklevel=2,
         )
 
-    volume, centroid = _volume_centroid(v, cycles)
-    normals = np.array([_newell(v[list(c)]) for c in cycles])
+    volume, centroid = volume_centroid(v, cycles)
+    normals = np.array([newell(v[list(c)]) for c in cycles])
     offsets = np.array([np.mean(v[list(c)] @ n) for c, n in zip(cycles, normals)])
     c = centroid if com is None else _read_com(com)
-    _check_com_inside(c, normals, offsets, cycles, _diameter(v))
+    _check_com_inside(c, normals, offsets, cycles, diameter(v))
     origins, rots, corners2d = _face_frames(v, cycles, normals, offsets, c)
     edges, edge_faces, topo = _adjacency(cycles, directed, m)
     face_angles, dihedral, defects = _angles(v, cycles, hull_vertices, normals, edge_faces)
@@ -710,10 +454,10 @@ def _angles(v, cycles, hull_vertices, normals, edge_faces):
         ang = np.empty(s)
         for k in range(s):
             p, q, r = v[cyc[k - 1]], v[cyc[k]], v[cyc[(k + 1) % s]]
-            ang[k] = _angle(p - q, r - q)
+            ang[k] = angle_between(p - q, r - q)
             vertex_sum[cyc[k]] += ang[k]
         face_angles.append(ang)
-    dihedral = np.array([math.pi - _angle(normals[f], normals[g]) for (f, g) in edge_faces])
+    dihedral = np.array([math.pi - angle_between(normals[f], normals[g]) for (f, g) in edge_faces])
     defects = np.array([TWO_PI - vertex_sum[i] for i in hull_vertices])
     return face_angles, dihedral, defects
 
@@ -731,142 +475,19 @@ def combinatorics_changed(vertices, polyhedron: Polyhedron, tol: float = 1e-6) -
     True the kernel's model of the perturbed part (faces fitted by Newell's
     method to the nominal corner cycles) is no longer the part's true hull.
     """
-    v = _as_points(vertices)
+    v = as_points(vertices)
     if v.shape[0] != polyhedron.vertices.shape[0]:
         raise PartError(
             f"vertices: expected {polyhedron.vertices.shape[0]} points (a perturbed "
             f"copy of the part), got {v.shape[0]}"
         )
     try:
-        _check_not_flat(v)
+        check_not_flat(v)
         cycles = _face_cycles(v, tol)
     except ValueError:
         return True
     return tuple(sorted(tuple(sorted(c)) for c in cycles)) != polyhedron.faces
 
 
-# --------------------------------------------------------------------------
-# JAX geometry for the kernel
-# --------------------------------------------------------------------------
-@dataclasses.dataclass(frozen=True)
-class TumbleGeometry:
-    """Per-face numbers for the tumble kernel (a JAX pytree).
-
-    Array fields are traced (a leading batch axis under ``jax.vmap``); the
-    :class:`TumbleTopology` is static.  ``F`` faces, ``K`` = max face size.
-    All arrays share one float dtype (float32 or float64).
-
-    Attributes:
-      vertices: (m, 3) body-frame vertices used (metres).
-      com: (3,) centre of mass, body frame.
-      normals: (F, 3) outward unit normals (Newell), body frame.
-      offsets: (F,) plane offsets, ``normals[f] . p = offsets[f]`` on face f's
-        fitted plane (through the mean of its corners).
-      origins: (F, 3) face-frame origins (com projected on the fitted plane).
-      rotations: (F, 3, 3) body -> face frame (rows: x, y, z = inward normal).
-      corners_2d: (F, K, 2) face-frame coordinates of the corners in
-        ``face_cycles`` order (projected on the fitted plane); padded slots
-        repeat corner 0.
-      topology: static :class:`TumbleTopology`.
-    """
-
-    vertices: jax.Array
-    com: jax.Array
-    normals: jax.Array
-    offsets: jax.Array
-    origins: jax.Array
-    rotations: jax.Array
-    corners_2d: jax.Array
-    topology: TumbleTopology
-
-    @property
-    def dtype(self):
-        return self.corners_2d.dtype
-
-    @property
-    def next_face(self) -> np.ndarray:
-        """(F, K) int32 face across edge slot k of face f (-1 pad); static."""
-        return self.topology.next_face_array
-
-    @property
-    def next_slot(self) -> np.ndarray:
-        """(F, K) int32 slot of the shared edge in the next face (-1 pad); static."""
-        return self.topology.next_slot_array
-
-
-jax.tree_util.register_dataclass(
-    TumbleGeometry,
-    data_fields=["vertices", "com", "normals", "offsets", "origins", "rotations", "corners_2d"],
-    meta_fields=["topology"],
-)
-
-
-@functools.lru_cache(maxsize=256)
-def _topology_tables(topology: TumbleTopology):
-    """Index tables of a topology (cached): padded cycles, corner mask, sizes."""
-    return (topology.padded_cycles, topology.corner_mask, topology.face_sizes)
-
-
-@jax.jit
-def _geometry_arrays(vertices, com, cyc, mask, sizes):
-    # Jitted on shapes only (the index tables are traced arguments), so
-    # polyhedra with the same (m, F, K) share one compilation.
-    dtype = vertices.dtype
-    sizes = sizes.astype(dtype)
-    P = vertices[cyc]  # (F, K, 3)
-    # Newell's normal: sum_k p_k x p_{k+1} over the closed cycle (translated by
-    # the first corner for conditioning).  Padded slots repeat corner 0, so
-    # the (last real -> pad) and (pad -> pad) terms close the polygon exactly.
-    P0 = P - P[:, :1, :]
-    newell = jnp.sum(jnp.cross(P0, jnp.roll(P0, -1, axis=1)), axis=1)
-    n = newell / jnp.linalg.norm(newell, axis=1, keepdims=True)
-    centroid = jnp.sum(jnp.where(mask[..., None], P, 0.0), axis=1) / sizes[:, None]
-    offsets = jnp.sum(n * centroid, axis=1)
-    origins = com[None, :] - (n @ com - offsets)[:, None] * n
-    e = P[:, 1, :] - P[:, 0, :]
-    x = e - jnp.sum(e * n, axis=1, keepdims=True) * n
-    x = x / jnp.linalg.norm(x, axis=1, keepdims=True)
-    z = -n
-    y = jnp.cross(z, x)
-    R = jnp.stack([x, y, z], axis=1)  # (F, 3, 3) rows = axes
-    rel = P - origins[:, None, :]
-    corners_2d = jnp.einsum("fij,fkj->fki", R[:, :2, :], rel)
-    return n, offsets, origins, R, corners_2d
-
-
-def tumble_geometry(vertices, com, topology: TumbleTopology) -> TumbleGeometry:
-    """Build the kernel's :class:`TumbleGeometry` from a vertex array (pure JAX).
-
-    Args:
-      vertices: (m, 3) body-frame vertices, metres (``m = topology.n_vertices``;
-        the caller's full list, dropped points included and ignored).
-      com: (3,) centre of mass, body frame, metres.
-      topology: the nominal :class:`TumbleTopology` (``Polyhedron.topology``).
-
-    The faces are the NOMINAL combinatorics: for a perturbed vertex set each
-    face keeps its nominal corner cycle, its plane is fitted with Newell's
-    normal through the mean of its corners (robust for slightly non-planar
-    faces) and its corners are projected onto that plane.  Whether the
-    perturbed points' hull has different faces is not checked here (see
-    :func:`combinatorics_changed`; the robustness layer decides).
-
-    Jit- and vmap-able over ``vertices`` / ``com``; dtype follows
-    ``vertices``.
-    """
-    vertices = jnp.asarray(vertices)
-    if not jnp.issubdtype(vertices.dtype, jnp.floating):
-        vertices = vertices.astype(jnp.result_type(float))
-    com = jnp.asarray(com, dtype=vertices.dtype)
-    n, offsets, origins, R, corners_2d = _geometry_arrays(
-        vertices, com, *_topology_tables(topology)
-    )
-    return TumbleGeometry(
-        vertices=vertices,
-        com=com,
-        normals=n,
-        offsets=offsets,
-        origins=origins,
-        rotations=R,
-        corners_2d=corners_2d,
-        topology=topology,
-    )
+# the kernel-side geometry of a polyhedron (defined there, used by Polyhedron.geometry)
+from kernels.tumble_geometry import TumbleGeometry, tumble_geometry  # noqa: E402
