@@ -30,7 +30,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels.planar import rot2, wrap_angle
-from kernels.polyhedron import TumbleGeometry, TumbleTopology
+from kernels.polyhedron import TumbleTopology
+from kernels.tumble_geometry import TumbleGeometry
 
 __all__ = [
     "TumbleConfig",

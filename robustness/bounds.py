@@ -178,7 +178,7 @@ def tumble_first_order_bound(vertices, com, topology, start, faces, tau_v: float
     Returns:
       dict ``x_m``, ``y_m``, ``position_m``, ``theta_rad``.
     """
-    from kernels.polyhedron import tumble_geometry
+    from kernels.tumble_geometry import tumble_geometry
     from kernels.tumble import replay
 
     if not (math.isfinite(tau_v) and tau_v >= 0):

@@ -125,7 +125,7 @@ def tumble_parts(plan, poly, params, in_axes, n: int, merge_factor: float = 8.0,
     """Per-sample polyhedra of ``n`` drawn perturbations (the semantics of
     :func:`robustness.evaluation._tumble_one`); ``tau_v`` (m) sets the
     combinatorics check's tolerance (default the largest sampled offset)."""
-    from kernels.polyhedron import tumble_geometry
+    from kernels.tumble_geometry import tumble_geometry
     from robustness.hulls import face_merge_tol, polyhedron_combinatorics_changed
 
     p = jax.tree_util.tree_map(lambda x: np.asarray(x, np.float64), broadcast(params, in_axes, n))
