@@ -59,7 +59,8 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from kernels.polyhedron import PartWarning, make_polyhedron, tumble_geometry  # noqa: E402
+from kernels.polyhedron import PartWarning, make_polyhedron  # noqa: E402
+from kernels.tumble_geometry import tumble_geometry  # noqa: E402
 from kernels.planar import wrap_angle  # noqa: E402
 from kernels.tumble import make_config, replay  # noqa: E402
 from polyhedra_set import polyhedra_set  # noqa: E402

@@ -8,7 +8,7 @@ import pytest
 
 from kernels.polyhedron import make_polyhedron
 from kernels.tumble import make_config, replay
-from kernels.polyhedron import tumble_geometry
+from kernels.tumble_geometry import tumble_geometry
 from planning.pushing.planner import plan_pose
 from robustness.bounds import push_final_pose_fn, push_plan_bound, tumble_first_order_bound
 from robustness.tolerances import ExecutionTolerance, GeometryTolerance

@@ -14,7 +14,8 @@ import pytest  # noqa: E402
 import yaml  # noqa: E402
 from hypothesis import given, settings, strategies as st  # noqa: E402
 
-from kernels.polyhedron import Polyhedron, make_polyhedron, tumble_geometry  # noqa: E402
+from kernels.polyhedron import Polyhedron, make_polyhedron  # noqa: E402
+from kernels.tumble_geometry import tumble_geometry  # noqa: E402
 from kernels.planar import wrap_angle  # noqa: E402
 from kernels.tumble import (  # noqa: E402
     TumbleConfig,
