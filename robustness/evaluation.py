@@ -1,9 +1,23 @@
 """Monte-Carlo evaluation of push and tumble plans on perturbed parts.
 
 ``evaluate(plan, sampler, n, key)`` draws ``n`` perturbations
-(:mod:`robustness.samplers`), replays the plan on every one of them in one
-jit-compiled, vmapped batch, and returns an :class:`Evaluation`: a per-sample
-table and a summary.
+(:mod:`robustness.samplers`), replays the plan on every one of them in
+jit-compiled batches (no per-sample host work: the Python loop is over
+chunks of ``chunk`` samples), and returns an :class:`Evaluation`: a
+per-sample table and a summary.
+
+Compilation: once per shape bucket, not per plan or configuration.  Plans
+are padded to a length bucket (pushes: the next power of two >= 2; padding
+pushes are skipped by ``lax.cond``; tumbles: >= 16, padding steps are
+identities), the caller's vertex list to a power of two >= 4, the last
+partial chunk to a power of two >= 8; the plan's numbers and index tables are
+traced arguments and every per-sample input is broadcast to a leading sample
+axis, so the compiled push batch serves every plan of every part with the
+same hull size in one length bucket, at any tolerances and sample counts
+(tumbles: every plan of one part, the topology being static).  The sampler
+is compiled once per structure (:mod:`robustness.samplers`).  Inside a
+compiled call the samples run in blocks of ``BLOCK`` (``lax.map``) so that
+their intermediates stay in cache.
 
 Push plans (:class:`planning.pushing.plan.PushPlan`)
 -------------------------------------------------
@@ -29,15 +43,20 @@ reported pose is exactly the plan's prediction.
 Tumble plans (:class:`planning.tumbling.plan.TumblePlan`)
 -------------------------------------------------------
 Per sample: :func:`kernels.polyhedron.tumble_geometry` on the perturbed
-vertices and centre of mass (``jax.vmap``), then the tumbles are replayed one
-by one (:func:`kernels.tumble.tumble` in a ``lax.scan``), each followed by the
-sample's planar slip ``(dx, dy, dtheta)`` (world frame, the part turning about
-its face frame's origin).  The kernel always uses the nominal face cycles; the
-host checks every perturbed hull with
-:func:`kernels.polyhedron.combinatorics_changed` and a sample whose hull has
-other faces is marked ``combinatorics_changed`` (never silently counted as a
-success).  ``model`` does not apply (tumbling is pure geometry): the exact
-replay is used and recorded.
+vertices and centre of mass (``jax.vmap``), then the tumbles are replayed,
+each followed by the sample's planar slip ``(dx, dy, dtheta)`` (world frame,
+the part turning about its face frame's origin).  The replay is
+:func:`kernels.tumble.tumble`'s, regrouped (:func:`_tumble_block`): the faces
+visited do not depend on the sample, so each directed edge's planar motion is
+computed once per sample and the plan multiplies them (a test checks it
+against the kernel, sample by sample, to 1e-13).  The kernel always uses the
+nominal face cycles; the same compiled call checks every perturbed hull
+(:func:`kernels.hulls.polyhedron_hull_verdict_batch`, in float64, equal to
+the host reference :func:`kernels.polyhedron.combinatorics_changed`, which
+is asked only for the rare samples the JAX check leaves undecided), and a
+sample whose hull has other faces is marked ``combinatorics_changed`` (never
+silently counted as a success).  ``model`` does not apply (tumbling is pure
+geometry): the exact replay is used and recorded.
 
 **Reference frames.**  A configuration names the pose of a face frame, which
 is defined by the vertices and the centre of mass; a perturbed part's own face
@@ -63,7 +82,12 @@ end); ``slip`` (slip distance at least ``slip_fraction`` x ``pos_eps_m``; for
 tumbles the summed execution slip); ``position``; ``orientation``.  Success
 has ``failure_mode = "none"``.
 
-Summary: success rate with its Clopper-Pearson interval, quantiles of the
+A push still moving at the quasi-static kernel's phase cap (never seen) is
+warned about and counted as ``incomplete_reorientation``, outside the model.
+
+Summary: success rate with its two-sided Clopper-Pearson interval
+(``ci_low``, ``ci_high``) and the ONE-sided lower bound at the same
+confidence (``ci_low_one_sided``: what a probability claim uses), quantiles of the
 errors, the worst sample (largest ``max(err_pos / pos_eps, |err_theta| /
 theta_eps)``), failure counts, and the analytic bound of
 :mod:`robustness.bounds` beside the empirical maximum over the samples that
@@ -96,7 +120,7 @@ from kernels.planar import rot2, wrap_angle, wrap_angle_np
 from kernels.precision import float64
 from robustness import stats
 from robustness.hulls import face_merge_tol, polyhedron_combinatorics_changed
-from robustness.samplers import PerturbationParams, Sampler, parameter_columns, slice_batch
+from robustness.samplers import Sampler, parameter_columns
 from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
 from robustness.tables import FAILURE_MODES
 
@@ -140,72 +164,112 @@ class Evaluation:
 
 
 # --------------------------------------------------------------------------
-# Push plans
+# Batches: one compiled call per shape bucket
 # --------------------------------------------------------------------------
-def _push_one(nom, p: PerturbationParams, hull_index, model, n_steps):
-    V0, com0, start, ang0, dist0, planned, active = nom
-    g, f, e = p.geometry, p.friction, p.execution
-    dt = V0.dtype
-    V = V0 + g.vertex_offset
-    com = com0 + g.com_offset
-    hi = jnp.asarray(hull_index)
-    body = V[hi] - com[None, :]
-    geom = pg.polygon_geometry(body)
-    changed = polygon_hull_changed(V, com, hi)
-    th0 = start[2] + e.start_offset[2]
-    com_w = start[:2] + e.start_offset[:2] + rot2(th0) @ g.com_offset
-    pose0 = jnp.concatenate([com_w, th0[None]])
-    ang = ang0 + e.fence_angle
-    dirs = jnp.stack([jnp.cos(ang), jnp.sin(ang)], axis=-1)
-    dists = jnp.maximum(dist0 * (1.0 + e.distance_rel) + e.distance_abs, 0.0)
-    dists = jnp.where(active, dists, 0.0)  # padding pushes are no-ops
-    if model == "exact":
-        from kernels.push import replay_pushes
-
-        final, outs = replay_pushes(geom, pose0, dirs, dists)
-        slip = jnp.zeros((), dt)
-    else:
-        from kernels.quasistatic import simulate_pushes
-
-        final, outs = simulate_pushes(geom, pose0, dirs, dists, f.c, f.mu_f, n_steps=n_steps,
-                                      expected_edges=planned)
-        slip = jnp.sum(jnp.where(active, outs.slip, 0.0))
-    ref = final[:2] - rot2(final[2]) @ g.com_offset
-    return dict(x=ref[0], y=ref[1], theta=final[2], edges=outs.edge, complete=outs.complete,
-                slip=slip, changed=changed)
-
-
-@functools.partial(jax.jit, static_argnames=("in_axes", "size", "hull_index", "model", "n_steps"))
-def _push_batch(nom, params, in_axes, size, hull_index, model, n_steps):
-    fn = functools.partial(_push_one, hull_index=hull_index, model=model, n_steps=n_steps)
-    return jax.vmap(fn, in_axes=(None, in_axes), axis_size=size)(nom, params)
-
-
+# The jitted batch functions below see only arrays: every per-sample input is
+# broadcast to a leading sample axis (whatever the sampler's vmap axes), the
+# plan's numbers and index tables are traced arguments, the plan is padded to
+# a length bucket and the samples to a chunk size.  So one compilation serves
+# every plan of a part (push plans: every part with the same hull size) whose
+# length falls in the same bucket, every tolerance setting and every sample
+# count of a study; ``_push_batch._cache_size()`` counts them (tests).
 def _bucket(k: int, minimum: int) -> int:
     """Padded length: the next power of two >= max(k, minimum) (bounds recompiles)."""
     return 1 << max(int(minimum) - 1, int(k) - 1, 0).bit_length()
 
 
-def _pad_steps(params: PerturbationParams, in_axes: PerturbationParams, k: int, k_pad: int,
-               kind: str) -> PerturbationParams:
-    """Zero-pad the per-push (or per-tumble) execution fields from k to k_pad."""
-    if k_pad == k:
-        return params
-    e, ea = params.execution, in_axes.execution
+def _chunks(n: int, chunk: int):
+    """``(lo, hi, size)`` of each compiled call: full chunks of ``chunk``
+    samples, then the rest padded to a power of two (>= 8, <= chunk)."""
+    out = []
+    for lo in range(0, n, chunk):
+        hi = min(n, lo + chunk)
+        out.append((lo, hi, chunk if hi - lo == chunk else min(chunk, _bucket(hi - lo, 8))))
+    return out
 
-    def pad(x, axis):
-        step_axis = 0 if axis is None else 1
-        widths = [(0, 0)] * jnp.ndim(x)
-        widths[step_axis] = (0, k_pad - k)
-        return jnp.pad(x, widths)
 
-    if kind == "push":
-        e = dataclasses.replace(e, fence_angle=pad(e.fence_angle, ea.fence_angle),
-                                distance_rel=pad(e.distance_rel, ea.distance_rel),
-                                distance_abs=pad(e.distance_abs, ea.distance_abs))
+def _rows(x, axis, n: int):
+    """Per-sample array: ``x`` itself (batched) or ``x`` broadcast to ``n`` rows."""
+    x = jnp.asarray(x)
+    return x if axis == 0 else jnp.broadcast_to(x, (n,) + x.shape)
+
+
+def _pad_axis(x, k: int, axis: int = 1):
+    """Zero-pad ``x`` along ``axis`` to length ``k``."""
+    widths = [(0, 0)] * x.ndim
+    widths[axis] = (0, k - x.shape[axis])
+    return jnp.pad(x, widths)
+
+
+def _run_chunks(fn, nom, rows: dict, n: int, chunk: int, *args) -> dict:
+    """``fn(nom, rows_chunk, *args)`` over chunks of the per-sample ``rows``
+    (each padded by repeating its first sample); returns numpy arrays of n rows."""
+    outs = []
+    for lo, hi, size in _chunks(n, chunk):
+        part = {}
+        for k, x in rows.items():
+            x = x[lo:hi]
+            if size > hi - lo:
+                x = jnp.concatenate([x, jnp.broadcast_to(x[:1], (size - (hi - lo),) + x.shape[1:])])
+            part[k] = x
+        outs.append((hi - lo, fn(nom, part, *args)))
+    return {k: np.concatenate([np.asarray(o[k])[:m] for m, o in outs]) for k in outs[0][1]}
+
+
+# --------------------------------------------------------------------------
+# Push plans
+# --------------------------------------------------------------------------
+def _push_one(nom: dict, q: dict, model: str):
+    dt = nom["V0"].dtype
+    V = nom["V0"] + q["dv"]
+    com = nom["com0"] + q["dc"]
+    hi = nom["hull"]
+    geom = pg.polygon_geometry(V[hi] - com[None, :])
+    changed = polygon_hull_changed(V, com, hi)
+    start, so = nom["start"], q["start"]
+    th0 = start[2] + so[2]
+    pose0 = jnp.concatenate([start[:2] + so[:2] + rot2(th0) @ q["dc"], th0[None]])
+    ang = nom["ang"] + q["fence"]
+    dirs = jnp.stack([jnp.cos(ang), jnp.sin(ang)], axis=-1)
+    active = nom["active"]
+    dists = jnp.maximum(nom["dist"] * (1.0 + q["rel"]) + q["abs"], 0.0)
+    dists = jnp.where(active, dists, 0.0)  # padding pushes are no-ops
+    if model == "exact":
+        from kernels.push import replay_pushes
+
+        final, outs = replay_pushes(geom, pose0, dirs, dists)
+        slip, trunc = jnp.zeros((), dt), jnp.asarray(False)
     else:
-        e = dataclasses.replace(e, tumble_slip=pad(e.tumble_slip, ea.tumble_slip))
-    return dataclasses.replace(params, execution=e)
+        from kernels.quasistatic import simulate_pushes
+
+        final, outs = simulate_pushes(geom, pose0, dirs, dists, q["c"], q["mu"],
+                                      expected_edges=nom["planned"], active=active)
+        slip = jnp.sum(jnp.where(active, outs.slip, 0.0))
+        trunc = jnp.any(active & outs.truncated)
+    ref = final[:2] - rot2(final[2]) @ q["dc"]
+    return dict(x=ref[0], y=ref[1], theta=final[2], edges=outs.edge, complete=outs.complete,
+                slip=slip, changed=changed, truncated=trunc)
+
+
+def _blocks(fn, q: dict, block: int):
+    """``fn`` over blocks of ``block`` samples of the per-sample arrays ``q``
+    (``lax.map``; the whole batch when it does not divide): a block's
+    intermediates stay in cache, which on a CPU is worth 1.5-2.5x."""
+    n = jax.tree_util.tree_leaves(q)[0].shape[0]
+    if n <= block or n % block:
+        return fn(q)
+    qb = jax.tree_util.tree_map(lambda x: x.reshape((n // block, block) + x.shape[1:]), q)
+    out = jax.lax.map(fn, qb)
+    return jax.tree_util.tree_map(lambda x: x.reshape((n,) + x.shape[2:]), out)
+
+
+BLOCK = 512   # samples per block inside a compiled call
+
+
+@functools.partial(jax.jit, static_argnames=("model",))
+def _push_batch(nom, q, model):
+    one = functools.partial(_push_one, model=model)
+    return _blocks(lambda b: jax.vmap(one, in_axes=(None, 0))(nom, b), q, BLOCK)
 
 
 def _push_nominal(plan):
@@ -216,10 +280,11 @@ def _push_nominal(plan):
     return poly, planned
 
 
-def _run_push(plan, params, in_axes, n, model, n_steps, dtype, chunk):
+def _run_push(plan, params, in_axes, n, model, dtype, chunk):
+    """Replay a push plan on ``n`` samples; returns ``(poly, planned, results)``."""
     poly, planned = _push_nominal(plan)
-    P = len(plan.pushes)
-    Pp = P + (P % 2) if P else 2  # even lengths: fewer recompiles, little padding work
+    P, m = len(plan.pushes), len(plan.vertices)
+    Pp, mp = _bucket(P, 2), _bucket(m, 4)
     dirs = np.zeros((Pp, 2))
     dirs[:, 0] = 1.0
     dist = np.zeros(Pp)
@@ -228,20 +293,27 @@ def _run_push(plan, params, in_axes, n, model, n_steps, dtype, chunk):
         dirs[:P] = np.array([p.direction for p in plan.pushes], dtype=np.float64)
         dist[:P] = [p.distance for p in plan.pushes]
         plan_e[:P] = planned
-    nom = (jnp.asarray(poly.vertices, dtype), jnp.asarray(poly.com, dtype),
-           jnp.asarray(plan.start, dtype), jnp.asarray(np.arctan2(dirs[:, 1], dirs[:, 0]), dtype),
-           jnp.asarray(dist, dtype), jnp.asarray(plan_e), jnp.asarray(np.arange(Pp) < P))
-    params = _pad_steps(params, in_axes, P, Pp, "push")
-    outs = []
-    for lo in range(0, n, chunk):
-        hi = min(n, lo + chunk)
-        part = slice_batch(params, in_axes, lo, hi)
-        outs.append(jax.device_get(_push_batch(nom, part, in_axes, hi - lo,
-                                               tuple(poly.hull_index), model, int(n_steps))))
-    res = {k: np.concatenate([np.asarray(o[k]) for o in outs])
-           for k in ("x", "y", "theta", "edges", "complete", "slip", "changed")}
-    res["edges"] = res["edges"].reshape(n, Pp)[:, :P]
-    res["complete"] = res["complete"].reshape(n, Pp)[:, :P]
+    V0 = np.zeros((mp, 2))
+    V0[:m] = poly.vertices
+    nom = dict(V0=jnp.asarray(V0, dtype), com0=jnp.asarray(poly.com, dtype),
+               start=jnp.asarray(plan.start, dtype),
+               ang=jnp.asarray(np.arctan2(dirs[:, 1], dirs[:, 0]), dtype),
+               dist=jnp.asarray(dist, dtype), planned=jnp.asarray(plan_e),
+               active=jnp.asarray(np.arange(Pp) < P),
+               hull=jnp.asarray(np.asarray(poly.hull_index, np.int32)))
+    g, f, e = params.geometry, params.friction, params.execution
+    ga, fa, ea = in_axes.geometry, in_axes.friction, in_axes.execution
+    rows = dict(dv=_pad_axis(_rows(g.vertex_offset, ga.vertex_offset, n), mp),
+                dc=_rows(g.com_offset, ga.com_offset, n),
+                start=_rows(e.start_offset, ea.start_offset, n),
+                fence=_pad_axis(_rows(e.fence_angle, ea.fence_angle, n), Pp),
+                rel=_pad_axis(_rows(e.distance_rel, ea.distance_rel, n), Pp),
+                abs=_pad_axis(_rows(e.distance_abs, ea.distance_abs, n), Pp),
+                c=_rows(f.c, fa.c, n), mu=_rows(f.mu_f, fa.mu_f, n))
+    rows = {k: v.astype(dtype) for k, v in rows.items()}
+    res = _run_chunks(_push_batch, nom, rows, n, chunk, model)
+    res["edges"] = res["edges"][:, :P]
+    res["complete"] = res["complete"][:, :P]
     return poly, planned, res
 
 
@@ -266,40 +338,154 @@ def _frame_offset(geom, nom_origins, nom_xaxes, face):
     return q, jnp.arctan2(xa[1], xa[0])
 
 
-def _tumble_one(nom, p: PerturbationParams, topology):
-    from kernels.polyhedron import tumble_geometry
-    from kernels.tumble import TumbleConfig, tumble
-
-    V0, com0, nom_origins, nom_xaxes, start, start_face, seq = nom
-    g, e = p.geometry, p.execution
-    geom = tumble_geometry(V0 + g.vertex_offset, com0 + g.com_offset, topology)
-    # start: nominal frame of the start face at start (+ error) -> perturbed frame
-    th_r = start[2] + e.start_offset[2]
-    xy_r = start[:2] + e.start_offset[:2]
-    q, phi = _frame_offset(geom, nom_origins, nom_xaxes, start_face)
-    th = th_r - phi
-    xy = xy_r - rot2(th) @ q
-    cfg = TumbleConfig(xy=xy, theta=wrap_angle(th), face=jnp.asarray(start_face, jnp.int32))
-
-    def body(carry, xs):
-        c, ok = carry
-        face, slip = xs
-        c2, ok1 = tumble(geom, c, face)
-        c2 = TumbleConfig(xy=c2.xy + slip[:2], theta=wrap_angle(c2.theta + slip[2]), face=c2.face)
-        return (c2, ok & ok1), None
-
-    (fin, ok), _ = jax.lax.scan(body, (cfg, jnp.asarray(True)), (seq, e.tumble_slip))
-    q, phi = _frame_offset(geom, nom_origins, nom_xaxes, fin.face)
-    xy_ref = fin.xy + rot2(fin.theta) @ q
-    th_ref = wrap_angle(fin.theta + phi)
-    slip = jnp.sum(jnp.linalg.norm(e.tumble_slip[:, :2], axis=-1))
-    return dict(x=xy_ref[0], y=xy_ref[1], theta=th_ref, face=fin.face, ok=ok, slip=slip)
+@functools.lru_cache(maxsize=256)
+def _edge_tables(topology):
+    """Flat (F K,) index tables of the directed edges ``(f, k)`` (edge slot k of
+    face f, the face ``g`` across it landing): the corners ``a``, ``b`` of the
+    edge in f (slots ``k``, ``k+1``) and in g (the edge runs b -> a there)."""
+    nf = topology.next_face_array
+    ns = topology.next_slot_array
+    sizes = topology.face_sizes
+    F, K = nf.shape
+    f = np.repeat(np.arange(F), K)
+    k = np.tile(np.arange(K), F)
+    valid = nf.reshape(-1) >= 0
+    g = np.where(valid, nf.reshape(-1), 0)
+    kb = np.where(valid, (k + 1) % sizes[f], 0)
+    gb = np.where(valid, ns.reshape(-1), 0)
+    ga = np.where(valid, (gb + 1) % sizes[g], 0)
+    return tuple(a.astype(np.int32) for a in (f, np.where(valid, k, 0), kb, g, ga, gb))
 
 
-@functools.partial(jax.jit, static_argnames=("in_axes", "size", "topology"))
-def _tumble_batch(nom, params, in_axes, size, topology):
-    fn = functools.partial(_tumble_one, topology=topology)
-    return jax.vmap(fn, in_axes=(None, in_axes), axis_size=size)(nom, params)
+def _tumble_walk(plan, topology):
+    """The faces a plan visits, decided on the host from the nominal topology
+    (the kernel never changes it): per step the directed edge ``f * K + k``
+    it tumbles over, or ``F K`` for a no-op (padding, or an invalid step,
+    which leaves the configuration unchanged as :func:`kernels.tumble.tumble`
+    does); the final face and whether every step was valid."""
+    nf = topology.next_face
+    F, K = topology.n_faces, topology.max_face_size
+    f, ok, idx = int(plan.start[3]), True, []
+    for g in np.asarray(plan.faces, np.int64).reshape(-1)[: plan.n_tumbles]:
+        g = int(g)
+        row = list(nf[f]) if 0 <= f < F else []
+        if g < 0:
+            idx.append(F * K)
+        elif g in row:
+            idx.append(f * K + row.index(g))
+            f = g
+        else:
+            idx.append(F * K)
+            ok = False
+    return np.asarray(idx, np.int32), f, ok
+
+
+SLIP_SERIES_MAX = 0.1   # rad: rotational slips up to this use the series below
+
+
+def _cos_sin_small(x):
+    """``(cos x, sin x)`` for ``|x| <= SLIP_SERIES_MAX`` by their Taylor series
+    (truncation below 3e-17; multiply-adds only: on a CPU a float64 sine costs
+    as much as ~50 of them)."""
+    x2 = x * x
+    c = 1.0 - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0)))
+    s = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0))))
+    return c, s
+
+
+def _edge_motions(C, topology):
+    """Planar rigid motion of every directed edge, for a batch of corner
+    arrays ``C`` (B, F, K, 2): ``(c, s, tx, ty)``, each (B, F K + 1), the
+    rotation ``[[c, -s], [s, c]]`` and translation of the motion that maps the
+    landing face's frame into the current face's; column ``F K`` is the
+    identity (a no-op step)."""
+    f, k, kb, g, ga, gb = _edge_tables(topology)
+    ca, cb, qa, qb = C[:, f, k], C[:, f, kb], C[:, g, ga], C[:, g, gb]
+    dc, dq = cb - ca, qb - qa
+    # the rotation taking dq onto dc: (dq . dc, dq x dc) normalised
+    rc = dq[..., 0] * dc[..., 0] + dq[..., 1] * dc[..., 1]
+    rs = dq[..., 0] * dc[..., 1] - dq[..., 1] * dc[..., 0]
+    rn = jnp.sqrt(rc * rc + rs * rs)
+    rc, rs = rc / rn, rs / rn
+    mq = 0.5 * (qa + qb)
+    mc = 0.5 * (ca + cb)
+    tx = mc[..., 0] - (rc * mq[..., 0] - rs * mq[..., 1])
+    ty = mc[..., 1] - (rs * mq[..., 0] + rc * mq[..., 1])
+    B = C.shape[0]
+    one, zero = jnp.ones((B, 1), C.dtype), jnp.zeros((B, 1), C.dtype)
+    return (jnp.concatenate([rc, one], 1), jnp.concatenate([rs, zero], 1),
+            jnp.concatenate([tx, zero], 1), jnp.concatenate([ty, zero], 1))
+
+
+def _tumble_block(nom: dict, q: dict, topology, slip_series: bool):
+    """Replay a tumble plan on a block of samples, as a composition of planar
+    rigid motions.
+
+    A tumble over edge ``(a, b)`` of face f onto face g maps g's frame to
+    ``T o M``, ``T`` f's pose and ``M`` the motion that takes the edge's
+    corners in g's frame (``q_a``, ``q_b``) onto those in f's frame (``c_a``,
+    ``c_b``): the rotation from ``q_b - q_a`` to ``c_b - c_a``, translation
+    ``(c_a + c_b)/2 - R (q_a + q_b)/2`` -- what :func:`kernels.tumble.tumble`
+    computes from the world positions of the corners, regrouped.  The faces
+    visited do not depend on the sample (:func:`_tumble_walk`), so the
+    motions of every directed edge are computed once per sample and gathered
+    per step.  A slip ``(s, dtheta)`` after a tumble (world translation,
+    rotation about the face frame's origin) makes the pose
+    ``Trans(s) o T o M o Rot(dtheta)``; world translations act on the left and
+    body motions on the right, so the final pose is
+    ``Trans(sum s) o T_0 o N_1 o ... o N_L`` with ``N_t = M_t o Rot(dtheta_t)``:
+    the loop over the plan multiplies 2x2 rotations (no trigonometric
+    function), on rows of samples laid out contiguously.  ``slip_series``:
+    every rotational slip is at most ``SLIP_SERIES_MAX`` (static; the tolerance
+    bounds it), so its cosine and sine come from a series.
+    """
+    from kernels.tumble_geometry import tumble_geometry
+
+    geom = jax.vmap(lambda v, c: tumble_geometry(v, c, topology))(nom["V0"] + q["dv"],
+                                                                  nom["com0"] + q["dc"])
+    ec, es, ex, ey = _edge_motions(geom.corners_2d, topology)
+    idx = nom["idx"]
+    slip = q["slip"]
+    dth = slip[:, :, 2].T                                         # (L, B)
+    sc, ss = _cos_sin_small(dth) if slip_series else (jnp.cos(dth), jnp.sin(dth))
+    c1, s1 = ec[:, idx].T, es[:, idx].T                            # (L, B): the step's motion
+    rows = (c1 * sc - s1 * ss, s1 * sc + c1 * ss, ex[:, idx].T, ey[:, idx].T)
+
+    def step(carry, r):
+        C, S, X, Y = carry
+        c, s, x, y = r
+        return (C * c - S * s, S * c + C * s, X + C * x - S * y, Y + S * x + C * y), None
+
+    B = slip.shape[0]
+    dt = slip.dtype
+    init = (jnp.ones(B, dt), jnp.zeros(B, dt), jnp.zeros(B, dt), jnp.zeros(B, dt))
+    (C, S, X, Y), _ = jax.lax.scan(step, init, rows)
+
+    def finish(geom, so, slip_xy, C, S, X, Y):
+        # start: nominal frame of the start face at start (+ error) -> perturbed frame
+        start = nom["start"]
+        q0, phi0 = _frame_offset(geom, nom["origins"], nom["xaxes"], nom["start_face"])
+        th0 = start[2] + so[2] - phi0
+        R0 = rot2(th0)
+        xy = start[:2] + so[:2] - R0 @ q0 + R0 @ jnp.stack([X, Y]) + slip_xy
+        th = th0 + jnp.arctan2(S, C)
+        qf, phif = _frame_offset(geom, nom["origins"], nom["xaxes"], nom["final_face"])
+        xy_ref = xy + rot2(th) @ qf
+        return xy_ref[0], xy_ref[1], wrap_angle(th + phif)
+
+    x, y, th = jax.vmap(finish)(geom, q["start"], jnp.sum(slip[:, :, :2], axis=1), C, S, X, Y)
+    return dict(x=x, y=y, theta=th, slip=jnp.sum(jnp.linalg.norm(slip[:, :, :2], axis=-1), axis=1))
+
+
+@functools.partial(jax.jit, static_argnames=("topology", "check", "slip_series"))
+def _tumble_batch(nom, q, merge_tol, topology, check, slip_series):
+    out = _blocks(lambda b: _tumble_block(nom, b, topology, slip_series), q, BLOCK)
+    if check:   # the perturbed hulls, in float64 (their tolerance can be ~ float32's rounding)
+        from kernels.hulls import polyhedron_hull_tables, polyhedron_hull_verdict_batch
+
+        out["changed"], out["undecided"] = polyhedron_hull_verdict_batch(
+            nom["V64"] + q["dv64"], polyhedron_hull_tables(topology), merge_tol)
+    return out
 
 
 def _tumble_nominal(plan):
@@ -310,24 +496,47 @@ def _tumble_nominal(plan):
         return make_polyhedron(np.asarray(plan.vertices), np.asarray(plan.com))
 
 
-def _run_tumble(plan, params, in_axes, n, dtype, chunk):
+def _run_tumble(plan, params, in_axes, n, dtype, chunk, merge_tol=None, slip_theta=math.inf):
+    """Replay a tumble plan on ``n`` samples (and, with ``merge_tol``, check
+    every perturbed hull); returns ``(poly, results)``; ``results`` holds
+    ``face`` and ``ok`` (the same for every sample) beside the poses.
+    ``slip_theta``: a bound on the rotational slips (rad; the tolerance)."""
     poly = _tumble_nominal(plan)
-    L = plan.n_tumbles
+    topo = poly.topology
+    idx, final_face, ok = _tumble_walk(plan, topo)
+    L = len(idx)
     Lp = _bucket(L, 16)
-    seq = np.full(Lp, -1, np.int32)  # -1: a no-op tumble (padding)
-    seq[:L] = np.asarray(plan.faces, np.int32).reshape(-1)
-    nom = (jnp.asarray(poly.vertices, dtype), jnp.asarray(poly.com, dtype),
-           jnp.asarray(poly.face_origins, dtype), jnp.asarray(poly.face_rotations[:, 0, :], dtype),
-           jnp.asarray(plan.start[:3], dtype), jnp.asarray(int(plan.start[3]), jnp.int32),
-           jnp.asarray(seq))
-    params = _pad_steps(params, in_axes, L, Lp, "tumble")
-    outs = []
-    for lo in range(0, n, chunk):
-        hi = min(n, lo + chunk)
-        part = slice_batch(params, in_axes, lo, hi)
-        outs.append(jax.device_get(_tumble_batch(nom, part, in_axes, hi - lo, poly.topology)))
-    res = {k: np.concatenate([np.asarray(o[k]) for o in outs])
-           for k in ("x", "y", "theta", "face", "ok", "slip")}
+    seq = np.full(Lp, topo.n_faces * topo.max_face_size, np.int32)
+    seq[:L] = idx
+    nom = dict(V0=jnp.asarray(poly.vertices, dtype), com0=jnp.asarray(poly.com, dtype),
+               origins=jnp.asarray(poly.face_origins, dtype),
+               xaxes=jnp.asarray(poly.face_rotations[:, 0, :], dtype),
+               start=jnp.asarray(plan.start[:3], dtype),
+               start_face=jnp.asarray(int(plan.start[3]), jnp.int32),
+               final_face=jnp.asarray(final_face, jnp.int32), idx=jnp.asarray(seq),
+               V64=jnp.asarray(poly.vertices, jnp.float64))
+    g, e = params.geometry, params.execution
+    ga, ea = in_axes.geometry, in_axes.execution
+    dv64 = _rows(g.vertex_offset, ga.vertex_offset, n).astype(jnp.float64)
+    rows = dict(dv=dv64.astype(dtype), dc=_rows(g.com_offset, ga.com_offset, n).astype(dtype),
+                start=_rows(e.start_offset, ea.start_offset, n).astype(dtype),
+                slip=_pad_axis(_rows(e.tumble_slip, ea.tumble_slip, n), Lp).astype(dtype),
+                dv64=dv64)
+    check = merge_tol is not None
+    tol = jnp.asarray(0.0 if merge_tol is None else merge_tol, jnp.float64)
+    res = _run_chunks(_tumble_batch, nom, rows, n, chunk, tol, topo, check,
+                      bool(slip_theta <= SLIP_SERIES_MAX))
+    res["face"] = np.full(n, final_face, np.int64)
+    res["ok"] = np.full(n, ok)
+    if check:
+        und = res.pop("undecided").astype(bool)
+        changed = res["changed"].astype(bool)
+        if und.any():   # a point the nominal hull dropped pops out by < the merge distance
+            V = poly.vertices[None] + np.asarray(dv64)[und]
+            changed[und] = polyhedron_combinatorics_changed(V, poly, merge_tol)
+        res["changed"] = changed
+    else:
+        res["changed"] = np.zeros(n, bool)
     return poly, res
 
 
@@ -408,6 +617,16 @@ def _cast(params, dtype):
     return jax.tree_util.tree_map(lambda x: jnp.asarray(x, dtype), params)
 
 
+def _warn_truncated(r: dict, task) -> None:
+    """A push still moving at the kernel's phase cap is reported, never silently kept."""
+    k = int(np.sum(np.asarray(r.get("truncated", False))))
+    if k:
+        warnings.warn(f"task {task!r}: {k} sample(s) had a push still moving at the quasi-static "
+                      "kernel's phase cap (kernels.quasistatic.phase_cap); they are counted as "
+                      "incomplete_reorientation failures, outside the kernel's model",
+                      RuntimeWarning, stacklevel=4)
+
+
 def _kind(plan) -> str:
     if hasattr(plan, "pushes"):
         return "push"
@@ -438,8 +657,11 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
       pos_eps_m, theta_eps_rad: success tolerances (default: the tumble plan's
         eps for both; 1 mm and 1 degree for push plans).
       confidence: of the Clopper-Pearson interval.
-      n_steps: integration steps per push (quasi-static model).
-      chunk: samples per compiled call (bounds memory).
+      n_steps: ignored (kept for callers of the former fixed-step
+        quasi-static integrator: :mod:`kernels.quasistatic` integrates each
+        contact phase in closed form and has no step size).
+      chunk: samples per compiled call (bounds memory; the last, partial
+        chunk is padded to a power of two, so sample counts share compilations).
       task: the task name written in the tables.
       bound: compute the analytic bound (set False to skip it).
       slip_fraction: a failed sample whose slip is at least this times
@@ -467,7 +689,7 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
     for name, v in (("pos_eps_m", pe), ("theta_eps_rad", te)):
         if not (math.isfinite(v) and v > 0):
             raise ValueError(f"{name}: expected a finite number > 0, got {v!r}")
-    chunk = max(1, min(int(chunk), int(n)))
+    chunk = max(1, int(chunk))
     goal = np.asarray(plan.goal[:3], np.float64)
     cols: dict = {}
     if kind == "push":
@@ -475,10 +697,11 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
             warnings.simplefilter("ignore", pg.PartWarning)
             poly0 = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
         m, P = len(plan.vertices), len(plan.pushes)
-        params, in_axes = sampler.sample(key, n, n_vertices=m, dim=2, n_pushes=P,
-                                         body=poly0.body, dtype=jnp.float64)
-        params = _cast(params, dtype)
-        poly, planned, r = _run_push(plan, params, in_axes, n, model, n_steps, dtype, chunk)
+        params64, in_axes = sampler.sample(key, n, n_vertices=m, dim=2, n_pushes=P,
+                                           body=poly0.body, dtype=jnp.float64, keep_support=False)
+        params = _cast(params64, dtype)
+        poly, planned, r = _run_push(plan, params64, in_axes, n, model, dtype, chunk)
+        _warn_truncated(r, task)
         edges = np.asarray(r["edges"]).reshape(n, P)
         complete = np.asarray(r["complete"]).reshape(n, P).astype(bool)
         planned_arr = np.asarray(planned, np.int64)[None, :]
@@ -489,31 +712,31 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
         fa, fb = _edge_pairs(poly, last)
         pa, pb = _edge_pairs(poly, np.full(n, planned[-1] if P else -1))
         changed = np.asarray(r["changed"]).astype(bool)
+        trunc = np.asarray(r["truncated"]).astype(bool)
         slip = np.asarray(r["slip"], np.float64)
         face = np.full(n, -1, np.int64)
         pface = np.full(n, -1, np.int64)
         structural = np.select(
-            [changed, n_incomplete > 0, wrong.any(axis=1)],
+            [changed, (n_incomplete > 0) | trunc, wrong.any(axis=1)],
             ["hull_changed", "incomplete_reorientation", "wrong_edge"], default="")
-        in_model = (~changed) & (n_incomplete == 0) & (~wrong.any(axis=1)) & (slip == 0.0)
-        valid = ~changed
+        in_model = ((~changed) & (n_incomplete == 0) & (~wrong.any(axis=1)) & (slip == 0.0)
+                    & ~trunc)
+        valid = ~changed & ~trunc
         cols = parameter_columns(params, in_axes, n, n_vertices=m, dim=2, n_pushes=P)
     else:
         poly = _tumble_nominal(plan)
         m, L = len(plan.vertices), plan.n_tumbles
-        params, in_axes = sampler.sample(key, n, n_vertices=m, dim=3, n_tumbles=L,
-                                         dtype=jnp.float64)
-        params = _cast(params, dtype)
-        poly, r = _run_tumble(plan, params, in_axes, n, dtype, chunk)
-        if sampler.geometry.tau_v > 0:
-            V = np.asarray(poly.vertices)[None] + np.asarray(
-                jnp.broadcast_to(params.geometry.vertex_offset, (n,) + poly.vertices.shape),
-                np.float64)
-            diam = float(np.max(np.linalg.norm(poly.vertices[:, None] - poly.vertices[None], axis=-1)))
-            changed = polyhedron_combinatorics_changed(
-                V, poly, face_merge_tol(sampler.geometry.tau_v, diam, merge_factor))
-        else:
-            changed = np.zeros(n, bool)
+        params64, in_axes = sampler.sample(key, n, n_vertices=m, dim=3, n_tumbles=L,
+                                           dtype=jnp.float64)
+        params = _cast(params64, dtype)
+        tol = None
+        if sampler.geometry.tau_v > 0:   # the perturbed hulls, checked in the same compiled call
+            v = np.asarray(poly.vertices)
+            diam = float(np.max(np.linalg.norm(v[:, None] - v[None], axis=-1)))
+            tol = face_merge_tol(sampler.geometry.tau_v, diam, merge_factor)
+        poly, r = _run_tumble(plan, params64, in_axes, n, dtype, chunk, merge_tol=tol,
+                              slip_theta=sampler.execution.tumble_slip_theta)
+        changed = np.asarray(r["changed"]).astype(bool)
         face = np.asarray(r["face"], np.int64)
         ok = np.asarray(r["ok"]).astype(bool)
         pface = np.full(n, int(plan.goal[3]), np.int64)
@@ -615,7 +838,7 @@ def _paper_bound(s: dict, df, plan, sampler, kind: str, bound: bool, task,
     if msgs:
         warnings.warn(f"PAPER BOUND VIOLATED (task {task!r}, tumble plan): the Monte-Carlo "
                       f"maximum over {int(inm.sum())} samples exceeds the Marigo-Bicchi bound: "
-                      f"{'; '.join(msgs)}. A finding, not clipped.", BoundViolation, stacklevel=3)
+                      f"{'; '.join(msgs)}. A finding, not clipped.", BoundViolation, stacklevel=4)
 
 
 def _summarise(df, kind, model, dtype_name, pe, te, confidence, b, task,
@@ -625,7 +848,10 @@ def _summarise(df, kind, model, dtype_name, pe, te, confidence, b, task,
     lo, hi = stats.clopper_pearson(k, n, confidence)
     s = {"task": task, "kind": kind, "model": model, "dtype": dtype_name, "n": n, "n_success": k,
          "success_rate": k / n if n else math.nan, "confidence": confidence, "ci_low": lo,
-         "ci_high": hi, "pos_eps_m": pe, "theta_eps_rad": te}
+         "ci_high": hi,
+         # what a probability claim uses: the ONE-sided lower bound at `confidence`
+         "ci_low_one_sided": stats.one_sided_lower(k, n, confidence) if n else math.nan,
+         "pos_eps_m": pe, "theta_eps_rad": te}
     for stem, vals in (("err_pos_m", df["err_pos_m"]), ("err_x_abs_m", df["err_x_m"].abs()),
                        ("err_y_abs_m", df["err_y_m"].abs()),
                        ("err_theta_abs_rad", df["err_theta_rad"].abs()), ("slip_m", df["slip_m"])):
@@ -663,7 +889,7 @@ def _summarise(df, kind, model, dtype_name, pe, te, confidence, b, task,
                           f"Monte-Carlo maximum over {int(inm.sum())} samples inside the bound's "
                           f"model exceeds the analytic first-order bound: {'; '.join(msgs)}. "
                           "This is a finding (a second-order effect or a modelling gap), "
-                          "not clipped.", BoundViolation, stacklevel=3)
+                          "not clipped.", BoundViolation, stacklevel=4)
     counts = df["failure_mode"].value_counts()
     for mname in FAILURE_MODES:
         s[f"n_{mname}"] = int(counts.get(mname, 0))

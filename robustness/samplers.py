@@ -40,6 +40,16 @@ settings never changes another group's draws:
   slip ``(dx, dy, dtheta)`` applied to the part after it lands.  Uniform in
   the boxes by default, or truncated Gaussians (``sigma = half-width / 2``).
 
+Compilation: the sampler is compiled once per *structure* (distributions,
+which tolerances are zero, point counts), the tolerance values being traced
+arguments; the sample count is padded to a bucket (:func:`sample_bucket`)
+and the per-push / per-tumble columns to a power of two
+(:func:`steps_bucket`), the draws cut back after; threefry's draws are
+prefix-stable, so a sample's numbers do not depend on the bucket, but the
+per-push draws do depend on the plan's length bucket.  So a study that sweeps
+tolerances, sample counts and plan lengths reuses a handful of compiled
+samplers (compiling one takes seconds).
+
 Units: metres, radians; a relative distance error is a fraction.
 """
 from __future__ import annotations
@@ -85,7 +95,7 @@ class FrictionParams:
       mu_s: () support coefficient (cancels out of quasi-static kinematics).
       c: () limit-surface ratio ``m_max / f_max``, m.
       support_points: (S, 2) support points, body frame (relative to the
-        centre of mass), m; zeros when ``c`` was drawn directly.
+        centre of mass), m; zeros when ``c`` was drawn directly (or not kept).
       support_weights: (S,) their weights (sum 1).
     """
 
@@ -134,30 +144,38 @@ class PerturbationParams:
 # compilation fast, and the block's layout does not depend on which
 # tolerances are zero, so e.g. changing tau_com leaves the vertex draws as
 # they were.
+#
+# Compiled once per STRUCTURE, not per value: the tolerance values are traced
+# arguments (``values`` dicts of scalars), so a study that sweeps tau_v or a
+# friction range reuses one compiled sampler; what changes array shapes or
+# vmap axes is static (:func:`_structure`: distributions, which tolerances
+# are zero, point counts).  The sample count is padded to a bucket
+# (:func:`sample_bucket`) and the draws cut back to ``n``: JAX's threefry
+# draws are prefix-stable (the first ``n`` rows of an ``(N, w)`` block do not
+# depend on ``N``), so the samples are those of an exact-size draw.
 def _open01(u, dtype):
     """Uniforms moved into the open interval (0, 1) (for logs and ndtri)."""
     tiny = jnp.finfo(dtype).eps
     return jnp.clip(u, tiny, 1.0 - tiny)
 
 
-def _box_from_u(u, half: float, distribution: str, sigma: Optional[float], dtype):
+def _box_from_u(u, half, zero: bool, distribution: str, sigma, dtype):
     """Offsets in [-half, half] from uniforms ``u``: uniform, or a Gaussian of
-    std ``sigma`` (default half / 2) truncated to the box (inverse CDF)."""
-    if half == 0.0:
+    std ``sigma`` (``None``: half / 2) truncated to the box (inverse CDF).
+    ``zero`` (static): the offsets are 0 (a zero half-width or std)."""
+    if zero:
         return jnp.zeros(u.shape, dtype)
     if distribution == "uniform":
         return (2.0 * u - 1.0) * half
-    sd = 0.5 * half if sigma is None else float(sigma)
-    if sd == 0.0:
-        return jnp.zeros(u.shape, dtype)
+    sd = 0.5 * half if sigma is None else sigma
     lim = half / sd
-    lo = jax.scipy.special.ndtr(jnp.asarray(-lim, dtype))
-    hi = jax.scipy.special.ndtr(jnp.asarray(lim, dtype))
+    lo = jax.scipy.special.ndtr(-lim)
+    hi = jax.scipy.special.ndtr(lim)
     z = jax.scipy.special.ndtri(_open01(lo + u * (hi - lo), dtype))
     return sd * jnp.clip(z, -lim, lim)
 
 
-def _ball_from_u(u, radius: float, dtype):
+def _ball_from_u(u, radius, dtype):
     """Uniform in the ball (disc) of ``radius`` from uniforms ``u`` (n, dim+1)."""
     dim = u.shape[1] - 1
     g = jax.scipy.special.ndtri(_open01(u[:, :dim], dtype))
@@ -172,25 +190,52 @@ def _batched(x, n: int, half_is_zero: bool, shape: tuple, dtype):
     return x, 0
 
 
-def _sample_geometry(key, n: int, tol: GeometryTolerance, n_vertices: int, dim: int,
+def _structure(sampler: "Sampler") -> tuple:
+    """What changes the shapes, axes or code of the draws (static, hashable)."""
+    g, f, e = sampler.geometry, sampler.friction, sampler.execution
+    gauss = g.distribution == "gaussian"
+    return (g.distribution, g.com_shape, g.tau_v == 0.0 or (gauss and g.sigma == 0.0),
+            gauss and g.sigma_v is not None, g.tau_com == 0.0,
+            int(f.support_points), int(f.weight_concentration), f.c is not None,
+            f.mu_f[0] == f.mu_f[1], f.mu_s[0] == f.mu_s[1],
+            f.c is not None and f.c[0] == f.c[1],
+            e.distribution, e.start_xy == 0.0 and e.start_theta == 0.0, e.start_xy == 0.0,
+            e.start_theta == 0.0, e.fence_angle == 0.0, e.distance_rel == 0.0,
+            e.distance_abs == 0.0, e.tumble_slip_xy == 0.0 and e.tumble_slip_theta == 0.0,
+            e.tumble_slip_xy == 0.0, e.tumble_slip_theta == 0.0)
+
+
+def _values(sampler: "Sampler") -> dict:
+    """The tolerance values (traced scalars of the compiled sampler)."""
+    g, f, e = sampler.geometry, sampler.friction, sampler.execution
+    c = f.c if f.c is not None else (0.0, 0.0)
+    return {k: float(v) for k, v in dict(
+        tau_v=g.tau_v, sigma_v=g.sigma, tau_com=g.tau_com, mu_f_lo=f.mu_f[0], mu_f_hi=f.mu_f[1],
+        mu_s_lo=f.mu_s[0], mu_s_hi=f.mu_s[1], c_lo=c[0], c_hi=c[1], start_xy=e.start_xy,
+        start_theta=e.start_theta, fence_angle=e.fence_angle, distance_rel=e.distance_rel,
+        distance_abs=e.distance_abs, tumble_slip_xy=e.tumble_slip_xy,
+        tumble_slip_theta=e.tumble_slip_theta).items()}
+
+
+def _sample_geometry(key, n: int, st: tuple, val: dict, n_vertices: int, dim: int,
                      dtype=jnp.float64):
+    distribution, com_shape, v_zero, has_sigma, com_zero = st[:5]
     mv = n_vertices * dim
     u = jax.random.uniform(key, (n, mv + dim + 1), dtype)
-    dv = _box_from_u(u[:, :mv], float(tol.tau_v), tol.distribution,
-                     tol.sigma if tol.distribution == "gaussian" else None, dtype)
-    dv, av = _batched(dv.reshape(n, n_vertices, dim), n, tol.tau_v == 0.0, (n_vertices, dim), dtype)
+    dv = _box_from_u(u[:, :mv], val["tau_v"], v_zero, distribution,
+                     val["sigma_v"] if has_sigma else None, dtype)
+    dv, av = _batched(dv.reshape(n, n_vertices, dim), n, v_zero, (n_vertices, dim), dtype)
     uc = u[:, mv:]
-    if tol.com_shape == "box":
-        dc = (2.0 * uc[:, :dim] - 1.0) * tol.tau_com
+    if com_shape == "box":
+        dc = (2.0 * uc[:, :dim] - 1.0) * val["tau_com"]
     else:
-        dc = _ball_from_u(uc, float(tol.tau_com), dtype)
-    dc, ac = _batched(dc, n, tol.tau_com == 0.0, (dim,), dtype)
+        dc = _ball_from_u(uc, val["tau_com"], dtype)
+    dc, ac = _batched(dc, n, com_zero, (dim,), dtype)
     return GeometryParams(dv, dc), GeometryParams(av, ac)
 
 
-def _range_from_u(u, n: int, rng: tuple, dtype):
-    lo, hi = rng
-    if hi == lo or n == 0:
+def _range_from_u(u, n: int, lo, hi, const: bool, dtype):
+    if const or n == 0:
         return jnp.asarray(lo, dtype), None
     return lo + u * (hi - lo), 0
 
@@ -226,13 +271,14 @@ def support_from_u(u, body, n_points: int, concentration: int, dtype):
     return pts, w
 
 
-def _sample_friction(key, body, n: int, rng: FrictionRange, has_body: bool, dtype=jnp.float64):
-    S, k = int(rng.support_points), int(rng.weight_concentration)
+def _sample_friction(key, body, n: int, st: tuple, val: dict, has_body: bool,
+                     dtype=jnp.float64, keep_support: bool = True):
+    S, k, c_given, mu_f_const, mu_s_const, c_const = st[5:11]
     u = jax.random.uniform(key, (n, 3 + S * (3 + k)), dtype)
-    mu_f, a_f = _range_from_u(u[:, 0], n, rng.mu_f, dtype)
-    mu_s, a_s = _range_from_u(u[:, 1], n, rng.mu_s, dtype)
-    if rng.c is not None:
-        c, a_c = _range_from_u(u[:, 2], n, rng.c, dtype)
+    mu_f, a_f = _range_from_u(u[:, 0], n, val["mu_f_lo"], val["mu_f_hi"], mu_f_const, dtype)
+    mu_s, a_s = _range_from_u(u[:, 1], n, val["mu_s_lo"], val["mu_s_hi"], mu_s_const, dtype)
+    if c_given:
+        c, a_c = _range_from_u(u[:, 2], n, val["c_lo"], val["c_hi"], c_const, dtype)
         pts, a_p = jnp.zeros((S, 2), dtype), None
         w, a_w = jnp.full((S,), 1.0 / S, dtype), None
     elif not has_body or n == 0:
@@ -245,37 +291,41 @@ def _sample_friction(key, body, n: int, rng: FrictionRange, has_body: bool, dtyp
         pts, w = support_from_u(u[:, 3:], body, S, k, dtype)
         c = jax.vmap(limit_surface_ratio)(pts, w).astype(dtype)
         a_c = a_p = a_w = 0
+        if not keep_support:   # only c is wanted: the points are not materialised
+            pts, a_p = jnp.zeros((S, 2), dtype), None
+            w, a_w = jnp.full((S,), 1.0 / S, dtype), None
     return (FrictionParams(mu_f, mu_s, c, pts, w),
             FrictionParams(a_f, a_s, a_c, a_p, a_w))
 
 
-def _sample_execution(key, n: int, tol: ExecutionTolerance, n_pushes: int = 0,
+def _sample_execution(key, n: int, st: tuple, val: dict, n_pushes: int = 0,
                       n_tumbles: int = 0, dtype=jnp.float64):
-    P, L = int(n_pushes), int(n_tumbles)
+    (dist, start_zero, xy_zero, th_zero, fence_zero, rel_zero, abs_zero, slip_zero, sxy_zero,
+     sth_zero) = st[11:21]
+    P, L = int(n_pushes), int(n_tumbles)   # bucketed (steps_bucket): cut to the plan's after
     u = jax.random.uniform(key, (n, 3 + 3 * P + 3 * L), dtype)
-    dist = tol.distribution
 
-    def box(cols, half):
-        return _box_from_u(cols, float(half), dist, None, dtype)
+    def box(cols, half, zero):
+        return _box_from_u(cols, half, zero, dist, None, dtype)
 
-    halves = jnp.asarray([tol.start_xy, tol.start_xy, tol.start_theta], dtype)
     if dist == "uniform":
+        halves = jnp.stack([val["start_xy"], val["start_xy"], val["start_theta"]]).astype(dtype)
         start = (2.0 * u[:, :3] - 1.0) * halves
     else:
-        start = jnp.stack([box(u[:, 0], tol.start_xy), box(u[:, 1], tol.start_xy),
-                           box(u[:, 2], tol.start_theta)], axis=1)
-    start, a_start = _batched(start, n, tol.start_xy == 0.0 and tol.start_theta == 0.0, (3,), dtype)
-    fence, a_fence = _batched(box(u[:, 3:3 + P], tol.fence_angle), n, tol.fence_angle == 0.0 or P == 0,
-                              (P,), dtype)
-    rel, a_rel = _batched(box(u[:, 3 + P:3 + 2 * P], tol.distance_rel), n,
-                          tol.distance_rel == 0.0 or P == 0, (P,), dtype)
-    ab, a_ab = _batched(box(u[:, 3 + 2 * P:3 + 3 * P], tol.distance_abs), n,
-                        tol.distance_abs == 0.0 or P == 0, (P,), dtype)
+        start = jnp.stack([box(u[:, 0], val["start_xy"], xy_zero),
+                           box(u[:, 1], val["start_xy"], xy_zero),
+                           box(u[:, 2], val["start_theta"], th_zero)], axis=1)
+    start, a_start = _batched(start, n, start_zero, (3,), dtype)
+    fence, a_fence = _batched(box(u[:, 3:3 + P], val["fence_angle"], fence_zero), n,
+                              fence_zero or P == 0, (P,), dtype)
+    rel, a_rel = _batched(box(u[:, 3 + P:3 + 2 * P], val["distance_rel"], rel_zero), n,
+                          rel_zero or P == 0, (P,), dtype)
+    ab, a_ab = _batched(box(u[:, 3 + 2 * P:3 + 3 * P], val["distance_abs"], abs_zero), n,
+                        abs_zero or P == 0, (P,), dtype)
     us = u[:, 3 + 3 * P:].reshape(n, L, 3)
-    slip = jnp.concatenate([box(us[..., :2], tol.tumble_slip_xy),
-                            box(us[..., 2:], tol.tumble_slip_theta)], axis=-1)
-    slip, a_slip = _batched(slip, n, (tol.tumble_slip_xy == 0.0 and tol.tumble_slip_theta == 0.0)
-                            or L == 0, (L, 3), dtype)
+    slip = jnp.concatenate([box(us[..., :2], val["tumble_slip_xy"], sxy_zero),
+                            box(us[..., 2:], val["tumble_slip_theta"], sth_zero)], axis=-1)
+    slip, a_slip = _batched(slip, n, slip_zero or L == 0, (L, 3), dtype)
     return (ExecutionParams(start, fence, rel, ab, slip),
             ExecutionParams(a_start, a_fence, a_rel, a_ab, a_slip))
 
@@ -283,39 +333,54 @@ def _sample_execution(key, n: int, tol: ExecutionTolerance, n_pushes: int = 0,
 # --------------------------------------------------------------------------
 # Compiled entry points
 # --------------------------------------------------------------------------
+def sample_bucket(n: int) -> int:
+    """Sample count the sampler draws for ``n`` (the draws are cut back to
+    ``n``): the next power of two up to 4096 (drawing is cheap there), above
+    it ``n`` rounded up to its 4 leading binary digits (at most 1/8 more), so
+    that nearby sample counts share one compiled sampler."""
+    n = int(n)
+    if n <= 4096:
+        return 1 << max(0, n - 1).bit_length() if n else 0
+    shift = max(0, n.bit_length() - 4)
+    return -(-n // (1 << shift)) << shift
+
+
+def steps_bucket(k: int) -> int:
+    """Per-push (per-tumble) columns the sampler draws for a plan of ``k``
+    steps: the next power of two (0 for none).  Plans of lengths in one
+    bucket share a compiled sampler; the draws of step ``i`` depend on the
+    bucket, not on ``k``."""
+    k = int(k)
+    return 1 << max(0, k - 1).bit_length() if k else 0
+
+
 @functools.lru_cache(maxsize=128)
-def _staged(fn, static: tuple):
-    """``fn(*dynamic, *static) -> (params, axes)`` compiled once per static
-    settings: the arrays come from a jitted call, the (Python) axes are
-    captured while it is traced."""
+def _staged(static: tuple):
+    """The sampler compiled once per static structure: ``(key, body, values)
+    -> params``; the (Python) in_axes are captured while it is traced."""
     box = {}
 
-    def arrays(*dynamic):
-        p, a = fn(*dynamic, *static)
+    def arrays(key, body, values):
+        p, a = _sample_all(key, body, values, *static)
         box["axes"] = a
         return p
 
     return jax.jit(arrays), box
 
 
-def _run_staged(fn, dynamic: tuple, static: tuple):
-    jitted, box = _staged(fn, static)
-    params = jitted(*dynamic)
-    return params, box["axes"]
+def _sample_all(key, body, values, n, st, n_vertices, dim, n_pushes, n_tumbles, has_body,
+                dtype, keep_support=True):
+    g, ga = _sample_geometry(jax.random.fold_in(key, GEOMETRY), n, st, values, n_vertices, dim,
+                             dtype)
+    f, fa = _sample_friction(jax.random.fold_in(key, FRICTION), body, n, st, values, has_body,
+                             dtype, keep_support)
+    e, ea = _sample_execution(jax.random.fold_in(key, EXECUTION), n, st, values, n_pushes,
+                              n_tumbles, dtype)
+    return PerturbationParams(g, f, e), PerturbationParams(ga, fa, ea)
 
 
 def _dtype(dtype):
     return jnp.dtype(dtype).type
-
-
-def _sample_all(key, body, n, sampler, n_vertices, dim, n_pushes, n_tumbles, has_body, dtype):
-    g, ga = _sample_geometry(jax.random.fold_in(key, GEOMETRY), n, sampler.geometry, n_vertices,
-                             dim, dtype)
-    f, fa = _sample_friction(jax.random.fold_in(key, FRICTION), body, n, sampler.friction,
-                             has_body, dtype)
-    e, ea = _sample_execution(jax.random.fold_in(key, EXECUTION), n, sampler.execution, n_pushes,
-                              n_tumbles, dtype)
-    return PerturbationParams(g, f, e), PerturbationParams(ga, fa, ea)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -334,18 +399,31 @@ class Sampler:
 
     @float64
     def sample(self, key, n: int, *, n_vertices: int, dim: int, n_pushes: int = 0,
-               n_tumbles: int = 0, body=None, dtype=jnp.float64):
+               n_tumbles: int = 0, body=None, dtype=jnp.float64, keep_support: bool = True):
         """Draw ``n`` perturbations; returns ``(PerturbationParams, in_axes)``.
 
         ``body``: the nominal body-frame polygon for the support points (push
-        parts), ``None`` for tumbled polyhedra.
+        parts), ``None`` for tumbled polyhedra.  ``keep_support=False``: return
+        the sampled ``c`` but not the support points and weights it came from
+        (unbatched placeholders; the same draws, less memory: the evaluation
+        uses only ``c``).
         """
         dt = _dtype(dtype)
         has_body = body is not None
         b = jnp.asarray(body, dt) if has_body else jnp.zeros((3, 2), dt)
-        # one compiled call for the three groups (same draws as the three functions)
-        return _run_staged(_sample_all, (key, b), (int(n), self, int(n_vertices), int(dim),
-                                                   int(n_pushes), int(n_tumbles), has_body, dt))
+        n, P, L = int(n), int(n_pushes), int(n_tumbles)
+        N, Pb, Lb = sample_bucket(n), steps_bucket(P), steps_bucket(L)
+        # one compiled call for the three groups, per structure (values are traced)
+        jitted, box = _staged((N, _structure(self), int(n_vertices), int(dim), Pb, Lb, has_body,
+                               dt, bool(keep_support)))
+        vals = {k: jnp.asarray(v, dt) for k, v in _values(self).items()}
+        params = jitted(key, b, vals)
+        axes = box["axes"]
+        if N != n:
+            params = slice_batch(params, axes, 0, n)
+        if (Pb, Lb) != (P, L):
+            params = _cut_steps(params, axes, P, L)
+        return params, axes
 
     def is_zero(self) -> bool:
         """True when every tolerance is zero (the nominal part and execution)."""
@@ -357,6 +435,21 @@ class Sampler:
 # --------------------------------------------------------------------------
 # Batch helpers
 # --------------------------------------------------------------------------
+def _cut_steps(params: PerturbationParams, in_axes: PerturbationParams, P: int, L: int):
+    """Per-push fields cut to ``P`` pushes, per-tumble fields to ``L`` tumbles."""
+    e, ea = params.execution, in_axes.execution
+
+    def cut(x, axis, k):
+        return x[:, :k] if axis == 0 else x[:k]
+
+    e = ExecutionParams(start_offset=e.start_offset,
+                        fence_angle=cut(e.fence_angle, ea.fence_angle, P),
+                        distance_rel=cut(e.distance_rel, ea.distance_rel, P),
+                        distance_abs=cut(e.distance_abs, ea.distance_abs, P),
+                        tumble_slip=cut(e.tumble_slip, ea.tumble_slip, L))
+    return dataclasses.replace(params, execution=e)
+
+
 def broadcast(params, in_axes, n: int):
     """Give every unbatched field (axis ``None``) a leading axis of length n."""
     return jax.tree_util.tree_map(
