@@ -54,7 +54,7 @@ from kernels import polygon as pg  # noqa: E402
 from kernels.planar import wrap_angle_np  # noqa: E402
 from planning import plan_pose, plan_tumble  # noqa: E402
 from robustness import FrictionRange, Sampler  # noqa: E402
-from robustness.evaluation import _run_push  # noqa: E402  (the evaluation's own kernels)
+from robustness.replay import run_push as _run_push  # noqa: E402  (the evaluation's own kernels)
 from robustness.physics import PhysicsSettings, rollout_push_plan, rollout_tumble_plan  # noqa: E402
 from sweeps.partfile import load_part  # noqa: E402
 

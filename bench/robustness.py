@@ -71,6 +71,7 @@ from kernels.planar import rot2_np, wrap_angle_np  # noqa: E402
 from planning import plan_pose  # noqa: E402
 from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler  # noqa: E402
 from robustness import evaluation as ev_mod  # noqa: E402
+from robustness import replay  # noqa: E402
 from robustness.samplers import broadcast  # noqa: E402
 from sweeps.partfile import load_part  # noqa: E402
 from timing import best_of  # noqa: E402
@@ -137,7 +138,7 @@ def push_bench(n: int, n_np: int, repeat: int) -> dict:
         name = jnp.dtype(dtype).name
 
         def kernel():
-            return ev_mod._run_push(plan, params64, ax64, n, "quasistatic", dtype, 4096)
+            return replay.run_push(plan, params64, ax64, n, "quasistatic", dtype, 4096)
 
         t0 = time.perf_counter()
         _, _, res = kernel()
@@ -253,7 +254,7 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
                          rate=steps / t, first=first))
         for check in (False, True):
             def inside():
-                return ev_mod._run_tumble(plan, params64, ax, n, dtype, 4096,
+                return replay.run_tumble(plan, params64, ax, n, dtype, 4096,
                                           merge_tol=tol if check else None,
                                           slip_theta=TUMBLE_SAMPLER.execution.tumble_slip_theta)
 

@@ -120,8 +120,8 @@ def test_paper_bounds_confronted_with_monte_carlo():
 
     from planning.tumbling.planner import plan_tumble
     from robustness.bounds import tumble_plan_paper_bounds
-    from robustness.evaluation import BoundViolation, ExecutionTolerance, FrictionRange, \
-        GeometryTolerance, Sampler, evaluate
+    from robustness import (BoundViolation, ExecutionTolerance, FrictionRange, GeometryTolerance,
+                            Sampler, evaluate)
     from tests.polyhedra import example
 
     tau = 1e-5

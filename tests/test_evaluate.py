@@ -10,7 +10,8 @@ from kernels.polyhedron import PartWarning, make_polyhedron
 from kernels.tumble import make_config, replay
 from planning.pushing.planner import plan_pose
 from planning.tumbling.plan import Tumble, TumblePlan
-from robustness import evaluation as ev_mod
+from robustness import replay as batches
+from robustness import summary
 from robustness.evaluation import BoundViolation, evaluate
 from robustness.samplers import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler
 from robustness.tables import FAILURE_MODES
@@ -127,8 +128,8 @@ def test_quasistatic_shows_failures_when_slippery(plan):
 
 
 def test_bound_violation_is_reported_not_clipped(plan, monkeypatch):
-    monkeypatch.setattr(ev_mod, "_push_bound",
-                        lambda p, s: {"position_m": 1e-9, "theta_rad": 1e-9})
+    monkeypatch.setattr(summary, "analytic_bound",
+                        lambda p, s, k: {"position_m": 1e-9, "theta_rad": 1e-9})
     with pytest.warns(BoundViolation, match="BOUND VIOLATED"):
         ev = evaluate(plan, TOL, N, jax.random.key(1), model="exact")
     assert ev.summary["bound_violated"] is True
@@ -191,7 +192,7 @@ def _kernel_tumble_replay(plan, params, in_axes, n):
     from kernels.tumble import TumbleConfig, tumble
     from robustness.samplers import broadcast
 
-    poly = ev_mod._tumble_nominal(plan)
+    poly = batches.tumble_nominal(plan)
     p = broadcast(params, in_axes, n)
     V0, com0 = jnp.asarray(poly.vertices), jnp.asarray(poly.com)
     origins = jnp.asarray(poly.face_origins)
@@ -201,7 +202,7 @@ def _kernel_tumble_replay(plan, params, in_axes, n):
 
     def one(dv, dc, so, slips):
         geom = tumble_geometry(V0 + dv, com0 + dc, poly.topology)
-        q, phi = ev_mod._frame_offset(geom, origins, xaxes, int(plan.start[3]))
+        q, phi = batches._frame_offset(geom, origins, xaxes, int(plan.start[3]))
         th = start[2] + so[2] - phi
         cfg = TumbleConfig(xy=start[:2] + so[:2] - rot2(th) @ q, theta=wrap_angle(th),
                            face=jnp.asarray(int(plan.start[3]), jnp.int32))
@@ -212,7 +213,7 @@ def _kernel_tumble_replay(plan, params, in_axes, n):
             return TumbleConfig(c2.xy + slip[:2], wrap_angle(c2.theta + slip[2]), c2.face), None
 
         fin, _ = jax.lax.scan(body, cfg, (seq, slips))
-        q, phi = ev_mod._frame_offset(geom, origins, xaxes, fin.face)
+        q, phi = batches._frame_offset(geom, origins, xaxes, fin.face)
         xy = fin.xy + rot2(fin.theta) @ q
         return jnp.stack([xy[0], xy[1], wrap_angle(fin.theta + phi)]), fin.face
 
@@ -232,7 +233,7 @@ def test_tumble_replay_is_the_kernels(tumble_plan, series):
     n = N
     params, ax = s.sample(jax.random.key(7), n, n_vertices=len(tumble_plan.vertices), dim=3,
                           n_tumbles=tumble_plan.n_tumbles)
-    _, r = ev_mod._run_tumble(tumble_plan, params, ax, n, jnp.float64, 16,
+    _, r = batches.run_tumble(tumble_plan, params, ax, n, jnp.float64, 16,
                               slip_theta=0.05 if series else np.inf)
     want, face = _kernel_tumble_replay(tumble_plan, params, ax, n)
     got = np.stack([r["x"], r["y"], r["theta"]], axis=1)
@@ -255,7 +256,7 @@ def test_tumble_hull_check_is_the_host_reference(tumble_plan):
     V = np.asarray(tumble_plan.vertices)[None] + np.asarray(broadcast(p, ax, N).geometry.vertex_offset)
     v = np.asarray(tumble_plan.vertices)
     tol = face_merge_tol(1.2e-3, float(np.max(np.linalg.norm(v[:, None] - v[None], axis=-1))))
-    want = polyhedron_combinatorics_changed(V, ev_mod._tumble_nominal(tumble_plan), tol)
+    want = polyhedron_combinatorics_changed(V, batches.tumble_nominal(tumble_plan), tol)
     assert 0 < want.sum() < N   # both answers occur
     np.testing.assert_array_equal(ev.samples["hull_changed"].to_numpy(), want)
 
@@ -288,8 +289,8 @@ def test_one_compilation_per_shape_bucket(plan, tumble_plan):
     from robustness import samplers
 
     P = len(plan.pushes)
-    bucket = ev_mod._bucket(P + 1, 2)    # holds P + 1 and P or P + 2, whatever P is
-    lengths = [k for k in range(P, 2 * P + 3) if ev_mod._bucket(k, 2) == bucket]
+    bucket = batches._bucket(P + 1, 2)    # holds P + 1 and P or P + 2, whatever P is
+    lengths = [k for k in range(P, 2 * P + 3) if batches._bucket(k, 2) == bucket]
     assert len(lengths) >= 2
     plans = [_longer(plan, k - P) for k in lengths]
     tol = [Sampler(GeometryTolerance(tau_v=t, tau_com=5e-5), STICKY,
@@ -307,7 +308,7 @@ def test_one_compilation_per_shape_bucket(plan, tumble_plan):
             evaluate(t_plans[i % 2], t_tol[i % 2], n, jax.random.key(i), bound=False)
 
     def counts():
-        return (ev_mod._push_batch._cache_size(), ev_mod._tumble_batch._cache_size(),
+        return (batches._push_batch._cache_size(), batches._tumble_batch._cache_size(),
                 samplers._staged.cache_info().currsize)
 
     before = counts()

@@ -86,7 +86,7 @@ def nominal_polygon(plan):
 
 def push_parts(plan, poly, params, in_axes, n: int, support: str = "tripod") -> PushParts:
     """Per-sample parts of ``n`` drawn perturbations (the semantics of
-    :func:`robustness.evaluation._push_one`); ``support`` as
+    :func:`robustness.replay.run_push`); ``support`` as
     :class:`~robustness.physics.settings.PhysicsSettings`."""
     p = jax.tree_util.tree_map(lambda x: np.asarray(x, np.float64), broadcast(params, in_axes, n))
     g, f, e = p.geometry, p.friction, p.execution

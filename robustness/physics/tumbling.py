@@ -123,7 +123,7 @@ class TumbleParts:
 def tumble_parts(plan, poly, params, in_axes, n: int, merge_factor: float = 8.0,
                  tau_v=None) -> TumbleParts:
     """Per-sample polyhedra of ``n`` drawn perturbations (the semantics of
-    :func:`robustness.evaluation._tumble_one`); ``tau_v`` (m) sets the
+    :func:`robustness.replay.run_tumble`); ``tau_v`` (m) sets the
     combinatorics check's tolerance (default the largest sampled offset)."""
     from kernels.tumble_geometry import tumble_geometry
     from robustness.hulls import face_merge_tol, polyhedron_combinatorics_changed

@@ -1,0 +1,397 @@
+"""Compiled Monte-Carlo replays of push and tumble plans (the hot path of
+:func:`robustness.evaluation.evaluate`): per-sample perturbed parts and
+executions in, final poses and per-step outcomes out, with no per-sample host
+work and one compilation per shape bucket.  Frames, reference points and the
+per-sample semantics are those of :mod:`robustness.evaluation`.
+"""
+from __future__ import annotations
+
+import functools
+import math
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from kernels import polygon as pg
+from kernels.hulls import polygon_hull_changed
+from kernels.planar import rot2, wrap_angle
+from robustness.hulls import polyhedron_combinatorics_changed
+
+
+# --------------------------------------------------------------------------
+# Batches: one compiled call per shape bucket
+# --------------------------------------------------------------------------
+# The jitted batch functions below see only arrays: every per-sample input is
+# broadcast to a leading sample axis (whatever the sampler's vmap axes), the
+# plan's numbers and index tables are traced arguments, the plan is padded to
+# a length bucket and the samples to a chunk size.  So one compilation serves
+# every plan of a part (push plans: every part with the same hull size) whose
+# length falls in the same bucket, every tolerance setting and every sample
+# count of a study; ``_push_batch._cache_size()`` counts them (tests).
+def _bucket(k: int, minimum: int) -> int:
+    """Padded length: the next power of two >= max(k, minimum) (bounds recompiles)."""
+    return 1 << max(int(minimum) - 1, int(k) - 1, 0).bit_length()
+
+
+def _chunks(n: int, chunk: int):
+    """``(lo, hi, size)`` of each compiled call: full chunks of ``chunk``
+    samples, then the rest padded to a power of two (>= 8, <= chunk)."""
+    out = []
+    for lo in range(0, n, chunk):
+        hi = min(n, lo + chunk)
+        out.append((lo, hi, chunk if hi - lo == chunk else min(chunk, _bucket(hi - lo, 8))))
+    return out
+
+
+def _rows(x, axis, n: int):
+    """Per-sample array: ``x`` itself (batched) or ``x`` broadcast to ``n`` rows."""
+    x = jnp.asarray(x)
+    return x if axis == 0 else jnp.broadcast_to(x, (n,) + x.shape)
+
+
+def _pad_axis(x, k: int, axis: int = 1):
+    """Zero-pad ``x`` along ``axis`` to length ``k``."""
+    widths = [(0, 0)] * x.ndim
+    widths[axis] = (0, k - x.shape[axis])
+    return jnp.pad(x, widths)
+
+
+def _run_chunks(fn, nom, rows: dict, n: int, chunk: int, *args) -> dict:
+    """``fn(nom, rows_chunk, *args)`` over chunks of the per-sample ``rows``
+    (each padded by repeating its first sample); returns numpy arrays of n rows."""
+    outs = []
+    for lo, hi, size in _chunks(n, chunk):
+        part = {}
+        for k, x in rows.items():
+            x = x[lo:hi]
+            if size > hi - lo:
+                x = jnp.concatenate([x, jnp.broadcast_to(x[:1], (size - (hi - lo),) + x.shape[1:])])
+            part[k] = x
+        outs.append((hi - lo, fn(nom, part, *args)))
+    return {k: np.concatenate([np.asarray(o[k])[:m] for m, o in outs]) for k in outs[0][1]}
+
+
+# --------------------------------------------------------------------------
+# Push plans
+# --------------------------------------------------------------------------
+def _push_one(nom: dict, q: dict, model: str):
+    dt = nom["V0"].dtype
+    V = nom["V0"] + q["dv"]
+    com = nom["com0"] + q["dc"]
+    hi = nom["hull"]
+    geom = pg.polygon_geometry(V[hi] - com[None, :])
+    changed = polygon_hull_changed(V, com, hi)
+    start, so = nom["start"], q["start"]
+    th0 = start[2] + so[2]
+    pose0 = jnp.concatenate([start[:2] + so[:2] + rot2(th0) @ q["dc"], th0[None]])
+    ang = nom["ang"] + q["fence"]
+    dirs = jnp.stack([jnp.cos(ang), jnp.sin(ang)], axis=-1)
+    active = nom["active"]
+    dists = jnp.maximum(nom["dist"] * (1.0 + q["rel"]) + q["abs"], 0.0)
+    dists = jnp.where(active, dists, 0.0)  # padding pushes are no-ops
+    if model == "exact":
+        from kernels.push import replay_pushes
+
+        final, outs = replay_pushes(geom, pose0, dirs, dists)
+        slip, trunc = jnp.zeros((), dt), jnp.asarray(False)
+    else:
+        from kernels.quasistatic import simulate_pushes
+
+        final, outs = simulate_pushes(geom, pose0, dirs, dists, q["c"], q["mu"],
+                                      expected_edges=nom["planned"], active=active)
+        slip = jnp.sum(jnp.where(active, outs.slip, 0.0))
+        trunc = jnp.any(active & outs.truncated)
+    ref = final[:2] - rot2(final[2]) @ q["dc"]
+    return dict(x=ref[0], y=ref[1], theta=final[2], edges=outs.edge, complete=outs.complete,
+                slip=slip, changed=changed, truncated=trunc)
+
+
+def _blocks(fn, q: dict, block: int):
+    """``fn`` over blocks of ``block`` samples of the per-sample arrays ``q``
+    (``lax.map``; the whole batch when it does not divide): a block's
+    intermediates stay in cache, which on a CPU is worth 1.5-2.5x."""
+    n = jax.tree_util.tree_leaves(q)[0].shape[0]
+    if n <= block or n % block:
+        return fn(q)
+    qb = jax.tree_util.tree_map(lambda x: x.reshape((n // block, block) + x.shape[1:]), q)
+    out = jax.lax.map(fn, qb)
+    return jax.tree_util.tree_map(lambda x: x.reshape((n,) + x.shape[2:]), out)
+
+
+BLOCK = 512   # samples per block inside a compiled call
+
+
+@functools.partial(jax.jit, static_argnames=("model",))
+def _push_batch(nom, q, model):
+    one = functools.partial(_push_one, model=model)
+    return _blocks(lambda b: jax.vmap(one, in_axes=(None, 0))(nom, b), q, BLOCK)
+
+
+def push_nominal(plan):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", pg.PartWarning)
+        poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    planned = [poly.caller_edge_to_hull(p.edge) for p in plan.pushes]
+    return poly, planned
+
+
+def run_push(plan, params, in_axes, n, model, dtype, chunk):
+    """Replay a push plan on ``n`` samples; returns ``(poly, planned, results)``."""
+    poly, planned = push_nominal(plan)
+    P, m = len(plan.pushes), len(plan.vertices)
+    Pp, mp = _bucket(P, 2), _bucket(m, 4)
+    dirs = np.zeros((Pp, 2))
+    dirs[:, 0] = 1.0
+    dist = np.zeros(Pp)
+    plan_e = np.full(Pp, -1, np.int32)
+    if P:
+        dirs[:P] = np.array([p.direction for p in plan.pushes], dtype=np.float64)
+        dist[:P] = [p.distance for p in plan.pushes]
+        plan_e[:P] = planned
+    V0 = np.zeros((mp, 2))
+    V0[:m] = poly.vertices
+    nom = dict(V0=jnp.asarray(V0, dtype), com0=jnp.asarray(poly.com, dtype),
+               start=jnp.asarray(plan.start, dtype),
+               ang=jnp.asarray(np.arctan2(dirs[:, 1], dirs[:, 0]), dtype),
+               dist=jnp.asarray(dist, dtype), planned=jnp.asarray(plan_e),
+               active=jnp.asarray(np.arange(Pp) < P),
+               hull=jnp.asarray(np.asarray(poly.hull_index, np.int32)))
+    g, f, e = params.geometry, params.friction, params.execution
+    ga, fa, ea = in_axes.geometry, in_axes.friction, in_axes.execution
+    rows = dict(dv=_pad_axis(_rows(g.vertex_offset, ga.vertex_offset, n), mp),
+                dc=_rows(g.com_offset, ga.com_offset, n),
+                start=_rows(e.start_offset, ea.start_offset, n),
+                fence=_pad_axis(_rows(e.fence_angle, ea.fence_angle, n), Pp),
+                rel=_pad_axis(_rows(e.distance_rel, ea.distance_rel, n), Pp),
+                abs=_pad_axis(_rows(e.distance_abs, ea.distance_abs, n), Pp),
+                c=_rows(f.c, fa.c, n), mu=_rows(f.mu_f, fa.mu_f, n))
+    rows = {k: v.astype(dtype) for k, v in rows.items()}
+    res = _run_chunks(_push_batch, nom, rows, n, chunk, model)
+    res["edges"] = res["edges"][:, :P]
+    res["complete"] = res["complete"][:, :P]
+    return poly, planned, res
+
+
+def edge_pairs(poly, hull_edges: np.ndarray):
+    a = np.full(len(hull_edges), -1, np.int64)
+    b = np.full(len(hull_edges), -1, np.int64)
+    for i, e in enumerate(hull_edges):
+        if e >= 0:
+            a[i], b[i] = poly.edge_vertices(int(e))
+    return a, b
+
+
+# --------------------------------------------------------------------------
+# Tumble plans
+# --------------------------------------------------------------------------
+def _frame_offset(geom, nom_origins, nom_xaxes, face):
+    """Nominal frame of ``face`` expressed in the perturbed face frame:
+    ``(q (2,), phi)``, its origin's and x-axis's planar coordinates."""
+    R = geom.rotations[face]
+    q = (R @ (nom_origins[face] - geom.origins[face]))[:2]
+    xa = (R @ nom_xaxes[face])[:2]
+    return q, jnp.arctan2(xa[1], xa[0])
+
+
+@functools.lru_cache(maxsize=256)
+def _edge_tables(topology):
+    """Flat (F K,) index tables of the directed edges ``(f, k)`` (edge slot k of
+    face f, the face ``g`` across it landing): the corners ``a``, ``b`` of the
+    edge in f (slots ``k``, ``k+1``) and in g (the edge runs b -> a there)."""
+    nf = topology.next_face_array
+    ns = topology.next_slot_array
+    sizes = topology.face_sizes
+    F, K = nf.shape
+    f = np.repeat(np.arange(F), K)
+    k = np.tile(np.arange(K), F)
+    valid = nf.reshape(-1) >= 0
+    g = np.where(valid, nf.reshape(-1), 0)
+    kb = np.where(valid, (k + 1) % sizes[f], 0)
+    gb = np.where(valid, ns.reshape(-1), 0)
+    ga = np.where(valid, (gb + 1) % sizes[g], 0)
+    return tuple(a.astype(np.int32) for a in (f, np.where(valid, k, 0), kb, g, ga, gb))
+
+
+def _tumble_walk(plan, topology):
+    """The faces a plan visits, decided on the host from the nominal topology
+    (the kernel never changes it): per step the directed edge ``f * K + k``
+    it tumbles over, or ``F K`` for a no-op (padding, or an invalid step,
+    which leaves the configuration unchanged as :func:`kernels.tumble.tumble`
+    does); the final face and whether every step was valid."""
+    nf = topology.next_face
+    F, K = topology.n_faces, topology.max_face_size
+    f, ok, idx = int(plan.start[3]), True, []
+    for g in np.asarray(plan.faces, np.int64).reshape(-1)[: plan.n_tumbles]:
+        g = int(g)
+        row = list(nf[f]) if 0 <= f < F else []
+        if g < 0:
+            idx.append(F * K)
+        elif g in row:
+            idx.append(f * K + row.index(g))
+            f = g
+        else:
+            idx.append(F * K)
+            ok = False
+    return np.asarray(idx, np.int32), f, ok
+
+
+SLIP_SERIES_MAX = 0.1   # rad: rotational slips up to this use the series below
+
+
+def _cos_sin_small(x):
+    """``(cos x, sin x)`` for ``|x| <= SLIP_SERIES_MAX`` by their Taylor series
+    (truncation below 3e-17; multiply-adds only: on a CPU a float64 sine costs
+    as much as ~50 of them)."""
+    x2 = x * x
+    c = 1.0 - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0)))
+    s = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0))))
+    return c, s
+
+
+def _edge_motions(C, topology):
+    """Planar rigid motion of every directed edge, for a batch of corner
+    arrays ``C`` (B, F, K, 2): ``(c, s, tx, ty)``, each (B, F K + 1), the
+    rotation ``[[c, -s], [s, c]]`` and translation of the motion that maps the
+    landing face's frame into the current face's; column ``F K`` is the
+    identity (a no-op step)."""
+    f, k, kb, g, ga, gb = _edge_tables(topology)
+    ca, cb, qa, qb = C[:, f, k], C[:, f, kb], C[:, g, ga], C[:, g, gb]
+    dc, dq = cb - ca, qb - qa
+    # the rotation taking dq onto dc: (dq . dc, dq x dc) normalised
+    rc = dq[..., 0] * dc[..., 0] + dq[..., 1] * dc[..., 1]
+    rs = dq[..., 0] * dc[..., 1] - dq[..., 1] * dc[..., 0]
+    rn = jnp.sqrt(rc * rc + rs * rs)
+    rc, rs = rc / rn, rs / rn
+    mq = 0.5 * (qa + qb)
+    mc = 0.5 * (ca + cb)
+    tx = mc[..., 0] - (rc * mq[..., 0] - rs * mq[..., 1])
+    ty = mc[..., 1] - (rs * mq[..., 0] + rc * mq[..., 1])
+    B = C.shape[0]
+    one, zero = jnp.ones((B, 1), C.dtype), jnp.zeros((B, 1), C.dtype)
+    return (jnp.concatenate([rc, one], 1), jnp.concatenate([rs, zero], 1),
+            jnp.concatenate([tx, zero], 1), jnp.concatenate([ty, zero], 1))
+
+
+def _tumble_block(nom: dict, q: dict, topology, slip_series: bool):
+    """Replay a tumble plan on a block of samples, as a composition of planar
+    rigid motions.
+
+    A tumble over edge ``(a, b)`` of face f onto face g maps g's frame to
+    ``T o M``, ``T`` f's pose and ``M`` the motion that takes the edge's
+    corners in g's frame (``q_a``, ``q_b``) onto those in f's frame (``c_a``,
+    ``c_b``): the rotation from ``q_b - q_a`` to ``c_b - c_a``, translation
+    ``(c_a + c_b)/2 - R (q_a + q_b)/2`` -- what :func:`kernels.tumble.tumble`
+    computes from the world positions of the corners, regrouped.  The faces
+    visited do not depend on the sample (:func:`_tumble_walk`), so the
+    motions of every directed edge are computed once per sample and gathered
+    per step.  A slip ``(s, dtheta)`` after a tumble (world translation,
+    rotation about the face frame's origin) makes the pose
+    ``Trans(s) o T o M o Rot(dtheta)``; world translations act on the left and
+    body motions on the right, so the final pose is
+    ``Trans(sum s) o T_0 o N_1 o ... o N_L`` with ``N_t = M_t o Rot(dtheta_t)``:
+    the loop over the plan multiplies 2x2 rotations (no trigonometric
+    function), on rows of samples laid out contiguously.  ``slip_series``:
+    every rotational slip is at most ``SLIP_SERIES_MAX`` (static; the tolerance
+    bounds it), so its cosine and sine come from a series.
+    """
+    from kernels.tumble_geometry import tumble_geometry
+
+    geom = jax.vmap(lambda v, c: tumble_geometry(v, c, topology))(nom["V0"] + q["dv"],
+                                                                  nom["com0"] + q["dc"])
+    ec, es, ex, ey = _edge_motions(geom.corners_2d, topology)
+    idx = nom["idx"]
+    slip = q["slip"]
+    dth = slip[:, :, 2].T                                         # (L, B)
+    sc, ss = _cos_sin_small(dth) if slip_series else (jnp.cos(dth), jnp.sin(dth))
+    c1, s1 = ec[:, idx].T, es[:, idx].T                            # (L, B): the step's motion
+    rows = (c1 * sc - s1 * ss, s1 * sc + c1 * ss, ex[:, idx].T, ey[:, idx].T)
+
+    def step(carry, r):
+        C, S, X, Y = carry
+        c, s, x, y = r
+        return (C * c - S * s, S * c + C * s, X + C * x - S * y, Y + S * x + C * y), None
+
+    B = slip.shape[0]
+    dt = slip.dtype
+    init = (jnp.ones(B, dt), jnp.zeros(B, dt), jnp.zeros(B, dt), jnp.zeros(B, dt))
+    (C, S, X, Y), _ = jax.lax.scan(step, init, rows)
+
+    def finish(geom, so, slip_xy, C, S, X, Y):
+        # start: nominal frame of the start face at start (+ error) -> perturbed frame
+        start = nom["start"]
+        q0, phi0 = _frame_offset(geom, nom["origins"], nom["xaxes"], nom["start_face"])
+        th0 = start[2] + so[2] - phi0
+        R0 = rot2(th0)
+        xy = start[:2] + so[:2] - R0 @ q0 + R0 @ jnp.stack([X, Y]) + slip_xy
+        th = th0 + jnp.arctan2(S, C)
+        qf, phif = _frame_offset(geom, nom["origins"], nom["xaxes"], nom["final_face"])
+        xy_ref = xy + rot2(th) @ qf
+        return xy_ref[0], xy_ref[1], wrap_angle(th + phif)
+
+    x, y, th = jax.vmap(finish)(geom, q["start"], jnp.sum(slip[:, :, :2], axis=1), C, S, X, Y)
+    return dict(x=x, y=y, theta=th, slip=jnp.sum(jnp.linalg.norm(slip[:, :, :2], axis=-1), axis=1))
+
+
+@functools.partial(jax.jit, static_argnames=("topology", "check", "slip_series"))
+def _tumble_batch(nom, q, merge_tol, topology, check, slip_series):
+    out = _blocks(lambda b: _tumble_block(nom, b, topology, slip_series), q, BLOCK)
+    if check:   # the perturbed hulls, in float64 (their tolerance can be ~ float32's rounding)
+        from kernels.hulls import polyhedron_hull_tables, polyhedron_hull_verdict_batch
+
+        out["changed"], out["undecided"] = polyhedron_hull_verdict_batch(
+            nom["V64"] + q["dv64"], polyhedron_hull_tables(topology), merge_tol)
+    return out
+
+
+def tumble_nominal(plan):
+    from kernels.polyhedron import PartWarning, make_polyhedron
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PartWarning)
+        return make_polyhedron(np.asarray(plan.vertices), np.asarray(plan.com))
+
+
+def run_tumble(plan, params, in_axes, n, dtype, chunk, merge_tol=None, slip_theta=math.inf):
+    """Replay a tumble plan on ``n`` samples (and, with ``merge_tol``, check
+    every perturbed hull); returns ``(poly, results)``; ``results`` holds
+    ``face`` and ``ok`` (the same for every sample) beside the poses.
+    ``slip_theta``: a bound on the rotational slips (rad; the tolerance)."""
+    poly = tumble_nominal(plan)
+    topo = poly.topology
+    idx, final_face, ok = _tumble_walk(plan, topo)
+    L = len(idx)
+    Lp = _bucket(L, 16)
+    seq = np.full(Lp, topo.n_faces * topo.max_face_size, np.int32)
+    seq[:L] = idx
+    nom = dict(V0=jnp.asarray(poly.vertices, dtype), com0=jnp.asarray(poly.com, dtype),
+               origins=jnp.asarray(poly.face_origins, dtype),
+               xaxes=jnp.asarray(poly.face_rotations[:, 0, :], dtype),
+               start=jnp.asarray(plan.start[:3], dtype),
+               start_face=jnp.asarray(int(plan.start[3]), jnp.int32),
+               final_face=jnp.asarray(final_face, jnp.int32), idx=jnp.asarray(seq),
+               V64=jnp.asarray(poly.vertices, jnp.float64))
+    g, e = params.geometry, params.execution
+    ga, ea = in_axes.geometry, in_axes.execution
+    dv64 = _rows(g.vertex_offset, ga.vertex_offset, n).astype(jnp.float64)
+    rows = dict(dv=dv64.astype(dtype), dc=_rows(g.com_offset, ga.com_offset, n).astype(dtype),
+                start=_rows(e.start_offset, ea.start_offset, n).astype(dtype),
+                slip=_pad_axis(_rows(e.tumble_slip, ea.tumble_slip, n), Lp).astype(dtype),
+                dv64=dv64)
+    check = merge_tol is not None
+    tol = jnp.asarray(0.0 if merge_tol is None else merge_tol, jnp.float64)
+    res = _run_chunks(_tumble_batch, nom, rows, n, chunk, tol, topo, check,
+                      bool(slip_theta <= SLIP_SERIES_MAX))
+    res["face"] = np.full(n, final_face, np.int64)
+    res["ok"] = np.full(n, ok)
+    if check:
+        und = res.pop("undecided").astype(bool)
+        changed = res["changed"].astype(bool)
+        if und.any():   # a point the nominal hull dropped pops out by < the merge distance
+            V = poly.vertices[None] + np.asarray(dv64)[und]
+            changed[und] = polyhedron_combinatorics_changed(V, poly, merge_tol)
+        res["changed"] = changed
+    else:
+        res["changed"] = np.zeros(n, bool)
+    return poly, res
