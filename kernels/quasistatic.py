@@ -38,7 +38,8 @@ to C) with a uniform coefficient ``mu_s``: ``f_max = mu_s sum w_i`` and
 total weight cancel (so does the magnitude of the fence speed).  ``0 < c <= a``
 where ``a`` is the part's largest vertex radius, since every support point lies
 in the part.  (For a part resting on a flat support the pressure's centroid is
-C; the sampler should respect that, the helper does not check it.)
+C; the sampler, :mod:`robustness.support`, centres its weights so; this helper
+does not check it.)
 
 Point contact (one vertex P, ``r = P - C``)
 -------------------------------------------

@@ -26,7 +26,9 @@ settings never changes another group's draws:
 * **friction** (:class:`FrictionRange`): the fence-part coefficient ``mu_f``
   (uniform in a range); the support pressure distribution: ``support_points``
   points uniform in the part's nominal (body-frame) polygon with
-  Dirichlet(``weight_concentration``) weights (an integer), giving the
+  Dirichlet(``weight_concentration``) weights (an integer), tilted so that the
+  pressure's centroid lies under the centre of mass as it must for a part at
+  rest (:mod:`robustness.support`; with 3 or more points), giving the
   limit-surface ratio ``c = m_max / f_max`` (m, ``0 < c <= a``) through
   :func:`kernels.quasistatic.limit_surface_ratio`; the support coefficient
   ``mu_s`` (uniform in a range).  ``mu_s`` is recorded but CANCELS OUT of the
@@ -63,6 +65,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels.precision import float64
+from robustness.support import centre_weights, support_from_u
 from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
 
 GEOMETRY, FRICTION, EXECUTION = 0, 1, 2
@@ -240,37 +243,6 @@ def _range_from_u(u, n: int, lo, hi, const: bool, dtype):
     return lo + u * (hi - lo), 0
 
 
-def support_from_u(u, body, n_points: int, concentration: int, dtype):
-    """Support pressure distributions from uniforms ``u`` (n, S (3 + k)): points
-    uniform in the convex polygon ``body`` (body frame, CCW, the centre of mass
-    strictly inside; triangle fan from it, a triangle chosen by area) and
-    Dirichlet(k, ..., k) weights (normalised sums of k unit exponentials).
-    Every point lies in the part, so ``c = sum w |p| <= a`` (the largest vertex
-    radius), the range in which the quasi-static kernel's rotation is at least
-    Peshkin's bound.  The pressure centroid is not forced under the centre of
-    mass: the ellipsoidal limit surface about the centre of mass uses only
-    ``c``.
-
-    Returns ``(points (n, S, 2), weights (n, S))``.
-    """
-    n = u.shape[0]
-    S, k = int(n_points), int(concentration)
-    body = jnp.asarray(body, dtype)
-    nxt = jnp.roll(body, -1, axis=0)
-    area = jnp.maximum(0.5 * (body[:, 0] * nxt[:, 1] - body[:, 1] * nxt[:, 0]), 0.0)
-    cdf = jnp.cumsum(area) / jnp.sum(area)
-    ut = u[:, :S]
-    tri = jnp.minimum(jnp.searchsorted(cdf, ut * cdf[-1], side="right"), body.shape[0] - 1)
-    uv = u[:, S:3 * S].reshape(n, S, 2)
-    flip = jnp.sum(uv, axis=-1, keepdims=True) > 1.0
-    uv = jnp.where(flip, 1.0 - uv, uv)
-    pts = uv[..., :1] * body[tri] + uv[..., 1:] * nxt[tri]
-    ue = _open01(u[:, 3 * S:3 * S + S * k].reshape(n, S, k), dtype)
-    g = jnp.sum(-jnp.log(ue), axis=-1)
-    w = g / jnp.sum(g, axis=-1, keepdims=True)
-    return pts, w
-
-
 def _sample_friction(key, body, n: int, st: tuple, val: dict, has_body: bool,
                      dtype=jnp.float64, keep_support: bool = True):
     S, k, c_given, mu_f_const, mu_s_const, c_const = st[5:11]
@@ -289,6 +261,8 @@ def _sample_friction(key, body, n: int, st: tuple, val: dict, has_body: bool,
         from kernels.quasistatic import limit_surface_ratio
 
         pts, w = support_from_u(u[:, 3:], body, S, k, dtype)
+        if S >= 3:   # the pressure's centroid under the centre of mass (a part at rest)
+            w = jax.vmap(centre_weights)(pts, w)
         c = jax.vmap(limit_surface_ratio)(pts, w).astype(dtype)
         a_c = a_p = a_w = 0
         if not keep_support:   # only c is wanted: the points are not materialised
