@@ -196,7 +196,7 @@ def tumble_plan_200():
     import yaml
 
     from kernels.polyhedron import PartWarning, make_polyhedron
-    from kernels.tumble import make_config, replay
+    from kernels.tumble import make_config, replay as tumble_replay
     from planning.tumbling.plan import Tumble, TumblePlan
 
     doc = yaml.safe_load((ROOT / "examples" / "irregular_polyhedron.yaml").read_text())
@@ -209,7 +209,7 @@ def tumble_plan_200():
         g = int(rng.choice(P.neighbors(f)))
         seq.append(g)
         f = g
-    fin, ok = replay(P.geometry(jnp.float64), make_config(0.0, 0.0, 0.0, 0), jnp.asarray(seq))
+    fin, ok = tumble_replay(P.geometry(jnp.float64), make_config(0.0, 0.0, 0.0, 0), jnp.asarray(seq))
     pf = (float(fin.xy[0]), float(fin.xy[1]), float(fin.theta), int(fin.face))
     faces = [0] + seq
     plan = TumblePlan(vertices=tuple(map(tuple, P.vertices.tolist())), com=tuple(P.com.tolist()),
@@ -224,7 +224,7 @@ def tumble_plan_200():
 
 def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
     from kernels.tumble_geometry import tumble_geometry
-    from kernels.tumble import make_config, replay
+    from kernels.tumble import make_config, replay as tumble_replay
     from oracles import tumble_numpy as oracle
     from robustness.hulls import face_merge_tol, polyhedra_changed, polyhedron_combinatorics_changed
 
@@ -243,7 +243,7 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
         name = jnp.dtype(dtype).name
         Vd, comd = jnp.asarray(V, dtype), jnp.asarray(P.com, dtype)
         build = jax.jit(jax.vmap(lambda v: tumble_geometry(v, comd, P.topology)))
-        run = jax.jit(jax.vmap(replay, in_axes=(0, None, None)))
+        run = jax.jit(jax.vmap(tumble_replay, in_axes=(0, None, None)))
         geoms = jax.block_until_ready(build(Vd))
         cfg = make_config(0.0, 0.0, 0.0, 0, dtype=dtype)
         t0 = time.perf_counter()

@@ -86,6 +86,28 @@ def _final_pose(body0, start, ang0, dists, dV, dcom, dstart, dfence, ddist):
 _final_pose_jacobian = jax.jit(jax.jacfwd(_final_pose, argnums=(4, 5, 6, 7, 8)))
 
 
+def _one_sided_jacobians(arrays, n: int, Pp: int, scale: float):
+    """Absolute Jacobians of the final pose, the larger of the two one-sided ones.
+
+    The final pose is only piecewise smooth at the nominal plan: a flush edge against the
+    fence (every translation push, every push that lands an edge) pivots about one corner
+    or the other depending on the sign of the perturbation, so the derivative AT zero is
+    whichever branch a tie-break picks (on a flush edge, neither corner: 0, which would
+    drop the pivot's displacement from the bound).  The derivatives are taken at the two
+    points a relative 1e-7 beside the nominal (every perturbation positive, every one
+    negative), and the elementwise larger absolute value is kept.
+    """
+    h_len, h_ang = 1e-7 * scale, 1e-7
+    best = None
+    for sg in (1.0, -1.0):
+        pert = (jnp.full((n, 2), sg * h_len), jnp.full(2, sg * h_len),
+                jnp.array([sg * h_len, sg * h_len, sg * h_ang]),
+                jnp.full(Pp, sg * h_ang), jnp.full(Pp, sg * h_len))
+        jac = [np.abs(np.asarray(j)) for j in _final_pose_jacobian(*arrays, *pert)]
+        best = jac if best is None else [np.maximum(b, j) for b, j in zip(best, jac)]
+    return best
+
+
 def _plan_arrays(plan: PushPlan, pad_to: int = 0):
     """Body-frame hull, start, push angles and distances of a plan; the pushes
     padded with zero-distance pushes (no-ops) to ``pad_to``."""
@@ -143,9 +165,7 @@ def push_plan_bound(plan: PushPlan, geometry: GeometryTolerance = GeometryTolera
     arrays, n, _ = _plan_arrays(plan, pad_to=-(-max(P, 1) // 4) * 4)
     Pp = arrays[2].shape[0]
     dists = np.array([p.distance for p in plan.pushes])
-    zeros = (jnp.zeros((n, 2)), jnp.zeros(2), jnp.zeros(3), jnp.zeros(Pp), jnp.zeros(Pp))
-    jac = _final_pose_jacobian(*arrays, *zeros)
-    jv, jc, js, jf, jd = (np.asarray(j) for j in jac)
+    jv, jc, js, jf, jd = _one_sided_jacobians(arrays, n, Pp, scale=float(np.ptp(arrays[0], 0).max()))
     jf, jd = jf[:, :P], jd[:, :P]   # the padding pushes' own columns are not perturbations
     g, e = geometry, execution
     contrib = {

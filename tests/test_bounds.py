@@ -33,9 +33,9 @@ def test_translation_push_by_hand():
     s = plan.pushes[0].distance
     a, d = 1e-3, 2e-4
     b = push_plan_bound(plan, execution=ExecutionTolerance(fence_angle=a, distance_abs=d))
-    assert b["x_m"] == pytest.approx(d + 0.01 * a, rel=1e-9)
-    assert b["y_m"] == pytest.approx((s + 0.02) * a, rel=1e-9)
-    assert b["theta_rad"] == pytest.approx(a, rel=1e-9)
+    assert b["x_m"] == pytest.approx(d + 0.01 * a, rel=1e-5)
+    assert b["y_m"] == pytest.approx((s + 0.02) * a, rel=1e-5)
+    assert b["theta_rad"] == pytest.approx(a, rel=1e-5)
 
 
 def test_start_errors_do_not_reach_final_orientation():
