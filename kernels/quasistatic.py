@@ -553,8 +553,7 @@ def _push(pp: _Part, pose, direction, distance, expected_edge) -> SimOutcome:
                       phases=st["phases"], truncated=truncated)
 
 
-def simulate_push(geom: PolygonGeometry, pose, direction, distance, c, mu_f, n_steps: int = 200,
-                  expected_edge=-1) -> SimOutcome:
+def simulate_push(geom: PolygonGeometry, pose, direction, distance, c, mu_f, expected_edge=-1) -> SimOutcome:
     """Simulate one normal fence push quasi-statically (model in the module docstring).
 
     Args:
@@ -566,9 +565,6 @@ def simulate_push(geom: PolygonGeometry, pose, direction, distance, c, mu_f, n_s
         starts touching the part.
       c: limit surface ratio ``m_max / f_max`` (m, > 0); see :func:`limit_surface_ratio`.
       mu_f: fence-part friction coefficient (>= 0; ``inf`` allowed: never slips).
-      n_steps: accepted for callers of the former fixed-step integrator and
-        ignored: the phases are integrated in closed form (module docstring),
-        so there is no step size to choose.
       expected_edge: hull edge the push should end flush on (for
         ``landed_other_edge``), -1 to skip.
 
@@ -577,12 +573,11 @@ def simulate_push(geom: PolygonGeometry, pose, direction, distance, c, mu_f, n_s
       A start pose within ``eps**0.75`` rad of an edge lying flush starts in line
       contact on that edge.
     """
-    del n_steps
     return _push(_part(geom, c, mu_f), pose, direction, distance, expected_edge)
 
 
-def simulate_pushes(geom: PolygonGeometry, pose, directions, distances, c, mu_f, n_steps: int = 200,
-                    expected_edges=None, active=None):
+def simulate_pushes(geom: PolygonGeometry, pose, directions, distances, c, mu_f, expected_edges=None,
+                    active=None):
     """Simulate a push plan (a sequence of pushes) with ``lax.scan``.
 
     Args:
@@ -592,7 +587,6 @@ def simulate_pushes(geom: PolygonGeometry, pose, directions, distances, c, mu_f,
       distances: (P,) push distances, m; a zero distance is a no-op (padding).
       c: limit surface ratio (m), one per part (the same support for every push).
       mu_f: fence friction coefficient.
-      n_steps: ignored (see :func:`simulate_push`).
       expected_edges: optional (P,) hull edges each push should end flush on (-1 skip).
       active: optional (P,) bools, the pushes to run: an inactive push is
         skipped (its row: pose unchanged, edge -1, nothing moved).  Padding a
@@ -603,7 +597,6 @@ def simulate_pushes(geom: PolygonGeometry, pose, directions, distances, c, mu_f,
       ``(final_pose, outcomes)``: the (3,) pose after the plan and a
       :class:`SimOutcome` with a leading axis of length P (after each push).
     """
-    del n_steps
     dtype = geom.body.dtype
     distances = jnp.asarray(distances, dtype)
     if expected_edges is None:

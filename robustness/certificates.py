@@ -244,7 +244,7 @@ def first_certifying(candidates, evaluate_one: Callable) -> Optional[object]:
 def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence: float = 0.95,
             n_samples="auto", max_samples: int = 100_000, model: str = "quasistatic",
             dtype=None, pos_eps_m: Optional[float] = None, theta_eps_rad: Optional[float] = None,
-            n_steps: int = 64, task: str = "task", bound: bool = True):
+            physics=None, task: str = "task", bound: bool = True):
     """Certify one plan: sample, replay, decide (see the module docstring).
 
     Args:
@@ -255,7 +255,7 @@ def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence
       required_probability, confidence: the requirement (both in (0, 1)).
       n_samples: an integer, or ``"auto"``: grow from the fewest samples that
         could certify, doubling, until the verdict is decided or ``max_samples``.
-      model, dtype, pos_eps_m, theta_eps_rad, n_steps, task, bound: as in
+      model, dtype, pos_eps_m, theta_eps_rad, physics, task, bound: as in
         :func:`robustness.evaluate`.
 
     Returns:
@@ -267,10 +267,11 @@ def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence
     import pandas as pd
 
     from robustness.evaluation import evaluate
+    from robustness.models import model_for
     from robustness.summary import summarise
 
     kind = "push" if hasattr(plan, "pushes") else "tumble"
-    model = "exact" if kind == "tumble" else model
+    model = model_for(model, kind)
     dtype = jnp.float64 if dtype is None else dtype
     if kind == "tumble":
         pe = float(plan.eps) if pos_eps_m is None else pos_eps_m
@@ -293,7 +294,7 @@ def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence
         while drawn < total:
             m = min(block, total - drawn)
             ev = evaluate(plan, sampler, m, jax.random.fold_in(key, b), model=model, dtype=dtype,
-                          pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, n_steps=n_steps,
+                          pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, physics=physics,
                           task=task, bound=False)
             df = ev.samples.copy()
             df["sample_id"] += drawn

@@ -117,12 +117,12 @@ from kernels import polygon as pg
 from kernels.planar import wrap_angle_np
 from kernels.precision import float64
 from robustness.hulls import face_merge_tol
-from robustness.replay import edge_pairs, run_push, run_tumble, tumble_nominal
+from robustness.models import MODELS, model_for
+from robustness.replay import edge_pairs, push_nominal, run_push, run_tumble, tumble_nominal
 from robustness.samplers import Sampler, parameter_columns
 from robustness.summary import summarise
 from robustness.summary import BoundViolation
 
-MODELS = ("quasistatic", "exact")
 DEFAULT_POS_EPS = 1e-3      # m
 DEFAULT_THETA_EPS = math.radians(1.0)  # rad
 SLIP_FRACTION = 0.25
@@ -189,9 +189,9 @@ def _kind(plan) -> str:
 def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
              dtype=jnp.float64, *, pos_eps_m: Optional[float] = None,
              theta_eps_rad: Optional[float] = None, confidence: float = 0.95,
-             n_steps: int = 64, chunk: int = 4096, task: str = "task",
-             bound: bool = True, slip_fraction: float = SLIP_FRACTION,
-             merge_factor: float = 8.0) -> Evaluation:
+             chunk: int = 4096, task: str = "task", bound: bool = True,
+             slip_fraction: float = SLIP_FRACTION, merge_factor: float = 8.0,
+             physics=None) -> Evaluation:
     """Evaluate a plan on ``n`` perturbed samples.
 
     Args:
@@ -200,16 +200,16 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
       sampler: the :class:`~robustness.samplers.Sampler` (tolerances).
       n: number of samples (>= 1).
       key: a ``jax.random`` key.
-      model: ``"quasistatic"`` or ``"exact"`` (push plans; tumbles always exact).
+      model: ``"quasistatic"`` or ``"exact"`` (push plans; tumbles are exact),
+        or ``"mujoco"``: the plan rolled out in MuJoCo (:mod:`robustness.physics`;
+        push and tumble plans; slow: seconds of CPU per sample).
       dtype: float dtype of the kernels (``jnp.float64`` or ``jnp.float32``); the
         perturbations are drawn in float64 and cast, so both dtypes see the same
-        samples (compare them row by row).
+        samples (compare them row by row).  MuJoCo: float64 on the C engine,
+        float32 under MJX, whatever ``dtype``.
       pos_eps_m, theta_eps_rad: success tolerances (default: the tumble plan's
         eps for both; 1 mm and 1 degree for push plans).
       confidence: of the Clopper-Pearson interval.
-      n_steps: ignored (kept for callers of the former fixed-step
-        quasi-static integrator: :mod:`kernels.quasistatic` integrates each
-        contact phase in closed form and has no step size).
       chunk: samples per compiled call (bounds memory; the last, partial
         chunk is padded to a power of two, so sample counts share compilations).
       task: the task name written in the tables.
@@ -218,6 +218,8 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
         ``pos_eps_m`` fails by ``slip``.
       merge_factor: polyhedra: face-merging tolerance factor for the
         combinatorics check (:func:`robustness.samplers.face_merge_tol`).
+      physics: ``model="mujoco"`` only: a :class:`robustness.physics.PhysicsRun`
+        (backend, stroke, cell settings); default ``PhysicsRun()``.
 
     Returns:
       :class:`Evaluation`.
@@ -230,7 +232,7 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
     dtype = jnp.dtype(dtype)
     t0 = time.perf_counter()
     if kind == "tumble":
-        model = "exact"
+        model = model_for(model, kind)
         pe = float(plan.eps) if pos_eps_m is None else float(pos_eps_m)
         te = float(plan.eps) if theta_eps_rad is None else float(theta_eps_rad)
     else:
@@ -240,104 +242,202 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
         if not (math.isfinite(v) and v > 0):
             raise ValueError(f"{name}: expected a finite number > 0, got {v!r}")
     chunk = max(1, int(chunk))
-    goal = np.asarray(plan.goal[:3], np.float64)
-    cols: dict = {}
+    m = len(plan.vertices)
     if kind == "push":
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", pg.PartWarning)
             poly0 = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
-        m, P = len(plan.vertices), len(plan.pushes)
-        params64, in_axes = sampler.sample(key, n, n_vertices=m, dim=2, n_pushes=P,
-                                           body=poly0.body, dtype=jnp.float64, keep_support=False)
-        params = _cast(params64, dtype)
-        poly, planned, r = run_push(plan, params64, in_axes, n, model, dtype, chunk)
-        _warn_truncated(r, task)
-        edges = np.asarray(r["edges"]).reshape(n, P)
-        complete = np.asarray(r["complete"]).reshape(n, P).astype(bool)
-        planned_arr = np.asarray(planned, np.int64)[None, :]
-        wrong = complete & (edges != planned_arr)
-        n_incomplete = (~complete).sum(axis=1)
-        first_wrong = np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1)
-        last = edges[:, -1] if P else np.full(n, -1)
-        fa, fb = edge_pairs(poly, last)
-        pa, pb = edge_pairs(poly, np.full(n, planned[-1] if P else -1))
-        changed = np.asarray(r["changed"]).astype(bool)
-        trunc = np.asarray(r["truncated"]).astype(bool)
-        slip = np.asarray(r["slip"], np.float64)
-        face = np.full(n, -1, np.int64)
-        pface = np.full(n, -1, np.int64)
-        structural = np.select(
-            [changed, (n_incomplete > 0) | trunc, wrong.any(axis=1)],
-            ["hull_changed", "incomplete_reorientation", "wrong_edge"], default="")
-        in_model = ((~changed) & (n_incomplete == 0) & (~wrong.any(axis=1)) & (slip == 0.0)
-                    & ~trunc)
-        valid = ~changed & ~trunc
-        cols = parameter_columns(params, in_axes, n, n_vertices=m, dim=2, n_pushes=P)
+        shape = dict(n_vertices=m, dim=2, n_pushes=len(plan.pushes))
+        params64, in_axes = sampler.sample(key, n, body=poly0.body, dtype=jnp.float64,
+                                           keep_support=model == "mujoco", **shape)
     else:
-        poly = tumble_nominal(plan)
-        m, L = len(plan.vertices), plan.n_tumbles
-        params64, in_axes = sampler.sample(key, n, n_vertices=m, dim=3, n_tumbles=L,
-                                           dtype=jnp.float64)
-        params = _cast(params64, dtype)
-        tol = None
-        if sampler.geometry.tau_v > 0:   # the perturbed hulls, checked in the same compiled call
-            v = np.asarray(poly.vertices)
-            diam = float(np.max(np.linalg.norm(v[:, None] - v[None], axis=-1)))
-            tol = face_merge_tol(sampler.geometry.tau_v, diam, merge_factor)
-        poly, r = run_tumble(plan, params64, in_axes, n, dtype, chunk, merge_tol=tol,
-                              slip_theta=sampler.execution.tumble_slip_theta)
-        changed = np.asarray(r["changed"]).astype(bool)
-        face = np.asarray(r["face"], np.int64)
-        ok = np.asarray(r["ok"]).astype(bool)
-        pface = np.full(n, int(plan.goal[3]), np.int64)
-        bad_face = (~ok) | (face != pface)
-        structural = np.select([changed, bad_face], ["combinatorics_changed", "wrong_face"],
-                               default="")
-        slip = np.asarray(r["slip"], np.float64)
-        fa = fb = pa = pb = np.full(n, -1, np.int64)
-        n_incomplete = (~ok).astype(np.int64)
-        first_wrong = np.full(n, -1, np.int64)
-        in_model = (~changed) & (~bad_face)
-        valid = ~changed
-        cols = parameter_columns(params, in_axes, n, n_vertices=m, dim=3, n_tumbles=L)
+        shape = dict(n_vertices=m, dim=3, n_tumbles=plan.n_tumbles)
+        params64, in_axes = sampler.sample(key, n, dtype=jnp.float64, **shape)
+    if model == "mujoco":
+        from robustness.physics.settings import check_pad_friction
 
-    x = np.asarray(r["x"], np.float64)
-    y = np.asarray(r["y"], np.float64)
-    th = wrap_angle_np(np.asarray(r["theta"], np.float64))
-    ex, ey = x - goal[0], y - goal[1]
-    ep = np.hypot(ex, ey)
-    et = wrap_angle_np(th - goal[2])
-    within = (ep <= pe) & (np.abs(et) <= te)
-    success = valid & within & (structural != "wrong_face")
-    mode = np.where(success, "none",
-                    np.where(structural != "", structural,
-                             np.where(slip >= slip_fraction * pe, "slip",
-                                      np.where(ep > pe, "position", "orientation"))))
-    # a successful sample with an incomplete / wrong intermediate push is still a success
-    # (the final pose is within eps); its structural flag stays visible in its columns.
-    param_names = tuple(cols)
-    data = {"task": task, "kind": kind, "model": model, "dtype": dtype.name,
-            "sample_id": np.arange(n, dtype=np.int64)}
-    data.update(cols)
-    data.update({
-        "final_x_m": x, "final_y_m": y, "final_theta_rad": th,
-        "final_edge_a": fa, "final_edge_b": fb, "planned_edge_a": pa, "planned_edge_b": pb,
-        "final_face": face, "planned_face": pface,
-        "err_x_m": ex, "err_y_m": ey, "err_pos_m": ep, "err_theta_rad": et,
-        "slip_m": slip, "n_incomplete": np.asarray(n_incomplete, np.int64),
-        "first_wrong_step": np.asarray(first_wrong, np.int64),
-        "hull_changed": changed, "model_valid": valid, "in_bound_model": in_model,
-        "success": success, "failure_mode": mode,
-    })
-    df = pd.DataFrame(data)
-
+        check_pad_friction(sampler.friction, kind)
+        rows = _physics_rows(plan, kind, params64, in_axes, n, sampler, pe, te, slip_fraction,
+                             merge_factor, physics)
+        dtype = jnp.dtype(rows.pop("dtype"))
+    elif kind == "push":
+        rows = _push_rows(plan, params64, in_axes, n, model, dtype, chunk, task)
+    else:
+        rows = _tumble_rows(plan, params64, in_axes, n, dtype, chunk, sampler, merge_factor)
+    cols = parameter_columns(_cast(params64, dtype), in_axes, n, **shape)
+    df = _frame(rows, cols, plan, kind, model, dtype, task, pe, te, slip_fraction)
+    if model == "mujoco":
+        _compare_with_kinematics(df, plan, kind, params64, in_axes, n, chunk, task, sampler,
+                                 merge_factor, pe, te, slip_fraction)
     summary = summarise(df, plan, sampler, kind=kind, model=model, dtype=dtype.name,
                         pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, task=task,
-                        bound=bound, warn_stacklevel=5)
+                        bound=bound and model != "mujoco", warn_stacklevel=5)
     b = None
     if math.isfinite(summary.get("bound_position_m", math.nan)):
         b = {"position_m": summary["bound_position_m"], "theta_rad": summary["bound_theta_rad"]}
-    return Evaluation(samples=df, summary=summary, param_columns=param_names, kind=kind,
+    return Evaluation(samples=df, summary=summary, param_columns=tuple(cols), kind=kind,
                       model=model, bound=b, seconds=time.perf_counter() - t0)
+
+
+def _push_rows(plan, params64, in_axes, n, model, dtype, chunk, task) -> dict:
+    """Per-sample outcomes of a push plan under the quasi-static or exact kernel."""
+    P = len(plan.pushes)
+    poly, planned, r = run_push(plan, params64, in_axes, n, model, dtype, chunk)
+    _warn_truncated(r, task)
+    edges = np.asarray(r["edges"]).reshape(n, P)
+    complete = np.asarray(r["complete"]).reshape(n, P).astype(bool)
+    wrong = complete & (edges != np.asarray(planned, np.int64)[None, :])
+    n_incomplete = (~complete).sum(axis=1)
+    changed = np.asarray(r["changed"]).astype(bool)
+    trunc = np.asarray(r["truncated"]).astype(bool)
+    slip = np.asarray(r["slip"], np.float64)
+    fa, fb = edge_pairs(poly, edges[:, -1] if P else np.full(n, -1))
+    pa, pb = edge_pairs(poly, np.full(n, planned[-1] if P else -1))
+    return dict(
+        x=r["x"], y=r["y"], theta=r["theta"], final_edge_a=fa, final_edge_b=fb,
+        planned_edge_a=pa, planned_edge_b=pb, final_face=np.full(n, -1, np.int64),
+        planned_face=np.full(n, -1, np.int64), slip=slip, n_incomplete=n_incomplete,
+        first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
+        hull_changed=changed, model_valid=~changed & ~trunc,
+        in_bound_model=(~changed) & (n_incomplete == 0) & (~wrong.any(axis=1)) & (slip == 0.0)
+        & ~trunc,
+        structural=np.select([changed, (n_incomplete > 0) | trunc, wrong.any(axis=1)],
+                             ["hull_changed", "incomplete_reorientation", "wrong_edge"],
+                             default=""))
+
+
+def _tumble_rows(plan, params64, in_axes, n, dtype, chunk, sampler, merge_factor) -> dict:
+    """Per-sample outcomes of a tumble plan under the exact tumble kinematics."""
+    poly = tumble_nominal(plan)
+    tol = None
+    if sampler.geometry.tau_v > 0:   # the perturbed hulls, checked in the same compiled call
+        v = np.asarray(poly.vertices)
+        diam = float(np.max(np.linalg.norm(v[:, None] - v[None], axis=-1)))
+        tol = face_merge_tol(sampler.geometry.tau_v, diam, merge_factor)
+    poly, r = run_tumble(plan, params64, in_axes, n, dtype, chunk, merge_tol=tol,
+                         slip_theta=sampler.execution.tumble_slip_theta)
+    changed = np.asarray(r["changed"]).astype(bool)
+    face = np.asarray(r["face"], np.int64)
+    ok = np.asarray(r["ok"]).astype(bool)
+    pface = np.full(n, int(plan.goal[3]), np.int64)
+    bad_face = (~ok) | (face != pface)
+    none = np.full(n, -1, np.int64)
+    return dict(
+        x=r["x"], y=r["y"], theta=r["theta"], final_edge_a=none, final_edge_b=none,
+        planned_edge_a=none, planned_edge_b=none, final_face=face, planned_face=pface,
+        slip=np.asarray(r["slip"], np.float64), n_incomplete=(~ok).astype(np.int64),
+        first_wrong_step=none, hull_changed=changed, model_valid=~changed,
+        in_bound_model=(~changed) & (~bad_face),
+        structural=np.select([changed, bad_face], ["combinatorics_changed", "wrong_face"],
+                             default=""))
+
+
+def _physics_rows(plan, kind, params64, in_axes, n, sampler, pe, te, slip_fraction,
+                  merge_factor, physics) -> dict:
+    """Per-sample outcomes of a plan rolled out in MuJoCo (:mod:`robustness.physics`):
+    the physics layer classifies every sample itself (tipping, toppling, a fence
+    strike, leaving the workspace come on top of the kernels' failure modes);
+    no sample is inside an analytic bound's model (physics always slips a
+    little), so the bound columns stay empty."""
+    from robustness.physics import PhysicsRun, rollout_push_plan, rollout_tumble_plan
+
+    run = physics or PhysicsRun()
+    if not isinstance(run, PhysicsRun):
+        raise ValueError(f"physics: expected a robustness.physics.PhysicsRun, got {run!r}")
+    common = dict(backend=run.backend, settings=run.settings, pos_eps_m=pe, theta_eps_rad=te,
+                  slip_fraction=slip_fraction)
+    none = np.full(n, -1, np.int64)
+    if kind == "push":
+        r = rollout_push_plan(plan, params64, in_axes, n, stroke=run.stroke, **common)
+        poly, planned = push_nominal(plan)
+        edges = np.asarray(r["edges"])
+        complete = np.asarray(r["complete"], bool)
+        wrong = complete & (edges != np.asarray(planned, np.int64)[None, :])
+        fa, fb = edge_pairs(poly, edges[:, -1])
+        pa, pb = edge_pairs(poly, np.full(n, planned[-1]))
+        extra = dict(final_edge_a=fa, final_edge_b=fb, planned_edge_a=pa, planned_edge_b=pb,
+                     final_face=none, planned_face=none, n_incomplete=(~complete).sum(axis=1),
+                     first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
+                     hull_changed=np.asarray(r["hull_changed"], bool))
+    else:
+        r = rollout_tumble_plan(plan, params64, in_axes, n, merge_factor=merge_factor,
+                                tau_v=sampler.geometry.tau_v, **common)
+        extra = dict(final_edge_a=none, final_edge_b=none, planned_edge_a=none,
+                     planned_edge_b=none, final_face=np.asarray(r["face"], np.int64),
+                     planned_face=np.full(n, int(plan.goal[3]), np.int64),
+                     n_incomplete=np.asarray(r["n_wrong_faces"], np.int64), first_wrong_step=none,
+                     hull_changed=np.asarray(r["combinatorics_changed"], bool))
+    return dict(x=r["x"], y=r["y"], theta=r["theta"], slip=np.asarray(r["slip"], np.float64),
+                model_valid=np.asarray(r["simulated"], bool), in_bound_model=np.zeros(n, bool),
+                success=np.asarray(r["success"], bool), failure_mode=np.asarray(r["failure_mode"]),
+                max_tilt_rad=np.asarray(r.get("max_tilt", np.full(n, np.nan)), np.float64),
+                dtype="float32" if r["backend"] == "mjx" else "float64", **extra)
+
+
+def _compare_with_kinematics(df, plan, kind, params64, in_axes, n, chunk, task, sampler,
+                             merge_factor, pe, te, slip_fraction) -> None:
+    """Physics rows get the kinematic models' answers on the same draws beside them
+    (float64): ``dpos_vs_<model>_m`` (m) and ``dtheta_vs_<model>_rad`` (rad, wrapped),
+    the physics final pose minus the model's, and ``success_<model>``; push rows
+    against ``quasistatic`` and ``exact``, tumble rows against ``exact``."""
+    f64 = jnp.dtype(jnp.float64)
+    for ref in ("quasistatic", "exact") if kind == "push" else ("exact",):
+        if kind == "push":
+            rr = _push_rows(plan, params64, in_axes, n, ref, f64, chunk, task)
+        else:
+            rr = _tumble_rows(plan, params64, in_axes, n, f64, chunk, sampler, merge_factor)
+        other = _frame(rr, {}, plan, kind, ref, f64, task, pe, te, slip_fraction)
+        df[f"dpos_vs_{ref}_m"] = np.hypot(df["final_x_m"] - other["final_x_m"],
+                                          df["final_y_m"] - other["final_y_m"])
+        df[f"dtheta_vs_{ref}_rad"] = wrap_angle_np(df["final_theta_rad"].to_numpy()
+                                                   - other["final_theta_rad"].to_numpy())
+        df[f"success_{ref}"] = pd.array(other["success"].to_numpy(), dtype="boolean")
+
+
+def _frame(rows: dict, cols: dict, plan, kind, model, dtype, task, pe, te, slip_fraction):
+    """The per-sample frame (``samples`` columns) from a model's outcomes: errors to
+    the goal, success and the failure mode (the first that applies, see the
+    module docstring) unless the model classified the samples itself."""
+    n = len(rows["x"])
+    goal = np.asarray(plan.goal[:3], np.float64)
+    x = np.asarray(rows["x"], np.float64)
+    y = np.asarray(rows["y"], np.float64)
+    th = wrap_angle_np(np.asarray(rows["theta"], np.float64))
+    ex, ey = x - goal[0], y - goal[1]
+    ep = np.hypot(ex, ey)
+    et = wrap_angle_np(th - goal[2])
+    slip = rows["slip"]
+    if "success" in rows:
+        success, mode = rows["success"], rows["failure_mode"]
+    else:
+        structural = rows["structural"]
+        success = rows["model_valid"] & (ep <= pe) & (np.abs(et) <= te) & (structural != "wrong_face")
+        # a success whose intermediate push was incomplete or landed another edge stays a
+        # success (the final pose is within eps); its flags stay visible in its columns
+        mode = np.where(success, "none",
+                        np.where(structural != "", structural,
+                                 np.where(slip >= slip_fraction * pe, "slip",
+                                          np.where(ep > pe, "position", "orientation"))))
+    data = {"task": task, "kind": kind, "model": model, "dtype": dtype.name,
+            "sample_id": np.arange(n, dtype=np.int64), **cols,
+            "final_x_m": x, "final_y_m": y, "final_theta_rad": th}
+    for c in ("final_edge_a", "final_edge_b", "planned_edge_a", "planned_edge_b", "final_face",
+              "planned_face"):
+        data[c] = np.asarray(rows[c], np.int64)
+    data.update({
+        "err_x_m": ex, "err_y_m": ey, "err_pos_m": ep, "err_theta_rad": et, "slip_m": slip,
+        "n_incomplete": np.asarray(rows["n_incomplete"], np.int64),
+        "first_wrong_step": np.asarray(rows["first_wrong_step"], np.int64),
+        "hull_changed": np.asarray(rows["hull_changed"], bool),
+        "model_valid": np.asarray(rows["model_valid"], bool),
+        "in_bound_model": np.asarray(rows["in_bound_model"], bool),
+        "success": np.asarray(success, bool), "failure_mode": mode,
+        "max_tilt_rad": np.asarray(rows.get("max_tilt_rad", np.full(n, np.nan)), np.float64),
+    })
+    for ref in ("quasistatic", "exact"):   # filled for physics rows (_compare_with_kinematics)
+        data.update({f"dpos_vs_{ref}_m": np.full(n, np.nan), f"dtheta_vs_{ref}_rad": np.full(n, np.nan),
+                     f"success_{ref}": pd.array([pd.NA] * n, dtype="boolean")})
+    return pd.DataFrame(data)
+
 
 __all__ = ["evaluate", "Evaluation", "BoundViolation", "MODELS"]

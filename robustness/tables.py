@@ -32,7 +32,8 @@ import pandas as pd
 import pyarrow as pa
 
 FAILURE_MODES = ("none", "incomplete_reorientation", "wrong_edge", "slip", "hull_changed",
-                 "wrong_face", "combinatorics_changed", "position", "orientation")
+                 "wrong_face", "combinatorics_changed", "position", "orientation",
+                 "left_workspace", "toppled", "fence_strike")
 
 #: What a certificate can say (:mod:`robustness.certify`).
 VERDICTS = ("certified", "not certified", "no plan")
@@ -50,7 +51,7 @@ RUN_FIELD = pa.field("run_id", STR, nullable=False)
 SAMPLES_KEY_FIELDS = [
     pa.field("task", STR, nullable=False),
     pa.field("kind", STR, nullable=False),          # "push" | "tumble"
-    pa.field("model", STR, nullable=False),         # "quasistatic" | "exact"
+    pa.field("model", STR, nullable=False),         # "quasistatic" | "exact" | "mujoco"
     pa.field("dtype", STR, nullable=False),         # "float64" | "float32"
     pa.field("sample_id", I64, nullable=False),
 ]
@@ -91,6 +92,13 @@ SAMPLES_RESULT_FIELDS = [
     pa.field("in_bound_model", BOOL, nullable=False),
     pa.field("success", BOOL, nullable=False),
     pa.field("failure_mode", STR),
+    pa.field("max_tilt_rad", F64),
+    pa.field("dpos_vs_quasistatic_m", F64),
+    pa.field("dtheta_vs_quasistatic_rad", F64),
+    pa.field("success_quasistatic", BOOL),
+    pa.field("dpos_vs_exact_m", F64),
+    pa.field("dtheta_vs_exact_rad", F64),
+    pa.field("success_exact", BOOL),
 ]
 
 SAMPLES_SCHEMA = pa.schema([RUN_FIELD] + SAMPLES_KEY_FIELDS + SAMPLED_FIELDS + SAMPLES_RESULT_FIELDS)

@@ -32,7 +32,7 @@ Config (YAML; unknown keys are errors; numbers such as ``1e-5`` are numbers)::
     required: {probability: 0.9, confidence: 0.95}
     n_samples: 300                   # or auto
     seed: 0
-    model: quasistatic               # or exact (push tasks; tumbling is always exact)
+    model: quasistatic               # or exact, or mujoco (physics; tumbles: exact or mujoco)
     tasks:
       - {name: turn, start: [0, 0, 0], goal: [0.1, 0.05, 60deg]}
 
@@ -55,6 +55,7 @@ from typing import Literal, Optional, Union
 
 from pydantic import Field, StrictBool, field_validator
 
+from robustness.models import model_for
 from sweeps.config import (ConfigError, Evaluation, PartInline, Strict, Task, explicit_tasks,
                           validate)
 from sweeps.terminal import Parser, fail, report_warnings, run_main
@@ -133,6 +134,7 @@ def load(path, n_samples=None, max_samples=None, seed=None):
     Raises:
       ConfigError: one line per mistake.
     """
+    from robustness.physics.settings import check_pad_friction
     from sweeps.study import load_part_ref
     from sweeps.yamlio import YamlError, dump_yaml, read_yaml
 
@@ -160,7 +162,10 @@ def load(path, n_samples=None, max_samples=None, seed=None):
         cfg = validate(CertifyConfig, doc)
         part = load_part_ref(cfg.part, path.parent)
         tasks = explicit_tasks(cfg.tasks, part.kind)
-    except ConfigError as exc:
+        if cfg.model == "mujoco":
+            check_pad_friction(cfg.friction, "push" if part.kind == "polygon" else "tumble")
+    except ValueError as exc:   # ConfigError, or a friction the MuJoCo tumble device cannot use
+        exc = exc if isinstance(exc, ConfigError) else ConfigError(str(exc))
         raise ConfigError(f"{path}: {exc.lines[0]}", [f"{path}: {ln}" for ln in exc.lines]) from None
     return cfg, doc, dump_yaml(doc), part, tasks
 
@@ -238,7 +243,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
     kind = "push" if part.kind == "polygon" else "tumble"
-    model = cfg.model if kind == "push" else "exact"
+    model = model_for(cfg.model, kind)
     p, conf = cfg.required.probability, cfg.required.confidence
     caught: list = []
     try:
@@ -318,7 +323,7 @@ class Blocks:
                                   model=self.model,
                                   dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
                                   pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                                  confidence=cfg.required.confidence, n_steps=cfg.n_steps,
+                                  confidence=cfg.required.confidence, physics=cfg.physics_run(),
                                   task=self.name, bound=False)
                 report_warnings(caught)
                 df = tables.pack_samples(ev.samples, ev.param_columns)
@@ -361,7 +366,7 @@ def _write_summary(store, ti, s: dict) -> None:
 def _task_row(cfg, part, name, start, goal, plan) -> dict:
     push = part.kind == "polygon"
     return dict(task=name, kind="push" if push else "tumble", part=part.name,
-                model=cfg.model if push else "exact",
+                model=model_for(cfg.model, "push" if push else "tumble"),
                 start_x_m=start[0], start_y_m=start[1], start_theta_rad=start[2],
                 start_face=start[3] if not push else -1, goal_x_m=goal[0], goal_y_m=goal[1],
                 goal_theta_rad=goal[2], goal_face=goal[3] if not push else -1,
@@ -398,7 +403,7 @@ def margin_search(part, start, goal, cfg, key, model):
             ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, model=model,
                           dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
                           pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                          confidence=cfg.required.confidence, n_steps=cfg.n_steps, bound=False)
+                          confidence=cfg.required.confidence, physics=cfg.physics_run(), bound=False)
         s = ev.summary
         return one_sided_lower(int(s["n_success"]), int(s["n"]),
                                cfg.required.confidence) >= cfg.required.probability

@@ -17,8 +17,9 @@ import dataclasses
 import math
 from typing import Literal, Optional, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from robustness.physics.settings import PhysicsSettings
 from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
 from sweeps.terminal import angle_value
 
@@ -39,7 +40,6 @@ class Strict(BaseModel):
 
 
 Angle = Union[float, str]
-MODELS = ("quasistatic", "exact")
 
 
 class PartInline(Strict):
@@ -53,12 +53,40 @@ class PartInline(Strict):
 
 
 class Planner(Strict):
-    """Planner settings: pushing (margin, safety factor, objective) and tumbling
-    (the planner's accuracy and tolerances)."""
+    """Planner settings: pushing (margin, safety factor, objective; the search
+    strategy, the model-based distances for a support ratio range ``support_c``
+    ``[lo, hi]`` (m), slip-aware plans for a fence friction of at least
+    ``min_fence_mu``, a ``workspace`` ``[xmin, xmax, ymin, ymax]`` (m, world)) and
+    tumbling (the planner's accuracy and tolerances)."""
+
+    @model_validator(mode="after")
+    def _push_options(self):
+        if self.support_c is not None and not 0 < self.support_c[0] <= self.support_c[1]:
+            raise ValueError(f"support_c: expected [lo, hi] with 0 < lo <= hi (m), got "
+                             f"{list(self.support_c)}")
+        if self.min_fence_mu is not None and self.support_c is None:
+            raise ValueError("min_fence_mu: slip-aware plans need the support's range too; "
+                             "add planner.support_c: [lo, hi] (m)")
+        w = self.workspace
+        if w is not None and not (w[0] < w[1] and w[2] < w[3]):
+            raise ValueError(f"workspace: expected [xmin, xmax, ymin, ymax] with xmin < xmax and "
+                             f"ymin < ymax (m), got {list(w)}")
+        return self
+
+    def push_options(self) -> dict:
+        """The keyword arguments of :func:`planning.plan_pose` these settings give."""
+        return dict(margin_deg=self.margin_deg, safety_factor=self.safety_factor,
+                    objective=self.objective, strategy=self.strategy,
+                    support=None if self.support_c is None else {"c": list(self.support_c)},
+                    min_fence_mu=self.min_fence_mu, workspace=self.workspace)
 
     margin_deg: float = Field(7.0, gt=0, lt=90)
     safety_factor: float = Field(1.15, ge=1)
     objective: Literal["distance", "pushes"] = "distance"
+    strategy: Literal["search", "paper"] = "search"
+    support_c: Optional[tuple[float, float]] = None
+    min_fence_mu: Optional[float] = Field(None, ge=0)
+    workspace: Optional[tuple[float, float, float, float]] = None
     tumble_eps: Optional[float] = Field(None, gt=0)
     tumble_tau_v: float = Field(0.0, ge=0)
     tau_g: Optional[float] = Field(None, ge=0)
@@ -87,6 +115,25 @@ class Task(Strict):
     goal: list[Angle]
 
 
+class Physics(Strict):
+    """``model: mujoco``: how plans are rolled out in MuJoCo (:mod:`robustness.physics`).
+
+    ``backend``: ``auto`` (MJX on an accelerator, else the C engine), ``c`` or ``mjx``;
+    ``stroke``: ``planned`` (open loop, each fence stroke from the planned pose) or
+    ``contact`` (from where the part is); ``cell``: the cell and engine settings
+    (:class:`~robustness.physics.PhysicsSettings`, each default documented there).
+    """
+
+    backend: Literal["auto", "c", "mjx"] = "auto"
+    stroke: Literal["planned", "contact"] = "planned"
+    cell: PhysicsSettings = Field(default_factory=PhysicsSettings)
+
+    def run(self):
+        from robustness.physics import PhysicsRun
+
+        return PhysicsRun(backend=self.backend, stroke=self.stroke, settings=self.cell)
+
+
 class Evaluation(Strict):
     """The Monte-Carlo sections shared by certify configs and studies."""
 
@@ -97,15 +144,19 @@ class Evaluation(Strict):
     eps: Eps = Field(default_factory=Eps)
     required: Required = Field(default_factory=Required)
     seed: int = Field(0, ge=0)
-    model: Literal["quasistatic", "exact"] = "quasistatic"
+    model: Literal["quasistatic", "exact", "mujoco"] = "quasistatic"
     dtype: Literal["float64", "float32"] = "float64"
-    n_steps: int = Field(64, ge=1, le=100_000)
+    physics: Physics = Field(default_factory=lambda: Physics())
 
     def sampler(self):
         """The :class:`~robustness.Sampler` of these tolerances."""
         from robustness import Sampler
 
         return Sampler(self.tolerances, self.friction, self.execution)
+
+    def physics_run(self):
+        """The :class:`~robustness.physics.PhysicsRun` of ``model: mujoco`` (else None)."""
+        return self.physics.run() if self.model == "mujoco" else None
 
 
 HINTS = {

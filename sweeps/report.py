@@ -10,6 +10,7 @@ import pathlib
 
 import jinja2
 
+from robustness.models import model_for
 from sweeps.parquet import atomic_write
 
 TEMPLATE = jinja2.Template("""<!doctype html>
@@ -93,7 +94,7 @@ def write_report(store, design) -> pathlib.Path:
     header, rows = _config_rows(summary, plans, design, long_labels)
     page = TEMPLATE.render(
         name=design.name, run_id=design.run_id, kind=kind, part=design.part(0).name,
-        model="exact" if kind == "tumble" else top.model, n_configs=len(design.configs),
+        model=model_for(top.model, kind), n_configs=len(design.configs),
         n_tasks=len(design.tasks(0)), samples=top.samples, seed=top.seed,
         pos_eps=top.eps.pos_eps_m, theta_eps=f"{top.eps.theta_eps_rad:.4g}", confidence=conf,
         root=html.escape(str(store.root)), sections=sections, header=header, rows=rows,

@@ -9,12 +9,15 @@ carry ``deg``)::
     part: nice_stable                   # bundled name, a path, or an inline part
     tasks:                              # explicit list, or sampled goals:
       sample: {n: 6, annulus: [0.05, 0.15], heading: [-180deg, 180deg]}
-    planner: {margin_deg: 7, safety_factor: 1.15}
+    planner: {margin_deg: 7, safety_factor: 1.15}   # + objective, strategy (search | paper),
+                                        # support_c [lo, hi] m, min_fence_mu, workspace
+                                        # [xmin, xmax, ymin, ymax] m; tumble_eps, tumble_tau_v, tau_g
     tolerances: {tau_v: 2.0e-5}         # robustness.GeometryTolerance
     friction: {mu_f: [0.5, 0.8]}        # robustness.FrictionRange
     execution: {start_xy: 5.0e-4}       # robustness.ExecutionTolerance
     eps: {pos_eps_m: 0.002, theta_eps_rad: 0.035}
-    model: quasistatic                  # quasistatic | exact
+    model: quasistatic                  # quasistatic | exact | mujoco (physics rollouts)
+    physics: {backend: c, stroke: planned, cell: {timestep: 0.004}}   # model: mujoco only
     samples: 200                        # Monte-Carlo samples per (configuration, task)
     chunk_samples: 200                  # samples per unit of work (resume granularity)
     seed: 0
@@ -34,6 +37,8 @@ from typing import Annotated, Any, Literal, Optional, Union
 
 import numpy as np
 from pydantic import Discriminator, Field, StrictBool, Tag, model_validator
+
+from robustness.physics.settings import check_pad_friction
 
 from sweeps import catalog
 from sweeps.config import (Angle, ConfigError, Evaluation, PartInline, Strict, Task, explicit_tasks,
@@ -110,6 +115,12 @@ class Study(Evaluation):
     output: str = "results"
     bounds: StrictBool = True        # the analytic bounds in the summary (one compile per plan shape)
     report: StrictBool = True        # report.html at the end
+
+    @model_validator(mode="after")
+    def _tumble_pads(self):
+        if self.model == "mujoco" and self.kind == "tumble":
+            check_pad_friction(self.friction, "tumble")
+        return self
 
     @property
     def executor_spec(self) -> Executor:

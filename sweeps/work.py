@@ -29,6 +29,7 @@ from typing import Optional
 import pyarrow as pa
 
 from robustness import tables
+from robustness.models import model_for
 
 CONTEXTS: dict = {}
 
@@ -213,7 +214,7 @@ def run_block(ctx: Context, unit: Unit) -> dict:
         ev = evaluate(plan, cfg.sampler(), unit.samples, key, model=cfg.model,
                       dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
                       pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                      confidence=cfg.required.confidence, n_steps=cfg.n_steps, task=name,
+                      confidence=cfg.required.confidence, physics=cfg.physics_run(), task=name,
                       bound=False)
         df = tables.pack_samples(ev.samples, ev.param_columns)
         df["sample_id"] = df["sample_id"] + unit.lo
@@ -243,7 +244,7 @@ def run_summary(ctx: Context, unit: Unit) -> dict:
     name, _, _ = design.tasks(unit.config_id)[unit.task_index]
     plan, reason, _ = L.plan(unit.config_id, unit.task_index)
     kind = cfg.kind
-    model = "exact" if kind == "tumble" else cfg.model
+    model = model_for(cfg.model, kind)
     if plan is None:
         s = empty_summary(name, kind, model, cfg.dtype, cfg.eps.pos_eps_m, cfg.eps.theta_eps_rad,
                           cfg.required.confidence)

@@ -99,7 +99,7 @@ def test_tolerances_success_rate_and_interval(plan):
 
 def test_exact_and_quasistatic_agree_when_sticking(plan):
     a = evaluate(plan, TOL, N, jax.random.key(2), model="exact", bound=False).samples
-    b = evaluate(plan, TOL, N, jax.random.key(2), model="quasistatic", n_steps=48,
+    b = evaluate(plan, TOL, N, jax.random.key(2), model="quasistatic",
                  bound=False).samples
     assert (b["n_incomplete"] == 0).all() and (b["slip_m"] == 0).all()
     for col in ("final_x_m", "final_y_m", "final_theta_rad"):
@@ -121,7 +121,7 @@ def test_float32_sees_the_same_samples(plan):
 def test_quasistatic_shows_failures_when_slippery(plan):
     # same vmap axes as TOL (one compiled kernel): only the friction values differ
     s = Sampler(TOL.geometry, FrictionRange(mu_f=(0.02, 0.02), c=(0.01, 0.02)), TOL.execution)
-    df = evaluate(plan, s, N, jax.random.key(3), model="quasistatic", n_steps=48,
+    df = evaluate(plan, s, N, jax.random.key(3), model="quasistatic",
                   bound=False).samples
     assert (df["slip_m"] > 0).any()
     assert (df["failure_mode"] != "none").any()

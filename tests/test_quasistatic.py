@@ -25,13 +25,12 @@ import pytest  # noqa: E402
 
 pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 
-N_STEPS = 200
 BATCH = 32
 INF = math.inf
 
 
 def _one(body, pose, d, s, c, mu, expected):
-    return simulate_push(polygon_geometry(body), pose, d, s, c, mu, n_steps=N_STEPS, expected_edge=expected)
+    return simulate_push(polygon_geometry(body), pose, d, s, c, mu, expected_edge=expected)
 
 
 _sim_batch = jax.jit(jax.vmap(_one))
@@ -398,8 +397,8 @@ def test_simulate_pushes_is_sequential_and_zero_pads():
     pose0 = np.array([0.1, 0.2, 0.3])
     c, mu = 0.6 * a, 0.3
     exp = np.array([-1, 0, 1, 2, 3])
-    final, outs = jax.jit(simulate_pushes, static_argnames="n_steps")(
-        geom, pose0, dirs, dists, c, mu, n_steps=N_STEPS, expected_edges=exp)
+    final, outs = jax.jit(simulate_pushes)(
+        geom, pose0, dirs, dists, c, mu, expected_edges=exp)
     p = pose0
     for k in range(5):
         o = qs_oracle.simulate_push(body, p, dirs[k], dists[k], c, mu)

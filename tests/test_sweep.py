@@ -139,6 +139,9 @@ def test_design_applies_overrides_and_sweeps_range_fields(tmp_path):
     (("part: nice_stable", "part: no_such_part"), ["part", "no_such_part", "bundled"]),
     (("  - {name: b, start: [0, 0, 0], goal: [-0.05, 0.06, -2.0]}", "  - {name: b, goal: [1, 2, 3]}"),
      ["tasks[1].start", "needs a start"]),
+    (("model: exact", "model: exact\nplanner: {min_fence_mu: 0.5}"), ["planner", "support_c"]),
+    (("model: exact", "model: exact\nplanner: {workspace: [0.1, -0.1, 0, 1]}"), ["planner", "xmin < xmax"]),
+    (("model: exact", "model: exact\nplanner: {strategy: greedy}"), ["planner.strategy", "search", "paper"]),
 ])
 def test_bad_studies_exit_2_naming_the_field_before_anything_runs(tmp_path, edit, words):
     p = _study(tmp_path, TINY.replace(*edit))
@@ -306,3 +309,19 @@ def test_bundled_margins_runs_small(tmp_path):
     assert r.returncode == 0, r.stderr
     s = pd.read_parquet(tmp_path / "out" / "summary")
     assert len(s) == 2 * len(s["config_id"].unique()) and (s["n"] == 8).all()
+
+
+def test_planner_options_reach_the_plans(tmp_path):
+    """The push planner's options are study fields (and axes): the paper's strategy plans
+    no shorter than the default search, and a workspace is honoured."""
+    text = (TINY.replace("samples: 24", "samples: 4").replace("chunk_samples: 8", "chunk_samples: 4")
+            .replace("  planner.margin_deg: [5, 9]", "  planner.strategy: [search, paper]")
+            + "planner: {workspace: [-0.15, 0.15, -0.15, 0.15]}\n")
+    out = tmp_path / "out"
+    r = run_module(_study(tmp_path, text), "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    plans = pd.read_parquet(out / "plans")
+    assert plans["planned"].all()
+    d = plans.pivot_table(index="task", columns="planner_strategy", values="total_distance_m")
+    assert (d["search"] <= d["paper"] + 1e-9).all(), d
+

@@ -16,7 +16,8 @@ Nothing here reads or writes files.
 from robustness.physics.push import PUSH_FAILURE_MODES, rollout_push_plan
 from robustness.physics.runner import default_backend
 from robustness.physics.tumble import TUMBLE_FAILURE_MODES, rollout_tumble_plan
-from robustness.physics.settings import BACKENDS, PhysicsSettings
+from robustness.physics.settings import BACKENDS, STROKES, PhysicsRun, PhysicsSettings
 
 __all__ = ["rollout_push_plan", "rollout_tumble_plan", "PUSH_FAILURE_MODES",
-           "TUMBLE_FAILURE_MODES", "PhysicsSettings", "BACKENDS", "default_backend"]
+           "TUMBLE_FAILURE_MODES", "PhysicsSettings", "PhysicsRun", "BACKENDS", "STROKES",
+           "default_backend"]

@@ -23,9 +23,7 @@ from robustness.physics import scene
 from robustness.physics.monitor import Recorder, flush_edge, planar_pose, yaw_quat
 from robustness.physics.pushing import FenceStrokes, PushTracker, nominal_polygon, push_parts
 from robustness.physics.runner import check_batch, make_engine, resolve_backend, run_schedule
-from robustness.physics.settings import PhysicsSettings
-
-STROKES = ("planned", "contact")
+from robustness.physics.settings import STROKES, PhysicsSettings
 
 #: failure modes of a physics row, in the order they are assigned
 PUSH_FAILURE_MODES = ("none", "hull_changed", "left_workspace", "toppled", "fence_strike",

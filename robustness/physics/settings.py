@@ -13,6 +13,15 @@ import math
 
 BACKENDS = ("auto", "c", "mjx")
 SUPPORT_MODES = ("tripod", "centred", "sampled")
+STROKES = ("planned", "contact")
+
+#: The tumble device's pads need a friction coefficient of at least this much (upper pad
+#: ``mu_f``, lower pad ``mu_s``): the part pivots about its bottom edge only if the top
+#: pad's friction beats the grasp force's resisting moment, for a cube
+#: ``mu_top > 1 + m g / (2 F)`` = 1.25 at the default ``grip_ratio`` 2
+#: (:mod:`robustness.physics.tumbling`); below it the plates drag the part instead of
+#: rolling it and every sample fails.
+TUMBLE_PAD_MU = 1.3
 
 
 def _positive(obj, name: str) -> None:
@@ -181,3 +190,44 @@ class PhysicsSettings:
                              f"{self.slow_zone}")
         if self.fence_gap >= self.part_thickness:
             raise ValueError("fence_gap: must be below part_thickness, or the fence misses the part")
+
+
+@dataclasses.dataclass(frozen=True)
+class PhysicsRun:
+    """How :func:`robustness.evaluate` rolls plans out with ``model="mujoco"``.
+
+    Attributes:
+      backend: ``"auto"`` (MJX on an accelerator, else the C engine), ``"c"`` or ``"mjx"``.
+      stroke: ``"planned"`` (open loop: every fence stroke from the planned pose, as a
+        cell without sensing runs the plan) or ``"contact"`` (each stroke measured from
+        where the part is: the semantics of the quasi-static and exact models).
+      settings: the cell and engine settings (:class:`PhysicsSettings`).
+    """
+
+    backend: str = "auto"
+    stroke: str = "planned"
+    settings: PhysicsSettings = dataclasses.field(default_factory=PhysicsSettings)
+
+    def __post_init__(self):
+        if self.backend not in BACKENDS:
+            raise ValueError(f"backend: expected one of {BACKENDS}, got {self.backend!r}")
+        if self.stroke not in STROKES:
+            raise ValueError(f"stroke: expected one of {STROKES}, got {self.stroke!r}")
+
+
+def check_pad_friction(friction, kind: str) -> None:
+    """Raise ValueError (naming the field) when a tumble plan is to be rolled out in
+    MuJoCo with pads of less friction than ``TUMBLE_PAD_MU``.
+
+    Args:
+      friction: a :class:`robustness.FrictionRange` (``mu_f`` upper pad, ``mu_s`` lower).
+      kind: ``"push"`` (nothing to check) or ``"tumble"``.
+    """
+    if kind != "tumble":
+        return
+    for name in ("mu_f", "mu_s"):
+        lo = getattr(friction, name)[0]
+        if lo < TUMBLE_PAD_MU:
+            raise ValueError(f"friction.{name}: the MuJoCo tumble device's pads need a friction "
+                             f"coefficient >= {TUMBLE_PAD_MU} (below it the plates drag the part "
+                             f"instead of rolling it), got {lo:g}; set friction.{name}: [1.5, 1.5]")
