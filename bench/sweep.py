@@ -13,7 +13,9 @@ Every timed pass runs after a warm-up pass of the same kind, so JAX compilation
 not part of the runner's per-sample cost).  The last line is
 ``RESULT configs_per_s=N samples_per_s=M overhead=R dask_speedup=S``
 (``overhead`` = runner time / direct time - 1; ``dask_speedup`` = local runner
-time / Dask runner time, cluster start-up excluded).
+time / Dask runner time on a started, warm cluster of 2 worker processes; the
+table also shows a Dask run that starts its own cluster, as ``--executor dask``
+does).
 """
 from __future__ import annotations
 
@@ -68,12 +70,13 @@ def direct(design) -> int:
     return total
 
 
-def runner(design, executor: str) -> float:
-    """One run of the study into a fresh folder; returns the wall time (s)."""
+def runner(design, executor: str, address=None) -> float:
+    """One run of the study into a fresh folder; returns the wall time (s).  With
+    ``address``, the Dask run uses that (already started, warm) cluster."""
     from sweeps.run import execute
     from sweeps.study import Executor
 
-    spec = Executor(kind=executor, workers=2)
+    spec = Executor(kind=executor, workers=2, address=address)
     with tempfile.TemporaryDirectory() as d:
         t0 = time.perf_counter()
         code = execute(design, pathlib.Path(d) / "run", spec, quiet=True, report=False)
@@ -109,14 +112,22 @@ def main() -> int:
     runner(design, "local")              # warm-up of the runner's own path
     t_local = min(runner(design, "local") for _ in range(args.repeat))
     t_dask = float("nan")
+    t_dask_cold = float("nan")
     if not args.no_dask:
-        runner(design, "dask")           # warm-up (workers compile; on-disk cache afterwards)
-        t_dask = min(runner(design, "dask") for _ in range(args.repeat))
+        from distributed import LocalCluster
+
+        t_dask_cold = runner(design, "dask")   # a cluster of its own: start-up and imports counted
+        with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                          dashboard_address="127.0.0.1:0", silence_logs=50) as cluster:
+            runner(design, "dask", cluster.scheduler_address)   # warm-up: workers import, compile
+            t_dask = min(runner(design, "dask", cluster.scheduler_address)
+                         for _ in range(args.repeat))
     overhead = t_local / t_direct - 1.0
     speedup = t_local / t_dask if t_dask == t_dask else float("nan")
     rows = [("robustness layer, direct", t_direct, 1.0), ("sweeps.run, local", t_local,
                                                          t_local / t_direct),
-            ("sweeps.run, dask (2 workers)", t_dask, t_dask / t_direct)]
+            ("sweeps.run, dask (2 workers)", t_dask, t_dask / t_direct),
+            ("  the same, cluster start counted", t_dask_cold, t_dask_cold / t_direct)]
     print(f"\n{'path':32s} {'seconds':>9s} {'configs/s':>10s} {'samples/s':>10s} {'vs direct':>10s}")
     for name, t, ratio in rows:
         print(f"{name:32s} {t:9.2f} {n_configs / t:10.2f} {n_samples / t:10.0f} {ratio:10.3f}")

@@ -290,14 +290,18 @@ def to_arrow(df_or_table: Union[pd.DataFrame, pa.Table], schema: pa.Schema) -> p
     if isinstance(df_or_table, pa.Table):
         return df_or_table.select(schema.names).cast(schema)
     df = df_or_table.reset_index(drop=True)[schema.names].copy()
+    required = [f.name for f in schema if not f.nullable]
+    nulls = df[required].isna().any().to_numpy()
+    if nulls.any():
+        f = schema.field(required[int(np.argmax(nulls))])
+        raise ValueError(f"column {f.name!r}: holds nulls but may not (schema {f.type} not null)")
     for f in schema:
-        if not f.nullable and df[f.name].isna().any():
-            raise ValueError(f"column {f.name!r}: holds nulls but may not (schema {f.type} not null)")
         try:
             if f.type == BOOL and f.nullable:
                 df[f.name] = pd.array(df[f.name].astype(object).where(df[f.name].notna(), None),
                                       dtype="boolean")
-            elif f.type == F64_LIST:
+            elif f.type == F64_LIST and not all(isinstance(v, np.ndarray) and v.dtype == np.float64
+                                                and v.ndim == 1 for v in df[f.name]):
                 df[f.name] = [np.asarray(v, np.float64) for v in df[f.name]]
         except (TypeError, ValueError) as exc:
             raise ValueError(f"column {f.name!r}: cannot be stored as {f.type} ({exc})") from None

@@ -43,6 +43,7 @@ def git_commit() -> str:
     return out if r.returncode == 0 and out else "unknown"
 
 
+@functools.lru_cache(maxsize=None)
 def _version(name: str) -> Optional[str]:
     try:
         return importlib.metadata.version(name)
