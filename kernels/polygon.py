@@ -30,7 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from kernels.errors import PartError, PartWarning
+from kernels.errors import PartError, PartWarning, warn_implausible_size
 from kernels.planar import TWO_PI, cross2, mod_2pi, wrap_angle
 
 UNI_STABLE, BIPLUS_STABLE, NICE_STABLE = 0, 1, 2
@@ -66,6 +66,12 @@ class Polygon:
         """Number of hull vertices (= number of edges)."""
         return len(self.hull_index)
 
+    @property
+    def size(self) -> float:
+        """The part's largest extent (m): the longest distance between two hull
+        vertices.  Every length tolerance of the push planner is relative to it."""
+        return hull_extent(self.body)
+
     def edge_vertices(self, e: int) -> tuple[int, int]:
         """Caller vertex indices ``(a, b)`` of hull edge ``e`` (from a to b, CCW)."""
         return (self.hull_index[e], self.hull_index[(e + 1) % self.n])
@@ -98,6 +104,14 @@ def _as_points(values, field: str, dim: int) -> np.ndarray:
     return arr
 
 
+def hull_extent(points: np.ndarray) -> float:
+    """Largest distance (m) between two of the given points (the diameter of a
+    polygon given by its vertices)."""
+    p = np.asarray(points, dtype=np.float64)
+    diff = p[:, None, :] - p[None, :, :]
+    return float(np.sqrt(np.max(np.sum(diff * diff, axis=-1))))
+
+
 def polygon_area_centroid(ccw_points: np.ndarray) -> tuple[float, np.ndarray]:
     """Signed area (m^2, positive for CCW) and area centroid (m) of a simple polygon."""
     p = np.asarray(ccw_points, dtype=np.float64)
@@ -125,6 +139,11 @@ def make_polygon(vertices, com=None) -> Polygon:
     Raises:
       PartError: NaN/inf, fewer than 3 non-collinear points, zero area, or a
         centre of mass outside the part; the message names the field and fix.
+
+    Warns:
+      PartWarning: points dropped (above), or a part whose size is implausible
+        for coordinates in metres (:func:`kernels.errors.warn_implausible_size`:
+        a part written in millimetres); it is still accepted as metres.
     """
     pts = _as_points(vertices, "vertices", 2)
     m = len(pts)
@@ -147,6 +166,7 @@ def make_polygon(vertices, com=None) -> Polygon:
         raise PartError("vertices: the polygon has zero area; give at least 3 points that are not "
                         "on one line")
     dropped = tuple(sorted(set(range(m)) - set(idx)))
+    warn_implausible_size(hull_extent(hp))
     if dropped:
         warnings.warn(f"vertices: points {list(dropped)} are not vertices of the convex hull "
                       "(interior, reflex or collinear); the part is treated as its convex hull",

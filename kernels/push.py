@@ -13,6 +13,14 @@ push of at least the Peshkin distance always completes and a shorter one may
 stop part-way.  The final pose of a completed push does not depend on the
 rate: the contact vertex advances exactly ``distance`` along ``d``.
 
+The slowest rate is Peshkin's ``d beta / ds = rho sin(beta) / (a^2 + rho^2)``
+(``a`` the part's radius about the centre of mass: any support pressure).  A
+caller that knows more about the support passes ``rate_c``: the largest
+limit-surface ratio ``c`` of the support (m), and the rate becomes the
+quasi-static sticking rate at that ratio, ``rho sin(beta) / (c^2 + rho^2)``,
+the slowest one for every ratio up to ``c`` and every fence friction
+(:mod:`kernels.reorient` proves it).
+
 This kernel runs on parts the plan was not made for: a perturbed part may land
 on another edge, roll over an unstable edge, or stop mid-rotation; the outcome
 says which.  All functions are pure and unbatched; lift them with ``jax.vmap``.
@@ -40,7 +48,12 @@ class PushOutcome:
         -1 when the push ended on a vertex (incomplete rotation or divergence).
       complete: () bool, the push ended with a stable edge flush.
       rotation: () signed rotation of the part during the push (rad, CCW +).
-      landings: () number of edges that landed flush during the push.
+      landings: () number of edges that landed flush during the push (an edge
+        flush at the start does not land).
+      finished: () bool, the replay spent the whole distance.  False only
+        when its pass limit ran out first (it cannot for a valid convex part
+        and the default limit): then ``pose`` is where the replay stopped,
+        not the push's end, and ``complete`` is False.
     """
 
     pose: jax.Array
@@ -48,6 +61,7 @@ class PushOutcome:
     complete: jax.Array
     rotation: jax.Array
     landings: jax.Array
+    finished: jax.Array
 
 
 def contact_vertex(geom: PolygonGeometry, phi):
@@ -62,7 +76,8 @@ def contact_vertex(geom: PolygonGeometry, phi):
     return jnp.argmin(score)
 
 
-def replay_push(geom: PolygonGeometry, pose, direction, distance) -> PushOutcome:
+def replay_push(geom: PolygonGeometry, pose, direction, distance, rate_c=None,
+                max_passes: int | None = None) -> PushOutcome:
     """Replay one normal push exactly.
 
     Args:
@@ -70,9 +85,19 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance) -> PushOutcome
       pose: (3,) start pose ``(x, y, theta)``, world frame (m, rad).
       direction: (2,) direction of the fence's motion, world frame (normalised here).
       distance: fence travel in contact with the part, m (>= 0).
+      rate_c: optional largest limit-surface ratio of the support (m, > 0): the
+        rotation runs at the sticking rate for that ratio instead of Peshkin's
+        bound (module docstring); default the part's radius (Peshkin).
+      max_passes: static bound on the loop's passes (each rotates to the next
+        landing); default ``n + 2``, which always suffices for a convex part.
+        A push that needs more is returned with ``finished = False``.
 
     Returns:
       :class:`PushOutcome`.
+
+    Long (~90 lines): the loop body is one event-to-event pass (contact vertex,
+    next landing, Peshkin distance, partial or full rotation) whose carried
+    state must stay in one ``lax.while_loop`` scope.
     """
     n = geom.body.shape[0]
     dtype = geom.body.dtype
@@ -80,6 +105,9 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance) -> PushOutcome
     d = jnp.asarray(direction, dtype)
     d = d / jnp.linalg.norm(d)
     ang_u = jnp.arctan2(-d[1], -d[0])  # world angle of the direction from the part to the fence
+    rate_a = geom.radius if rate_c is None else jnp.asarray(rate_c, dtype)
+    flush_tol = 1024.0 * jnp.finfo(dtype).eps   # rad: a landing this close is rounding of a flush start
+    passes = n + 2 if max_passes is None else int(max_passes)
 
     def body(st):
         it, pos, theta, s_rem, flush, done, rot_tot, landings, final_edge = st
@@ -104,7 +132,7 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance) -> PushOutcome
         beta_a = jnp.arctan2(jnp.abs(cr), jnp.dot(u, v))
         beta_b = beta_a + delta
         c = jnp.linalg.norm(v)
-        kk = peshkin_gain(geom.radius, c)
+        kk = peshkin_gain(rate_a, c)
         safe_a = jnp.where(divergent, 1.0, beta_a)
         s_need = peshkin_length(kk, safe_a, beta_b)
         s_need = jnp.where(divergent, jnp.inf, s_need)
@@ -129,7 +157,8 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance) -> PushOutcome
         new_flush = jnp.where(active & ~translate, jnp.where(full, target, -1), flush)
         new_done = done | translate | ~full | settles
         new_rot = rot_tot + jnp.where(active & ~translate, sigma * rot, 0.0)
-        new_land = landings + jnp.where(active & ~translate & full, 1, 0)
+        # an edge already flush (no rotation left to it) was in contact from the start: no landing
+        new_land = landings + jnp.where(active & ~translate & full & (delta > flush_tol), 1, 0)
         new_final = jnp.where(active, jnp.where(stable_now, fl, jnp.where(~translate & settles, target, -1)),
                               final_edge)
         return (it + 1, new_pos, new_theta, new_s, new_flush, new_done, new_rot, new_land, new_final)
@@ -139,14 +168,15 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance) -> PushOutcome
     # always suffice.
     init = (jnp.asarray(0), pose[:2], pose[2], jnp.asarray(distance, dtype), jnp.asarray(-1),
             jnp.asarray(False), jnp.asarray(0.0, dtype), jnp.asarray(0), jnp.asarray(-1))
-    _, pos, theta, _, _, _, rot_tot, landings, final_edge = jax.lax.while_loop(
-        lambda st: (~st[5]) & (st[0] < n + 2), body, init)
+    _, pos, theta, _, _, done, rot_tot, landings, final_edge = jax.lax.while_loop(
+        lambda st: (~st[5]) & (st[0] < passes), body, init)
     out_pose = jnp.concatenate([pos, wrap_angle(theta)[None]])
+    final_edge = jnp.where(done, final_edge, -1)
     return PushOutcome(pose=out_pose, edge=final_edge, complete=final_edge >= 0,
-                       rotation=rot_tot, landings=landings)
+                       rotation=rot_tot, landings=landings, finished=done)
 
 
-def replay_pushes(geom: PolygonGeometry, pose, directions, distances):
+def replay_pushes(geom: PolygonGeometry, pose, directions, distances, rate_c=None):
     """Replay a sequence of pushes with ``lax.scan``.
 
     Args:
@@ -154,6 +184,7 @@ def replay_pushes(geom: PolygonGeometry, pose, directions, distances):
       pose: (3,) start pose, world frame.
       directions: (P, 2) fence motion directions, world frame.
       distances: (P,) push distances, m; a zero distance is a no-op (padding).
+      rate_c: as :func:`replay_push` (one value for the whole sequence).
 
     Returns:
       ``(final_pose, outcomes)`` where ``outcomes`` is a :class:`PushOutcome`
@@ -161,7 +192,7 @@ def replay_pushes(geom: PolygonGeometry, pose, directions, distances):
     """
     def step(p, xs):
         dvec, dist = xs
-        out = replay_push(geom, p, dvec, dist)
+        out = replay_push(geom, p, dvec, dist, rate_c)
         return out.pose, out
 
     final, outs = jax.lax.scan(step, jnp.asarray(pose, geom.body.dtype), (directions, distances))

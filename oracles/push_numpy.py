@@ -28,6 +28,10 @@ Events:
   A push that ends before the landing stops mid-rotation.
 * ``beta = 0`` (C straight ahead of P) is the divergent equilibrium: the part
   translates without turning, and the push is not complete.
+
+With ``rate_c`` (m) the rate is the quasi-static sticking rate of an ellipsoidal
+limit surface of ratio ``c``, ``c sin(beta) / (rate_c^2 + c^2)`` (``a`` replaced
+by ``rate_c``): the model-based push distances of the planner are checked with it.
 """
 from __future__ import annotations
 
@@ -120,8 +124,9 @@ def object_class(body) -> int:
     return 2 if max(gaps) < math.pi else 1
 
 
-def replay_push(body, pose, direction, distance) -> Outcome:
-    """Replay one normal push of ``distance`` m along ``direction`` (world)."""
+def replay_push(body, pose, direction, distance, rate_c=None) -> Outcome:
+    """Replay one normal push of ``distance`` m along ``direction`` (world);
+    ``rate_c``: see the module docstring (default: Peshkin's bound)."""
     body = np.asarray(body, float)
     n = len(body)
     d = np.asarray(direction, float)
@@ -129,7 +134,7 @@ def replay_push(body, pose, direction, distance) -> Outcome:
     x, y, theta = (float(v) for v in pose)
     W = body @ _rot(theta).T + np.array([x, y])   # world vertices
     C = np.array([x, y])                           # world centre of mass
-    a2 = float(np.max(np.sum(body * body, axis=1)))
+    a2 = float(np.max(np.sum(body * body, axis=1))) if rate_c is None else float(rate_c) ** 2
     s = float(distance)
     rotation = 0.0
     landings = 0
@@ -137,8 +142,16 @@ def replay_push(body, pose, direction, distance) -> Outcome:
     def result(edge):
         return Outcome(np.array([C[0], C[1], wrap(theta)]), edge, edge >= 0, rotation, landings)
 
-    pivot = int(np.argmin(W @ d))   # the vertex the fence touches first
-    flush = -1                      # edge lying on the fence (after a landing)
+    proj = W @ d
+    pivot = int(np.argmin(proj))    # the vertex the fence touches first
+    flush = -1                      # edge lying on the fence (after a landing, or from the start)
+    # an edge already flush at the start (its other end on the fence line to rounding) is in
+    # line contact from the start: it does not "land"
+    tie = 64.0 * np.finfo(float).eps * (float(np.max(np.abs(body))) + float(np.max(np.abs(W))))
+    if proj[(pivot + 1) % n] - proj[pivot] <= tie:
+        flush = pivot
+    elif proj[(pivot - 1) % n] - proj[pivot] <= tie:
+        flush = (pivot - 1) % n
     for _ in range(4 * n + 8):
         if flush >= 0:
             P, Q = W[flush], W[(flush + 1) % n]
@@ -196,21 +209,22 @@ def replay_push(body, pose, direction, distance) -> Outcome:
     raise AssertionError("push did not settle")
 
 
-def replay_pushes(body, pose, directions, distances) -> tuple[np.ndarray, list[Outcome]]:
+def replay_pushes(body, pose, directions, distances, rate_c=None) -> tuple[np.ndarray, list[Outcome]]:
     """Replay pushes in order; returns ``(final_pose, outcomes)``."""
     outs = []
     p = np.asarray(pose, float)
     for dvec, dist in zip(directions, distances):
-        o = replay_push(body, p, dvec, dist)
+        o = replay_push(body, p, dvec, dist, rate_c)
         outs.append(o)
         p = o.pose
     return p, outs
 
 
-def peshkin_distance(body, pivot: int, beta1: float, beta2: float) -> float:
+def peshkin_distance(body, pivot: int, beta1: float, beta2: float, rate_c=None) -> float:
     """Worst-case push distance (m) to turn from ``beta1`` to ``beta2`` about
-    body vertex ``pivot`` (closed form of Peshkin's rate bound)."""
+    body vertex ``pivot`` (closed form of Peshkin's rate bound; with ``rate_c``
+    the sticking rate of that limit-surface ratio)."""
     body = np.asarray(body, float)
-    a2 = float(np.max(np.sum(body * body, axis=1)))
+    a2 = float(np.max(np.sum(body * body, axis=1))) if rate_c is None else float(rate_c) ** 2
     c = float(np.hypot(*body[pivot]))
     return (a2 + c * c) / c * math.log(math.tan(0.5 * beta2) / math.tan(0.5 * beta1))

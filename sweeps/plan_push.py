@@ -4,13 +4,23 @@ Usage::
 
     nudge plan-push PART.yaml --start X,Y,THETA --goal X,Y,THETA
         [--margin-deg 7] [--safety-factor 1.15] [--objective distance|pushes]
-        [--solver closed_form|cvxpy] [--json] [--plot FILE.png] [--psd FILE.png]
+        [--solver closed_form|cvxpy] [--strategy search|paper] [--support-c LO HI]
+        [--min-fence-mu MU] [--workspace XMIN XMAX YMIN YMAX]
+        [--json] [--plot FILE.png] [--psd FILE.png]
 
 Poses are ``x,y,theta`` in metres and radians (world frame; ``(x, y)`` is the
 centre of mass); ``theta`` may carry a ``deg`` suffix (``0.1,0,90deg``) or a
 ``rad`` one.  A pose may start with a minus sign (``--start -0.1,0,0``).
 ``--psd`` alone (no ``--start``/``--goal``) only draws the part's push
-stability diagram.
+stability diagram; with a plan it marks the plan's reorient steps.
+
+Options of :func:`planning.plan_pose`: ``--strategy`` (the reorientation
+sequences searched), ``--support-c LO HI`` (the support's limit-surface ratio
+range in metres: reorient distances from the quasi-static model instead of
+Peshkin's bound), ``--min-fence-mu`` (slip-aware plans: every reorient push
+sticks at the fence for every ``c`` in that range; needs ``--support-c``) and
+``--workspace XMIN XMAX YMIN YMAX`` (metres, world frame: every pose and the
+part swept by every push stay inside).
 
 Output: the plan's summary table, or with ``--json`` the plan as JSON
 (:meth:`planning.pushing.plan.PushPlan.to_dict`) and nothing else on stdout.
@@ -22,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import warnings
@@ -50,24 +61,54 @@ def build_parser(prog: str = "nudge plan-push") -> argparse.ArgumentParser:
                     "from a start pose to a goal pose, and optionally draw the plan and the "
                     "part's push stability diagram.",
         epilog="Poses: x,y,theta in metres and radians, world frame, (x, y) = centre of mass; "
-               "theta may end in 'deg' (e.g. 0.1,0,90deg). Exit status: 0 ok, 1 no plan, "
-               "2 bad input.")
+               "theta may end in 'deg' (e.g. 0.1,0,90deg). Lengths (--support-c, --workspace) "
+               "in metres. Exit status: 0 ok, 1 no plan, 2 bad input.")
     p.add_argument("part", metavar="PART.yaml", help="part file (see sweeps.partfile)")
     p.add_argument("--start", metavar="X,Y,THETA", help="start pose (m, m, rad or ...deg)")
     p.add_argument("--goal", metavar="X,Y,THETA", help="goal pose (m, m, rad or ...deg)")
     p.add_argument("--margin-deg", type=float, default=7.0, metavar="DEG",
                    help="margin angle taken off each maximum reorient angle (default 7)")
     p.add_argument("--safety-factor", type=float, default=1.15, metavar="F",
-                   help="multiplier of the Peshkin distance, >= 1 (default 1.15)")
+                   help="multiplier of the reorient push distance rule, >= 1 (default 1.15)")
     p.add_argument("--objective", choices=("distance", "pushes"), default="distance",
                    help="minimise total push distance (default) or the number of pushes")
     p.add_argument("--solver", choices=("closed_form", "cvxpy"), default="closed_form",
                    help="LP solver (default closed_form; cvxpy is the reference)")
+    p.add_argument("--strategy", choices=("search", "paper"), default="search",
+                   help="reorientation sequences: 'search' (default: step counts, edges, both "
+                        "senses, an extra turn) or 'paper' (Akella & Mason's angle-eating)")
+    p.add_argument("--support-c", nargs=2, type=_number("--support-c"), metavar=("LO", "HI"),
+                   help="range of the support's limit-surface ratio c = m_max / f_max in metres "
+                        "(0 < LO <= HI): reorient pushes get the shortest distance that completes "
+                        "them for every c in the range (quasi-static model) instead of Peshkin's")
+    p.add_argument("--min-fence-mu", type=_number("--min-fence-mu"), metavar="MU",
+                   help="lower bound of the fence friction coefficient (>= 0, needs --support-c): "
+                        "only reorient pushes whose fence contact sticks throughout are used")
+    p.add_argument("--workspace", nargs=4, type=_number("--workspace"),
+                   metavar=("XMIN", "XMAX", "YMIN", "YMAX"),
+                   help="rectangle in metres (world frame) that every pose of the plan and the "
+                        "part swept by every push stay inside")
     p.add_argument("--json", action="store_true", help="print the plan as JSON on stdout")
     p.add_argument("--plot", metavar="FILE.png", help="draw the plan (Akella-Mason Fig. 1)")
     p.add_argument("--psd", metavar="FILE.png",
-                   help="draw the push stability diagram (Fig. 6, normal pushes)")
+                   help="draw the push stability diagram (Fig. 6, normal pushes); with a plan, "
+                        "its reorient steps are marked")
     return p
+
+
+def _number(flag: str):
+    """argparse type: a finite float, else one error line naming ``flag``."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+        return value
+
+    parse.__name__ = flag   # argparse names the flag in its message
+    return parse
 
 
 def _join_pose_args(argv: Sequence[str]) -> list[str]:
@@ -78,7 +119,9 @@ def _join_pose_args(argv: Sequence[str]) -> list[str]:
 def _flag_names(message: str) -> str:
     """Name planner settings by their command-line flags."""
     for field, flag in (("margin_deg", "--margin-deg"), ("safety_factor", "--safety-factor"),
-                        ("start", "--start"), ("goal", "--goal")):
+                        ("start", "--start"), ("goal", "--goal"), ("support", "--support-c"),
+                        ("min_fence_mu", "--min-fence-mu"), ("workspace", "--workspace"),
+                        ("strategy", "--strategy")):
         if message.startswith(field + ":"):
             return flag + message[len(field):]
     return message
@@ -98,6 +141,9 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
             goal = parse_pose(args.goal, "--goal")
         if args.plot and start is None:
             raise InputError("--plot: needs --start and --goal")
+        if args.min_fence_mu is not None and args.support_c is None:
+            raise InputError("--min-fence-mu: slip-aware plans need --support-c LO HI too (whether "
+                             "the fence contact sticks depends on the support's limit-surface ratio)")
         for flag, path in (("--plot", args.plot), ("--psd", args.psd)):
             if path and not os.path.isdir(os.path.dirname(os.path.abspath(path))):
                 raise InputError(f"{flag}: the folder of {path!r} does not exist")
@@ -116,12 +162,16 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            prepared = prepare_part(part.vertices, part.com, args.margin_deg, args.safety_factor)
+            support = None if args.support_c is None else {"c": list(args.support_c)}
+            prepared = prepare_part(part.vertices, part.com, args.margin_deg, args.safety_factor,
+                                    support=support, min_fence_mu=args.min_fence_mu)
             plan = None
             if start is not None:
                 plan = plan_pose(part.vertices, start, goal, com=part.com,
                                  margin_deg=args.margin_deg, safety_factor=args.safety_factor,
-                                 objective=args.objective, solver=args.solver)
+                                 objective=args.objective, solver=args.solver,
+                                 strategy=args.strategy, support=support,
+                                 min_fence_mu=args.min_fence_mu, workspace=args.workspace)
         except PartError as exc:
             report_warnings(caught)
             return fail(f"{part.path}: {exc}")
@@ -145,18 +195,23 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
         stable = [list(prepared.polygon.edge_vertices(e)) for e in prepared.stable]
         sys.stdout.write(f"{part.name}: {prepared.class_name} part, stable edges {stable}\n")
 
-    if args.plot or args.psd:
-        from sweeps.figures import push as push_plots
-        for flag, path in (("--plot", args.plot), ("--psd", args.psd)):
-            if not path:
-                continue
-            try:
-                if flag == "--plot":
-                    push_plots.plot_plan(plan, path, name=part.name)
-                else:
-                    push_plots.plot_psd(prepared, path, name=part.name)
-            except (OSError, ValueError) as exc:
-                return fail(f"{flag}: cannot write {path} ({exc})")
-            sys.stderr.write(f"wrote {path}\n")
-    return EXIT_OK
+    return _write_figures(args, part, plan, prepared)
 
+
+def _write_figures(args, part, plan, prepared) -> int:
+    """``--plot`` and ``--psd`` (the PSD marks the plan's reorient steps); the exit status."""
+    if not (args.plot or args.psd):
+        return EXIT_OK
+    from sweeps.figures import push as push_plots
+    for flag, path in (("--plot", args.plot), ("--psd", args.psd)):
+        if not path:
+            continue
+        try:
+            if flag == "--plot":
+                push_plots.plot_plan(plan, path, name=part.name)
+            else:
+                push_plots.plot_psd(prepared, path, name=part.name, plan=plan)
+        except (OSError, ValueError) as exc:
+            return fail(f"{flag}: cannot write {path} ({exc})")
+        sys.stderr.write(f"wrote {path}\n")
+    return EXIT_OK

@@ -1,6 +1,20 @@
 """A pushed part prepared for planning: validation of the part and of the
-planner settings, and the tables every planner reads (stable edges, maximum
-reorient angles, step angles, object class), cached per part and settings.
+planner settings, and the tables every planner reads, cached per part and
+settings.
+
+Per stable edge ``e`` and rotation sense (CW = 0, CCW = 1) of a reorient push
+that lands ``e``: the pivot vertex, the alignment angle ``beta2``, the
+maximum reorient angle, the step angle (after the margin and, for slip-aware
+plans, the sticking limit), and the gain ``k`` of the distance rule, so that a
+reorient of ``alpha`` rad needs ``k ln(tan(beta2/2) / tan((beta2 - alpha)/2))``
+metres (:func:`kernels.polygon.peshkin_length`):
+
+* ``"peshkin"`` (default): ``k = safety_factor (a^2 + rho^2) / rho``, ``a`` the
+  part's radius: any support pressure distribution (Peshkin & Sanderson);
+* ``"quasi-static"`` (``support={"c": [lo, hi]}``): ``a`` replaced by
+  ``min(hi, a)``, the slowest rotation of the quasi-static model for every
+  limit-surface ratio up to ``hi`` and every fence friction
+  (:mod:`kernels.reorient`, claim 3).
 
 Frames: the body frame of :mod:`kernels.polygon` (origin at the centre of mass),
 metres and radians.
@@ -10,18 +24,27 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import warnings
+from typing import Optional
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from kernels import polygon as pg
+from kernels import reorient as ro
 from kernels.precision import float64
 
-POS_TOL = 1e-9   # m: a plan must reach the goal position this closely (replayed)
+POS_TOL = 1e-9   # x part size: a plan must reach the goal position this closely (replayed)
 ANG_TOL = 1e-9   # rad: and the goal orientation
 SAME_ORIENTATION = 1e-12  # rad: start and goal orientations this close admit a translation plan
+#: rad: every reorient push is long enough to turn this much beyond its planned
+#: angle, so that the replay's rounding of the angles (~1e-15 rad) never leaves
+#: it a hair short (a zero-slack push of exactly the minimum distance otherwise
+#: stops short whenever rounding makes its start angle smaller)
+REORIENT_GUARD = 1e-10
 OBJECTIVES = ("distance", "pushes")
+DISTANCE_RULES = ("peshkin", "quasi-static")
 
 
 class PlanningError(RuntimeError):
@@ -40,9 +63,24 @@ class PushPart:
       geom: its :class:`kernels.polygon.PolygonGeometry` (JAX float64).
       stable: hull indices of the stable edges, increasing.
       max_reorient: (n, 2) maximum reorient angles (rad), columns CW, CCW.
-      step: (n, 2) step angles (rad) after the margin.
+      step: (n, 2) step angles (rad): the maximum reorient angle less the
+        margin, and for slip-aware plans at most the sticking limit; 0 where
+        no reorient push onto the edge in that sense is allowed.
+      pivot: (n, 2) hull vertex the part turns about (CW: the edge's start, CCW: its end).
+      beta2: (n, 2) alignment angles (rad) of those pivots.
+      gain: (n, 2) gains ``k`` (m) of the distance rule, safety factor included.
+      stick_limit: (n, 2) largest reorient angle (rad) that sticks for every
+        support in the range at ``min_fence_mu`` (``inf`` when not slip-aware).
       object_class: 0 uni-, 1 biplus-, 2 nice-stable.
-      margin: margin angle (rad); safety_factor: Peshkin multiplier.
+      margin: margin angle (rad); safety_factor: multiplier of the distance rule;
+        margin_deg: the margin as given (degrees).
+      support_c: ``(lo, hi)`` limit-surface ratio range (m) or None.
+      min_fence_mu: lower bound of the fence friction for slip-aware plans, or None.
+      distance_rule: ``"peshkin"`` or ``"quasi-static"``.
+      rate_c: the ratio (m) whose sticking rate the replay uses (``min(hi, a)``),
+        None for Peshkin's bound.
+      warnings_seen: warnings raised while validating the part (re-issued on
+        every :func:`prepare_part`, although the part is cached).
     """
 
     polygon: pg.Polygon
@@ -50,9 +88,19 @@ class PushPart:
     stable: tuple[int, ...]
     max_reorient: np.ndarray
     step: np.ndarray
+    pivot: np.ndarray
+    beta2: np.ndarray
+    gain: np.ndarray
+    stick_limit: np.ndarray
     object_class: int
     margin: float
     safety_factor: float
+    margin_deg: float = 7.0
+    support_c: Optional[tuple[float, float]] = None
+    min_fence_mu: Optional[float] = None
+    distance_rule: str = "peshkin"
+    rate_c: Optional[float] = None
+    warnings_seen: tuple = ()
 
     @property
     def n(self) -> int:
@@ -67,6 +115,11 @@ class PushPart:
         return np.asarray(self.geom.nu)
 
     @property
+    def size(self) -> float:
+        """The part's largest extent (m); length tolerances are relative to it."""
+        return self.polygon.size
+
+    @property
     def class_name(self) -> str:
         return pg.OBJECT_CLASS_NAMES[self.object_class]
 
@@ -76,12 +129,39 @@ class PushPart:
         (the edge's outward normal turned by pi), in the order of ``stable``."""
         return self.nu[list(self.stable)] + math.pi
 
+    def pos_tol(self, *lengths):
+        """Position tolerance (m) of a replayed plan: ``POS_TOL`` times the part's
+        size, plus the rounding of world coordinates as long as the sum of
+        ``lengths`` (m; floats or arrays, which give an array)."""
+        total = sum(np.abs(np.asarray(x, float)) for x in lengths) if lengths else 0.0
+        return POS_TOL * self.size + 64.0 * np.finfo(float).eps * total
+
+    def reorient_min(self, edge: int, sense: int, alpha: float) -> float:
+        """Least distance (m) that completes a reorient of ``alpha`` rad onto hull
+        ``edge`` in ``sense`` under the distance rule, times the safety factor."""
+        b2 = float(self.beta2[edge, sense])
+        return float(pg.peshkin_length_np(self.gain[edge, sense], b2 - alpha, b2))
+
+    def reorient_need(self, edge: int, sense: int, alpha: float) -> float:
+        """The distance (m) a plan gives a reorient of ``alpha`` rad at least:
+        :meth:`reorient_min` of ``alpha`` plus ``REORIENT_GUARD``
+        (:func:`guarded_start`)."""
+        b2 = float(self.beta2[edge, sense])
+        return float(pg.peshkin_length_np(self.gain[edge, sense], guarded_start(b2, alpha), b2))
+
     def peshkin(self, edge: int, pivot: int, alpha: float) -> float:
-        """Peshkin distance (m) of a reorient push of ``alpha`` rad onto hull
-        ``edge`` about hull vertex ``pivot``, times the safety factor (numpy twin
-        of :func:`kernels.polygon.peshkin_distance`)."""
-        k, beta2 = pg.pivot_constants_np(self.body, float(self.nu[edge]), pivot)
-        return float(pg.peshkin_length_np(self.safety_factor * k, beta2 - alpha, beta2))
+        """:meth:`reorient_min` for the pivot ``pivot`` (kept for callers that name it)."""
+        sense = pg.CW if pivot == edge else pg.CCW
+        return self.reorient_min(edge, sense, alpha)
+
+
+def guarded_start(beta2, alpha, xp=np):
+    """The angle ``beta1`` (rad) from which a plan's reorient push of ``alpha``
+    rad onto an edge of alignment angle ``beta2`` is given its distance: the
+    planned start less ``REORIENT_GUARD`` (at most half the angle left to the
+    divergent orientation), so the push turns a hair beyond its plan.  ``xp``:
+    ``numpy`` or ``jax.numpy`` (the batched planner's twin uses the same rule)."""
+    return beta2 - alpha - xp.minimum(REORIENT_GUARD, 0.5 * (beta2 - alpha))
 
 
 def _check_number(value, field: str, lo=None, hi=None, lo_open=False, hint="") -> float:
@@ -111,41 +191,115 @@ def check_pose(pose, field: str) -> np.ndarray:
     return arr
 
 
+def check_support(support) -> Optional[tuple[float, float]]:
+    """Validate ``support``: None, ``{"c": [lo, hi]}`` or ``(lo, hi)``, the
+    range (m) of the limit-surface ratio ``c = m_max / f_max`` of the support
+    (:func:`kernels.quasistatic.limit_surface_ratio`); returns ``(lo, hi)``."""
+    if support is None:
+        return None
+    rng = support.get("c") if isinstance(support, dict) else support
+    if isinstance(support, dict) and set(support) - {"c"}:
+        raise ValueError(f"support: unknown keys {sorted(set(support) - {'c'})}; expected "
+                         "{'c': [lo, hi]} (limit-surface ratio range, m)")
+    try:
+        lo, hi = (float(x) for x in rng)
+    except (TypeError, ValueError):
+        raise ValueError(f"support: expected {{'c': [lo, hi]}} (limit-surface ratio range, m), "
+                         f"got {support!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or not 0.0 < lo <= hi:
+        raise ValueError(f"support: c range must satisfy 0 < lo <= hi (m), got [{lo}, {hi}]")
+    return lo, hi
+
+
+def _tables(part_geom, body, margin, safety, support_c, min_mu):
+    """Per (edge, sense) pivot, beta2, gain, sticking limit and step angle."""
+    n = len(body)
+    stable = np.asarray(part_geom.stable)
+    nu = np.asarray(part_geom.nu)
+    mx = np.asarray(pg.max_reorient_table(part_geom))
+    margin_step = np.asarray(pg.step_angle(jnp.asarray(mx), margin))
+    radius = float(np.max(np.hypot(body[:, 0], body[:, 1])))
+    rate_c = None if support_c is None else min(support_c[1], radius)
+    pivot = np.zeros((n, 2), int)
+    beta2 = np.ones((n, 2))
+    gain = np.ones((n, 2))
+    stick = np.full((n, 2), math.inf)
+    step = np.zeros((n, 2))
+    for e in range(n):
+        for sense in (pg.CW, pg.CCW):
+            piv = e if sense == pg.CW else (e + 1) % n
+            k, b2 = pg.pivot_constants_np(body, float(nu[e]), piv)
+            rho = float(math.hypot(*body[piv]))
+            if rate_c is not None:
+                k = ro.model_gain(rate_c, rho)
+            pivot[e, sense], beta2[e, sense], gain[e, sense] = piv, b2, safety * k
+            if not stable[e]:
+                continue
+            st = float(margin_step[e, sense])
+            if min_mu is not None:
+                stick[e, sense] = ro.sticking_angle_limit(rho, support_c[0], b2, min_mu)
+                st = min(st, stick[e, sense] - 2.0 * REORIENT_GUARD)
+            step[e, sense] = max(st, 0.0)
+    return mx, step, pivot, beta2, gain, stick, rate_c
+
+
 @functools.lru_cache(maxsize=64)
-def _prepare_cached(vkey: bytes, vshape, ckey, margin_deg: float, safety_factor: float) -> PushPart:
+def _prepare_cached(vkey: bytes, vshape, ckey, margin_deg: float, safety_factor: float,
+                    support_c, min_mu) -> PushPart:
     vertices = np.frombuffer(vkey, dtype=np.float64).reshape(vshape)
     com = None if ckey is None else np.frombuffer(ckey, dtype=np.float64)
-    poly = pg.make_polygon(vertices, com)
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always", pg.PartWarning)
+        poly = pg.make_polygon(vertices, com)
     margin = math.radians(margin_deg)
-    geom, mx, step, cls = _part_tables(jnp.asarray(poly.body), margin)
+    geom, cls = _part_geometry(jnp.asarray(poly.body))
+    mx, step, pivot, beta2, gain, stick, rate_c = _tables(geom, poly.body, margin, safety_factor,
+                                                          support_c, min_mu)
     stable = tuple(int(e) for e in np.flatnonzero(np.asarray(geom.stable)))
-    return PushPart(polygon=poly, geom=geom, stable=stable, max_reorient=np.asarray(mx),
-                    step=np.asarray(step), object_class=int(cls), margin=margin,
-                    safety_factor=float(safety_factor))
+    return PushPart(polygon=poly, geom=geom, stable=stable, max_reorient=mx, step=step,
+                    pivot=pivot, beta2=beta2, gain=gain, stick_limit=stick, object_class=int(cls),
+                    margin=margin, safety_factor=float(safety_factor), margin_deg=float(margin_deg),
+                    support_c=support_c,
+                    min_fence_mu=min_mu,
+                    distance_rule="peshkin" if support_c is None else "quasi-static",
+                    rate_c=rate_c, warnings_seen=tuple((w.message, w.category) for w in seen))
 
 
 @jax.jit
-def _part_tables(body, margin):
+def _part_geometry(body):
     geom = pg.polygon_geometry(body)
-    mx = pg.max_reorient_table(geom)
-    return geom, mx, pg.step_angle(mx, margin), pg.object_class(geom)
+    return geom, pg.object_class(geom)
 
 
 @float64
-def prepare_part(vertices, com=None, margin_deg: float = 7.0, safety_factor: float = 1.15) -> PushPart:
+def prepare_part(vertices, com=None, margin_deg: float = 7.0, safety_factor: float = 1.15, *,
+                 support=None, min_fence_mu: Optional[float] = None) -> PushPart:
     """Validate a part and the planner settings and build the planner's tables.
 
     Args:
       vertices: (m, 2) part vertices (m), any order (non-convex: hull, with a warning).
       com: optional centre of mass (m), default the area centroid.
       margin_deg: margin angle in degrees, 0 < margin < 90.
-      safety_factor: multiplier of the Peshkin distance, >= 1.
+      safety_factor: multiplier of the reorient distance rule, >= 1.
+      support: optional ``{"c": [lo, hi]}``: the range (m) of the support's
+        limit-surface ratio; reorient distances then follow the quasi-static
+        model (module docstring) instead of Peshkin's bound.
+      min_fence_mu: optional lower bound (>= 0) of the fence friction
+        coefficient: only reorient pushes whose fence contact sticks throughout
+        for every ``c`` in the support range are allowed (needs ``support``).
     """
     margin_deg = _check_number(margin_deg, "margin_deg", 0.0, 90.0, lo_open=True,
                                hint="; at zero a reorient from the divergent orientation needs an "
                                     "infinite push (the paper uses 7 degrees)")
     safety_factor = _check_number(safety_factor, "safety_factor", 1.0,
-                                  hint="; below 1 the Peshkin guarantee is lost (paper: 1.15)")
+                                  hint="; below 1 the distance rule's guarantee is lost (paper: 1.15)")
+    support_c = check_support(support)
+    if min_fence_mu is not None:
+        min_fence_mu = _check_number(min_fence_mu, "min_fence_mu", 0.0)
+        if support_c is None:
+            raise ValueError("min_fence_mu: slip-aware plans need the support's limit-surface ratio "
+                             "range: give support={'c': [lo, hi]} (m) too (whether the fence contact "
+                             "sticks depends on it)")
     v = pg._as_points(vertices, "vertices", 2)
     ckey = None
     if com is not None:
@@ -155,4 +309,8 @@ def prepare_part(vertices, com=None, margin_deg: float = 7.0, safety_factor: flo
         if not np.all(np.isfinite(c)):
             raise pg.PartError("com: holds NaN or inf; give a finite centre of mass in metres")
         ckey = c.tobytes()
-    return _prepare_cached(np.ascontiguousarray(v).tobytes(), v.shape, ckey, margin_deg, safety_factor)
+    part = _prepare_cached(np.ascontiguousarray(v).tobytes(), v.shape, ckey, margin_deg,
+                           safety_factor, support_c, min_fence_mu)
+    for message, category in part.warnings_seen:
+        warnings.warn(message, category, stacklevel=3)
+    return part

@@ -14,6 +14,8 @@ from typing import Optional
 
 PLAN_CLASSES = ("translation", "cw", "ccw", "singular-cw", "singular-ccw")
 PUSH_KINDS = ("translate", "reorient")
+STRATEGIES = ("search", "paper")
+DISTANCE_RULES = ("peshkin", "quasi-static")
 
 
 def _tuple(x, n=None):
@@ -43,6 +45,8 @@ class Push:
         for translations.
       pose_after: the part's pose after the push, ``(x, y, theta)``, as
         replayed by the exact kinematics.
+      rotation: reorient pushes: the planned rotation of the part (rad, CCW
+        positive: its sign is the push's sense); ``None`` for translations.
     """
 
     kind: str
@@ -52,12 +56,14 @@ class Push:
     contact_vertex: Optional[int]
     min_distance: Optional[float]
     pose_after: tuple[float, float, float]
+    rotation: Optional[float] = None
 
     def to_dict(self) -> dict:
         """JSON-ready dict."""
         return {"kind": self.kind, "direction": list(self.direction), "distance": self.distance,
                 "edge": list(self.edge), "contact_vertex": self.contact_vertex,
-                "min_distance": self.min_distance, "pose_after": list(self.pose_after)}
+                "min_distance": self.min_distance, "pose_after": list(self.pose_after),
+                "rotation": self.rotation}
 
     @classmethod
     def from_dict(cls, d: dict) -> "Push":
@@ -68,22 +74,26 @@ class Push:
                    edge=(int(d["edge"][0]), int(d["edge"][1])),
                    contact_vertex=None if d.get("contact_vertex") is None else int(d["contact_vertex"]),
                    min_distance=None if d.get("min_distance") is None else float(d["min_distance"]),
-                   pose_after=_tuple(d["pose_after"], 3))
+                   pose_after=_tuple(d["pose_after"], 3),
+                   rotation=None if d.get("rotation") is None else float(d["rotation"]))
 
 
 @dataclasses.dataclass(frozen=True)
 class PushPlan:
-    """A verified pose plan of the Akella-Mason planner.
+    """A verified pose plan of the pose planner.
 
     Attributes:
       vertices: the caller's part vertices (m), as given.
       com: centre of mass (m, caller's frame).
       start, goal: poses ``(x, y, theta)``.
       pushes: the pushes in execution order.
-      plan_class: one of ``translation``, ``cw``, ``ccw``, ``singular-cw``,
-        ``singular-ccw``.
-      reorient_edge: the stable edge the reorient pushes land (caller indices),
-        ``None`` for a translation plan.
+      plan_class: one of ``translation``, ``cw``, ``ccw`` (the sense of the
+        main reorient run), ``singular-cw``, ``singular-ccw`` (the main run with
+        reorient pushes in the opposite sense before or after it: the paper's
+        singularity handler and the search's excursions).
+      reorient_edge: the stable edge that most reorient pushes land (caller
+        indices; the first such edge on a tie), ``None`` for a translation
+        plan; every push names its own edge.
       object_class: ``uni-stable``, ``biplus-stable`` or ``nice-stable``.
       objective: ``distance`` or ``pushes``.
       objective_value: the LP objective: total push distance (m) for
@@ -92,6 +102,15 @@ class PushPlan:
       margin_deg, safety_factor: the planner's settings.
       final_error: ``(position error m, |angle error| rad)`` of the exact
         replay's final pose against the goal.
+      strategy: ``search`` or ``paper`` (:mod:`planning.pushing.sequences`).
+      distance_rule: ``peshkin`` (reorient distances for any support) or
+        ``quasi-static`` (for supports with a limit-surface ratio in
+        ``support_c``; replay it with ``rate_c = min(support_c[1], radius)``).
+      support_c: ``(lo, hi)`` limit-surface ratio range (m), or ``None``.
+      min_fence_mu: fence friction bound of a slip-aware plan, or ``None``.
+      workspace: ``(xmin, xmax, ymin, ymax)`` (m) the plan stays inside, or ``None``.
+      max_reorients, extra_steps: the search's effort budget and depth.
+      turns: extra full turns of the main reorient run (0 or 1).
     """
 
     vertices: tuple[tuple[float, float], ...]
@@ -108,6 +127,14 @@ class PushPlan:
     margin_deg: float
     safety_factor: float
     final_error: tuple[float, float]
+    strategy: str = "search"
+    distance_rule: str = "peshkin"
+    support_c: Optional[tuple[float, float]] = None
+    min_fence_mu: Optional[float] = None
+    workspace: Optional[tuple[float, float, float, float]] = None
+    max_reorients: int = 24
+    extra_steps: int = 3
+    turns: int = 0
 
     @property
     def n_pushes(self) -> int:
@@ -129,7 +156,13 @@ class PushPlan:
             "object_class": self.object_class, "objective": self.objective,
             "objective_value": self.objective_value, "total_distance": self.total_distance,
             "margin_deg": self.margin_deg, "safety_factor": self.safety_factor,
-            "final_error": list(self.final_error),
+            "final_error": list(self.final_error), "strategy": self.strategy,
+            "distance_rule": self.distance_rule,
+            "support_c": None if self.support_c is None else list(self.support_c),
+            "min_fence_mu": self.min_fence_mu,
+            "workspace": None if self.workspace is None else list(self.workspace),
+            "max_reorients": self.max_reorients, "extra_steps": self.extra_steps,
+            "turns": self.turns,
         }
 
     @classmethod
@@ -137,7 +170,13 @@ class PushPlan:
         """Inverse of :meth:`to_dict`."""
         if d["plan_class"] not in PLAN_CLASSES:
             raise ValueError(f"plan_class: expected one of {PLAN_CLASSES}, got {d['plan_class']!r}")
+        if d.get("strategy", "search") not in STRATEGIES:
+            raise ValueError(f"strategy: expected one of {STRATEGIES}, got {d['strategy']!r}")
+        if d.get("distance_rule", "peshkin") not in DISTANCE_RULES:
+            raise ValueError(f"distance_rule: expected one of {DISTANCE_RULES}, got "
+                             f"{d['distance_rule']!r}")
         re = d.get("reorient_edge")
+        sc, ws = d.get("support_c"), d.get("workspace")
         return cls(
             vertices=tuple(_tuple(v, 2) for v in d["vertices"]), com=_tuple(d["com"], 2),
             start=_tuple(d["start"], 3), goal=_tuple(d["goal"], 3),
@@ -146,12 +185,19 @@ class PushPlan:
             object_class=d["object_class"], objective=d["objective"],
             objective_value=float(d["objective_value"]), total_distance=float(d["total_distance"]),
             margin_deg=float(d["margin_deg"]), safety_factor=float(d["safety_factor"]),
-            final_error=_tuple(d["final_error"], 2),
+            final_error=_tuple(d["final_error"], 2), strategy=d.get("strategy", "search"),
+            distance_rule=d.get("distance_rule", "peshkin"),
+            support_c=None if sc is None else _tuple(sc, 2),
+            min_fence_mu=None if d.get("min_fence_mu") is None else float(d["min_fence_mu"]),
+            workspace=None if ws is None else _tuple(ws, 4),
+            max_reorients=int(d.get("max_reorients", 24)), extra_steps=int(d.get("extra_steps", 3)),
+            turns=int(d.get("turns", 0)),
         )
 
     def summary(self) -> str:
         """A short human-readable table of the plan."""
-        lines = [f"{self.object_class} part, {self.plan_class} plan: {self.n_pushes} pushes "
+        lines = [f"{self.object_class} part, {self.plan_class} plan ({self.strategy} strategy, "
+                 f"{self.distance_rule} distances): {self.n_pushes} pushes "
                  f"({self.n_reorients} reorient), total {self.total_distance:.6g} m; replay error "
                  f"{self.final_error[0]:.2e} m / {self.final_error[1]:.2e} rad"]
         lines.append(f"{'#':>3} {'kind':<9} {'dir_x':>9} {'dir_y':>9} {'dist_m':>10} {'min_m':>10} "

@@ -1,16 +1,14 @@
-"""The Akella-Mason pose planner: fence pushes that take a convex polygon from
-any start pose to any goal pose.
+"""The pose planner: fence pushes that take a convex polygon from any start
+pose to any goal pose (Akella & Mason 1992, and beyond).
 
-Plan classes (paper section 5): a *translation* plan when the start and goal
-orientations agree; a *CW* and a *CCW* plan for every stable edge (the reorient
-pushes land that edge, the angle-eating heuristic splits the rotation into
-step-angle reorientations and a final smaller one); when none of these is
-feasible, the *singularity handlers*: a reorient in the opposite sense by the
-smaller of the edge's two step angles, then the main sequence.  For each
-candidate the pose-vector LP (:mod:`planning.pushing.pose_lp`) fixes the push lengths;
-the best candidate by the objective is the plan.  Every plan is replayed by
-the exact kinematics (:func:`kernels.push.replay_pushes`) before it is
-returned.
+For every candidate reorientation sequence (:mod:`planning.pushing.sequences`:
+the paper's angle-eating candidates with ``strategy="paper"``, a wider search by
+default) the pose-vector LP (:mod:`planning.pushing.pose_lp`) fixes every push
+length exactly; the best candidate by the objective is the plan.  Options:
+model-based reorient distances (``support``), slip-aware reorient pushes
+(``min_fence_mu``) and a workspace (:mod:`planning.pushing.workspace`).  Every
+plan is replayed by the exact kinematics (:func:`kernels.push.replay_pushes`,
+at the distance rule's slowest rate) before it is returned.
 
 Two implementations share these rules: :func:`plan_pose` here (one problem,
 readable numpy, LP by the closed form or by cvxpy) and
@@ -24,107 +22,115 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Optional
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg
-from kernels.planar import angle_distance, rot2_np
+from kernels.planar import angle_distance, rot2_np, wrap_angle_np
 from kernels.precision import float64
 from kernels.push import replay_pushes
-from planning.pushing import pose_lp
-from planning.pushing.part import (ANG_TOL, OBJECTIVES, POS_TOL, SAME_ORIENTATION, PlanningError,
-                                   PushPart, check_pose, prepare_part)
+from planning.pushing import pose_lp, sequences as sq, workspace as wsp
+from planning.pushing.part import (ANG_TOL, OBJECTIVES, SAME_ORIENTATION, PlanningError, PushPart,
+                                   check_pose, prepare_part)
 from planning.pushing.plan import Push, PushPlan
 
 SOLVERS = ("closed_form", "cvxpy")
 
 
 # --------------------------------------------------------------------------
+# Settings
+# --------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Settings:
+    """The planner's validated settings (see :func:`plan_pose` for each)."""
+
+    objective: str = "distance"
+    strategy: str = "search"
+    max_reorients: int = 24
+    extra_steps: int = 3
+    workspace: Optional[tuple[float, float, float, float]] = None
+
+
+def check_settings(objective, strategy, max_reorients, extra_steps, workspace) -> Settings:
+    """Validate the planner settings; one clear error naming the field."""
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective: expected one of {OBJECTIVES}, got {objective!r}")
+    strategy, max_reorients, extra_steps = sq.check_search(strategy, max_reorients, extra_steps)
+    return Settings(objective, strategy, max_reorients, extra_steps, wsp.check_workspace(workspace))
+
+
+# --------------------------------------------------------------------------
 # Candidates (numpy reference)
 # --------------------------------------------------------------------------
 @dataclasses.dataclass(frozen=True)
-class _Candidate:
-    plan_class: str
-    edge: int               # hull index of the reorient edge (-1: translation)
+class Candidate:
+    """One candidate sequence, its LP data and (once solved) its optimum."""
+
+    row: int
+    steps: list             # [sq.Step] reorient pushes
     thetas: np.ndarray      # (r+1,) orientations, thetas[0] = start
-    senses: np.ndarray      # (r,) CW=0 / CCW=1 per reorient push
-    alphas: np.ndarray      # (r,) reorient angles (rad)
-    singular: bool
+    angles: np.ndarray      # ((r+1) * ns,) world angles of the LP columns
+    merged: np.ndarray      # ((r+1) * ns,) column extends reorient push i (row i >= 1)
+    target: np.ndarray      # (2,) T'' (m)
+    need: np.ndarray        # (r,) least distance given to each reorient push (m)
+    least: np.ndarray       # (r,) its distance rule's minimum, without the rounding guard (m)
+    shifts: np.ndarray      # (r, 2) centre-of-mass displacement of each reorient at its least distance
 
 
-def _rotation_candidate(part: PushPart, theta0: float, thetag: float, s: int, sense: int,
-                        singular: bool) -> _Candidate:
-    sgn = 1.0 if sense == pg.CCW else -1.0
-    step = float(part.step[s, sense])
-    pre = float(min(part.step[s, 0], part.step[s, 1])) if singular else 0.0
-    delta = float(np.remainder(sgn * (thetag - theta0), 2 * math.pi))
-    if delta == 0.0:
-        delta = 2 * math.pi
-    dp = delta + pre
-    n = int(math.ceil(dp / step * (1 - 1e-12)))
-    alphas = [step] * (n - 1) + [dp - (n - 1) * step]
-    incs = [sgn * a for a in alphas]
-    senses = [sense] * n
-    if singular:
-        alphas = [pre] + alphas
-        incs = [-sgn * pre] + incs
-        senses = [1 - sense] + senses
-    thetas = theta0 + np.concatenate([[0.0], np.cumsum(incs)])
-    thetas[-1] = theta0 + sgn * delta
-    name = ("singular-" if singular else "") + pg.SENSE_NAMES[sense]
-    return _Candidate(name, s, thetas, np.array(senses), np.array(alphas), singular)
+def candidates(part: PushPart, table: dict, settings: Settings, start, goal) -> list:
+    """Expand every template of ``table`` for this start/goal pair (None where
+    a template does not apply), with its LP data."""
+    theta0 = wrap_angle_np(float(start[2]))
+    thetag = theta0 + wrap_angle_np(float(goal[2]) - theta0)
+    same = angle_distance(theta0, thetag) <= SAME_ORIENTATION
+    out = []
+    for row in range(len(table["trans"])):
+        if table["trans"][row]:
+            out.append(_lp_data(part, row, [], np.array([theta0]), start, goal) if same else None)
+            continue
+        ex = sq.expand(table, row, theta0, thetag, settings.max_reorients)
+        out.append(None if ex is None else _lp_data(part, row, ex[0], ex[1], start, goal))
+    return out
 
 
-def _candidates(part: PushPart, theta0: float, thetag: float) -> tuple[list, list]:
-    regular, singular = [], []
-    if angle_distance(theta0, thetag) <= SAME_ORIENTATION:
-        regular.append(_Candidate("translation", -1, np.array([theta0]), np.zeros(0, int),
-                                  np.zeros(0), False))
-    for s in part.stable:
-        for sense in (pg.CW, pg.CCW):
-            regular.append(_rotation_candidate(part, theta0, thetag, s, sense, False))
-    for s in part.stable:
-        for sense in (pg.CW, pg.CCW):
-            singular.append(_rotation_candidate(part, theta0, thetag, s, sense, True))
-    return regular, singular
-
-
-def _candidate_lp(part: PushPart, cand: _Candidate, start, goal):
-    """Columns, right-hand side and Peshkin bounds of a candidate (numpy)."""
+def _lp_data(part: PushPart, row: int, steps, thetas, start, goal) -> Candidate:
     body = part.body
-    r = len(cand.alphas)
-    m = np.zeros(r)
-    shift = np.zeros(2)
-    pivots = np.zeros(r, int)
-    for i in range(r):
-        k = cand.edge if cand.senses[i] == pg.CW else (cand.edge + 1) % part.n
-        pivots[i] = k
-        m[i] = part.peshkin(cand.edge, k, cand.alphas[i])
-        rp, rn = rot2_np(cand.thetas[i]), rot2_np(cand.thetas[i + 1])
-        th = cand.thetas[i + 1] + part.nu[cand.edge] + math.pi
-        shift += rp @ body[k] - rn @ body[k] + m[i] * np.array([math.cos(th), math.sin(th)])
-    target = np.asarray(goal[:2]) - np.asarray(start[:2]) - shift
-    omega = part.omega
-    angles = (cand.thetas[:, None] + omega[None, :]).ravel()
+    r = len(steps)
+    need, least, shifts = np.zeros(r), np.zeros(r), np.zeros((r, 2))
+    sidx = {e: i for i, e in enumerate(part.stable)}
     ns = len(part.stable)
     merged = np.zeros((r + 1, ns), bool)
-    if cand.edge >= 0:
-        merged[1:, part.stable.index(cand.edge)] = True
-    return angles, merged.ravel(), target, m, pivots
+    for i, st in enumerate(steps):
+        k = int(part.pivot[st.edge, st.sense])
+        need[i] = part.reorient_need(st.edge, st.sense, st.alpha)
+        least[i] = part.reorient_min(st.edge, st.sense, st.alpha)
+        th = thetas[i + 1] + part.omega[sidx[st.edge]]
+        shifts[i] = (rot2_np(thetas[i]) @ body[k] - rot2_np(thetas[i + 1]) @ body[k]
+                     + need[i] * np.array([math.cos(th), math.sin(th)]))
+        merged[i + 1, sidx[st.edge]] = True
+    target = np.asarray(goal[:2], float) - np.asarray(start[:2], float) - shifts.sum(axis=0)
+    angles = (thetas[:, None] + part.omega[None, :]).ravel()
+    return Candidate(row, steps, thetas, angles, merged.ravel(), target, need, least, shifts)
 
 
 # --------------------------------------------------------------------------
 # Replay and verification
 # --------------------------------------------------------------------------
 @jax.jit
-def _replay_jit(geom, pose, directions, distances):
-    return replay_pushes(geom, pose, directions, distances)
+def _replay_jit(geom, pose, directions, distances, rate_c):
+    return replay_pushes(geom, pose, directions, distances, rate_c)
 
 
-def _verify(part: PushPart, start, goal, directions, distances, edges):
-    """Replay pushes (padded to a multiple of 8 to bound recompiles)."""
+def replay_rate(part: PushPart):
+    """The ``rate_c`` argument of :func:`kernels.push.replay_pushes` for plans of ``part``."""
+    return jnp.asarray(float(part.geom.radius) if part.rate_c is None else part.rate_c)
+
+
+def verify(part: PushPart, start, goal, directions, distances, edges):
+    """Replay pushes (padded to a multiple of 8 to bound recompiles) and list
+    every way the replay disagrees with the plan."""
     p = len(distances)
     pad = max(8, -(-p // 8) * 8)
     dirs = np.zeros((pad, 2))
@@ -133,18 +139,23 @@ def _verify(part: PushPart, start, goal, directions, distances, edges):
     if p:
         dirs[:p] = directions
         dists[:p] = distances
-    final, outs = _replay_jit(part.geom, jnp.asarray(start), jnp.asarray(dirs), jnp.asarray(dists))
+    final, outs = _replay_jit(part.geom, jnp.asarray(start), jnp.asarray(dirs), jnp.asarray(dists),
+                              replay_rate(part))
     final = np.asarray(final)
     poses = np.asarray(outs.pose)[:p]
     landed = np.asarray(outs.edge)[:p]
+    finished = np.asarray(outs.finished)[:p]
     pos_err = float(np.hypot(*(final[:2] - np.asarray(goal[:2]))))
     ang_err = angle_distance(final[2], goal[2])
+    pos_tol = part.pos_tol(np.hypot(*start[:2]), np.hypot(*goal[:2]), float(np.sum(distances)))
     problems = []
-    for i, (got, want) in enumerate(zip(landed, edges)):
-        if int(got) != int(want):
+    for i, (got, want, fin) in enumerate(zip(landed, edges, finished)):
+        if not fin:
+            problems.append(f"push {i} did not finish within the replay's pass limit")
+        elif int(got) != int(want):
             problems.append(f"push {i} ended on edge {int(got)} instead of {int(want)}")
-    if pos_err >= POS_TOL:
-        problems.append(f"position error {pos_err:.3e} m >= {POS_TOL:g} m")
+    if pos_err >= pos_tol:
+        problems.append(f"position error {pos_err:.3e} m >= {pos_tol:.3g} m")
     if ang_err >= ANG_TOL:
         problems.append(f"angle error {ang_err:.3e} rad >= {ANG_TOL:g} rad")
     return poses, (pos_err, ang_err), problems
@@ -156,7 +167,9 @@ def _verify(part: PushPart, start, goal, directions, distances, edges):
 @float64
 def plan_pose(vertices, start, goal, com=None, margin_deg: float = 7.0,
               safety_factor: float = 1.15, objective: str = "distance",
-              solver: str = "closed_form") -> PushPlan:
+              solver: str = "closed_form", *, strategy: str = "search", support=None,
+              min_fence_mu: Optional[float] = None, workspace=None, max_reorients: int = 24,
+              extra_steps: int = 3) -> PushPlan:
     """Plan normal fence pushes taking the part from ``start`` to ``goal``.
 
     Args:
@@ -164,88 +177,176 @@ def plan_pose(vertices, start, goal, com=None, margin_deg: float = 7.0,
       start, goal: poses ``(x, y, theta)`` (m, m, rad), world frame.
       com: centre of mass (m, part frame), default the area centroid.
       margin_deg: margin angle (degrees) taken off each maximum reorient angle.
-      safety_factor: multiplier of the Peshkin distance (paper 1.15).
+      safety_factor: multiplier of the reorient distance rule (paper 1.15).
       objective: ``"distance"`` (total push distance, the paper's LP) or
         ``"pushes"`` (fewest pushes, then shortest: the paper's MILP idea).
       solver: ``"closed_form"`` or ``"cvxpy"`` (reference) for each LP.
+      strategy: ``"search"`` (default: the reorientation sequences of
+        :mod:`planning.pushing.sequences`) or ``"paper"`` (Akella & Mason's).
+      support: optional ``{"c": [lo, hi]}`` (m): the range of the support's
+        limit-surface ratio; each reorient push then gets the shortest distance
+        that completes it for every ``c`` in the range under the quasi-static
+        model (times the safety factor) instead of Peshkin's distance.
+      min_fence_mu: optional lower bound of the fence friction coefficient
+        (needs ``support``): only reorient pushes whose fence contact sticks
+        throughout for every ``c`` in the range are used.
+      workspace: optional ``(xmin, xmax, ymin, ymax)`` (m, world): every pose
+        of the plan and the part swept during every push stay inside.
+      max_reorients: the effort budget: no plan has more reorient pushes.
+      extra_steps: the search tries ``n_min .. n_min + extra_steps`` steps per run.
 
     Returns:
       A :class:`~planning.pushing.plan.PushPlan` whose exact replay reaches the
-      goal within 1e-9 m and 1e-9 rad.
+      goal within 1e-9 of the part's size and 1e-9 rad.
 
     Raises:
       ValueError / PartError: bad input, naming the field.
-      PlanningError: no candidate is feasible, or the replay disagrees.
+      PlanningError: no candidate is feasible (within the effort budget or the
+        workspace: the message says which), or the replay disagrees.
     """
-    if objective not in OBJECTIVES:
-        raise ValueError(f"objective: expected one of {OBJECTIVES}, got {objective!r}")
     if solver not in SOLVERS:
         raise ValueError(f"solver: expected one of {SOLVERS}, got {solver!r}")
+    settings = check_settings(objective, strategy, max_reorients, extra_steps, workspace)
     start = check_pose(start, "start")
     goal = check_pose(goal, "goal")
-    part = prepare_part(vertices, com, margin_deg, safety_factor)
+    part = prepare_part(vertices, com, margin_deg, safety_factor, support=support,
+                        min_fence_mu=min_fence_mu)
+    return plan_one(part, settings, start, goal, solver)
+
+
+def plan_one(part: PushPart, settings: Settings, start, goal, solver: str = "closed_form") -> PushPlan:
+    """:func:`plan_pose` for a prepared part and validated settings."""
+    if settings.workspace is not None:
+        wsp.check_inside(part, settings.workspace, start, "start")
+        wsp.check_inside(part, settings.workspace, goal, "goal")
+    table = sq.candidate_table(part, settings.strategy, settings.extra_steps)
+    cands = candidates(part, table, settings, start, goal)
     solve = pose_lp.solve_closed_form if solver == "closed_form" else pose_lp.solve_cvxpy
-    regular, singular = _candidates(part, float(start[2]), float(goal[2]))
-    best = None
-    for group in (regular, singular):
-        for cand in group:
-            angles, merged, target, m, pivots = _candidate_lp(part, cand, start, goal)
-            sol = solve(angles, np.ones(len(angles), bool), merged, target, objective)
-            if not sol.feasible:
+    scale = part.size
+    results = [None] * len(cands)
+    boxes = []
+    for i, cand in enumerate(cands):
+        if cand is None:
+            continue
+        sol = solve(cand.angles, np.ones(len(cand.angles), bool), cand.merged, cand.target,
+                    settings.objective, scale=scale)
+        if not sol.feasible:
+            continue
+        w = sol.weights
+        if settings.workspace is not None:
+            w = wsp.fit(part, cand, w, settings.workspace, start, boxes)
+            if w is None:
                 continue
-            total = float(m.sum() + sol.cost)
-            n_push = len(m) + sol.pushes
-            key = (n_push, total) if objective == "pushes" else (total,)
-            if best is None or key < best[0]:
-                best = (key, cand, sol, m, pivots, total)
-        if best is not None:
-            break
+        extra = float(w.sum())
+        npush = len(cand.steps) + int(np.sum((w > pose_lp.DROP * scale) & ~cand.merged))
+        results[i] = (float(cand.need.sum() + extra), npush, w)
+    best = choose(table, results, settings.objective)
     if best is None:
-        raise PlanningError(
-            f"no feasible pose plan for this {part.class_name} part from {start.tolist()} to "
-            f"{goal.tolist()}: no candidate's push directions positively span the required "
-            "translation (this contradicts the paper's completeness proof; please report it)")
-    _, cand, sol, m, pivots, total = best
-    return _assemble(part, start, goal, cand, sol.weights, m, pivots, objective, margin_deg)
+        raise PlanningError(_no_plan_message(part, settings, start, goal, cands, boxes))
+    cost, _, w = results[best]
+    return assemble(part, settings, start, goal, cands[best], table, w)
 
 
-def _assemble(part: PushPart, start, goal, cand: _Candidate, weights, m, pivots, objective,
-              margin_deg) -> PushPlan:
+def choose(table: dict, results: list, objective: str) -> Optional[int]:
+    """Index of the best candidate: the lowest tier with a feasible one, then the
+    objective (fewest pushes first for ``pushes``), ties (``COST_TIE``) to the
+    lowest row.  ``results[i]``: ``(cost, pushes, weights)`` or None."""
+    feas = [i for i, r in enumerate(results) if r is not None]
+    if not feas:
+        return None
+    tier = min(int(table["tier"][i]) for i in feas)
+    feas = [i for i in feas if int(table["tier"][i]) == tier]
+    if objective == "pushes":
+        fewest = min(results[i][1] for i in feas)
+        feas = [i for i in feas if results[i][1] == fewest]
+    low = min(results[i][0] for i in feas)
+    return min(i for i in feas if results[i][0] <= low * (1.0 + sq.COST_TIE))
+
+
+def _no_plan_message(part: PushPart, settings: Settings, start, goal, cands, boxes) -> str:
+    where = (f"no feasible pose plan for this {part.class_name} part from {start.tolist()} to "
+             f"{goal.tolist()}")
+    if settings.workspace is not None and boxes:
+        # smallest (by area) workspace, relative to the start, that one candidate needs
+        box = min(boxes, key=lambda b: (b[1] - b[0]) * (b[3] - b[2]))
+        return (f"{where} inside the workspace {list(settings.workspace)}: no candidate fits; the "
+                f"smallest workspace found is (xmin, xmax, ymin, ymax) = ({box[0]:.6g}, {box[1]:.6g}, "
+                f"{box[2]:.6g}, {box[3]:.6g}) m ({box[1] - box[0]:.4g} x {box[3] - box[2]:.4g} m)")
+    if all(c is None for c in cands):
+        steps = {f"{e}{'+' if s else '-'}": round(math.degrees(part.step[e, s]), 4)
+                 for e in part.stable for s in (0, 1)}
+        return (f"{where}: every candidate needs more than max_reorients={settings.max_reorients} "
+                f"reorient pushes, or none is allowed (step angles in degrees per stable edge and "
+                f"sense, - CW + CCW: {steps}{_slip_note(part)}); raise max_reorients")
+    return (f"{where}: no candidate's push directions positively span the required translation"
+            f"{_slip_note(part)}")
+
+
+def _slip_note(part: PushPart) -> str:
+    if part.min_fence_mu is None:
+        return ""
+    return (f"; slip-aware: only reorient pushes that stick at fence friction {part.min_fence_mu:g} "
+            f"for c in {list(part.support_c)} m are allowed")
+
+
+def assemble(part: PushPart, settings: Settings, start, goal, cand: Candidate, table: dict,
+             weights) -> PushPlan:
+    """The plan of a solved candidate, replayed and checked (raises PlanningError
+    if the replay disagrees).  Function of ~80 lines: it lists the pushes in
+    execution order and fills every field of the plan."""
     ns = len(part.stable)
     w = np.asarray(weights).reshape(len(cand.thetas), ns)
-    omega = part.omega
     hull = part.polygon.hull_index
-    s_idx = part.stable.index(cand.edge) if cand.edge >= 0 else -1
-    items = []  # (kind, direction, distance, hull edge, pivot, min)
+    sidx = {e: i for i, e in enumerate(part.stable)}
+    drop = pose_lp.DROP * part.size
+    items = []  # (kind, direction, distance, hull edge, pivot, min, rotation)
     for i, th in enumerate(cand.thetas):
         if i >= 1:
-            ang = th + omega[s_idx]
-            items.append(("reorient", (math.cos(ang), math.sin(ang)), float(m[i - 1] + w[i, s_idx]),
-                          cand.edge, int(pivots[i - 1]), float(m[i - 1])))
+            st = cand.steps[i - 1]
+            ang = th + part.omega[sidx[st.edge]]
+            items.append(("reorient", (math.cos(ang), math.sin(ang)),
+                          float(cand.need[i - 1] + w[i, sidx[st.edge]]), st.edge,
+                          int(part.pivot[st.edge, st.sense]), float(cand.least[i - 1]),
+                          float(th - cand.thetas[i - 1])))
         for j, e in enumerate(part.stable):
-            if (i >= 1 and j == s_idx) or w[i, j] <= pose_lp.DROP:
+            if (i >= 1 and e == cand.steps[i - 1].edge) or w[i, j] <= drop:
                 continue
-            ang = th + omega[j]
-            items.append(("translate", (math.cos(ang), math.sin(ang)), float(w[i, j]), e, None, None))
+            ang = th + part.omega[j]
+            items.append(("translate", (math.cos(ang), math.sin(ang)), float(w[i, j]), e, None, None, None))
     dirs = np.array([it[1] for it in items]).reshape(-1, 2)
     dists = np.array([it[2] for it in items])
-    poses, err, problems = _verify(part, start, goal, dirs, dists, [it[3] for it in items])
+    poses, err, problems = verify(part, start, goal, dirs, dists, [it[3] for it in items])
     if problems:
         raise PlanningError("the exact replay of the plan does not reach the goal: "
                             + "; ".join(problems))
     pushes = tuple(
         Push(kind=k, direction=(float(d[0]), float(d[1])), distance=dist,
              edge=part.polygon.edge_vertices(e), contact_vertex=None if pv is None else hull[pv],
-             min_distance=mn, pose_after=tuple(float(x) for x in poses[i]))
-        for i, (k, d, dist, e, pv, mn) in enumerate(items))
+             min_distance=mn, pose_after=tuple(float(x) for x in poses[i]), rotation=rot)
+        for i, (k, d, dist, e, pv, mn, rot) in enumerate(items))
+    if settings.workspace is not None:
+        wsp.check_swept(part, settings.workspace, start, items, poses)
+    return make_plan(part, settings, start, goal, pushes, int(table["cls"][cand.row]),
+                     int(table["turns"][cand.row]), err)
+
+
+def make_plan(part: PushPart, settings: Settings, start, goal, pushes, cls: int, turns: int,
+              err) -> PushPlan:
+    """A :class:`PushPlan` with every setting recorded."""
+    from planning.pushing.plan import PLAN_CLASSES
+
     total = float(sum(p.distance for p in pushes))
+    reo = [p.edge for p in pushes if p.kind == "reorient"]
+    main = max(set(reo), key=lambda e: (reo.count(e), -reo.index(e))) if reo else None
     return PushPlan(
         vertices=tuple((float(a), float(b)) for a, b in part.polygon.vertices),
         com=(float(part.polygon.com[0]), float(part.polygon.com[1])),
         start=tuple(float(x) for x in start), goal=tuple(float(x) for x in goal), pushes=pushes,
-        plan_class=cand.plan_class,
-        reorient_edge=None if cand.edge < 0 else part.polygon.edge_vertices(cand.edge),
-        object_class=part.class_name, objective=objective,
-        objective_value=float(len(pushes)) if objective == "pushes" else total,
-        total_distance=total, margin_deg=float(margin_deg), safety_factor=part.safety_factor,
-        final_error=err)
+        plan_class=PLAN_CLASSES[cls], reorient_edge=main,
+        object_class=part.class_name, objective=settings.objective,
+        objective_value=float(len(pushes)) if settings.objective == "pushes" else total,
+        total_distance=total, margin_deg=part.margin_deg, safety_factor=part.safety_factor,
+        final_error=(float(err[0]), float(err[1])), strategy=settings.strategy,
+        distance_rule=part.distance_rule, support_c=part.support_c, min_fence_mu=part.min_fence_mu,
+        workspace=settings.workspace, max_reorients=settings.max_reorients,
+        extra_steps=settings.extra_steps, turns=turns)

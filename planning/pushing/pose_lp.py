@@ -41,8 +41,9 @@ import numpy as np
 
 from kernels.planar import wrap_angle, wrap_angle_np
 
-ZERO_TARGET = 1e-13  # m: a residual translation this small needs no push
-DROP = 1e-12         # m: a push shorter than this is dropped from the plan
+# Length tolerances are relative to a length scale ``scale`` (m, the part's size):
+ZERO_TARGET = 1e-13  # x scale: a residual translation this small needs no push
+DROP = 1e-12         # x scale: a push shorter than this is dropped from the plan
 DET_EPS = 1e-12      # columns closer than this to antiparallel do not span
 TIE = 1e-12          # rad: columns this close in direction are ties, won by the lower rank
 
@@ -101,7 +102,7 @@ def _nearest_np(delta, mask, rank=None):
     return _first_nearest_np(ccw, rank), _first_nearest_np(cw, rank)
 
 
-def solve_closed_form(angles, mask, merged, target, objective="distance") -> LPSolution:
+def solve_closed_form(angles, mask, merged, target, objective="distance", scale=1.0) -> LPSolution:
     """Closed-form optimum of one pose LP (numpy, float64).
 
     Args:
@@ -110,13 +111,14 @@ def solve_closed_form(angles, mask, merged, target, objective="distance") -> LPS
       merged: (K,) bool, column extends a reorient push (free for ``pushes``).
       target: (2,) right-hand side ``T''`` (m, world frame).
       objective: ``"distance"`` or ``"pushes"``.
+      scale: length scale (m) of the tolerances ``ZERO_TARGET`` and ``DROP``.
     """
     angles = np.asarray(angles, np.float64)
     mask = np.asarray(mask, bool)
     merged = np.asarray(merged, bool) & mask
     target = np.asarray(target, np.float64)
     k = len(angles)
-    if np.hypot(*target) <= ZERO_TARGET:
+    if np.hypot(*target) <= ZERO_TARGET * scale:
         return LPSolution(True, 0.0, 0, np.zeros(k))
     delta = wrap_angle_np(angles - math.atan2(target[1], target[0]))
 
@@ -131,7 +133,7 @@ def solve_closed_form(angles, mask, merged, target, objective="distance") -> LPS
         w = np.zeros(k)
         w[a] += xa
         w[b] += xb
-        npush = int(np.sum((w > DROP) & ~merged))
+        npush = int(np.sum((w > DROP * scale) & ~merged))
         return npush, cost, w
 
     if objective == "distance":
@@ -166,7 +168,7 @@ def _nearest_jax(delta, mask, rank):
     return a, oka, b, okb
 
 
-def solve_delta(delta, mask, merged, norm_t, objective="distance", rank=None):
+def solve_delta(delta, mask, merged, norm_t, objective="distance", rank=None, scale=1.0):
     """Closed-form optimum of one pose LP in JAX, with the columns given by
     their angle ``delta`` (rad, in (-pi, pi]) relative to the target direction
     and the target by its length ``norm_t`` (m).  Same rules as
@@ -175,14 +177,15 @@ def solve_delta(delta, mask, merged, norm_t, objective="distance", rank=None):
     ``x_a = |T| sin(-db) / sin(da - db)``, ``x_b = |T| sin(da) / sin(da - db)``.
 
     Columns within ``TIE`` rad of the nearest on a side tie; the lowest
-    ``rank`` (default: column order) wins, as in the numpy twin.
+    ``rank`` (default: column order) wins, as in the numpy twin.  ``scale``
+    (m) scales the length tolerances.
 
     Returns:
       ``(feasible, cost, pushes, idx_a, x_a, idx_b, x_b)``: the optimum puts
       weight ``x_a`` on column ``idx_a`` and ``x_b`` on ``idx_b`` (m).
     """
     merged = merged & mask
-    zero = norm_t <= ZERO_TARGET
+    zero = norm_t <= ZERO_TARGET * scale
     rank = jnp.arange(delta.shape[0]) if rank is None else rank
 
     def pair(sel_a, sel_b):
@@ -197,8 +200,8 @@ def solve_delta(delta, mask, merged, norm_t, objective="distance", rank=None):
         xb = jnp.where(on_a, 0.0, jnp.where(on_b, norm_t, norm_t * jnp.sin(da) / safe))
         ok = oka & okb & (on_a | on_b | spans)
         xa, xb = jnp.maximum(xa, 0.0), jnp.maximum(xb, 0.0)
-        npush = (jnp.where((xa > DROP) & ~merged[a], 1, 0)
-                 + jnp.where((xb > DROP) & ~merged[b] & (a != b), 1, 0))
+        npush = (jnp.where((xa > DROP * scale) & ~merged[a], 1, 0)
+                 + jnp.where((xb > DROP * scale) & ~merged[b] & (a != b), 1, 0))
         return ok, jnp.where(ok, xa + xb, jnp.inf), npush, a, xa, b, xb
 
     if objective == "distance":
@@ -219,7 +222,7 @@ def solve_delta(delta, mask, merged, norm_t, objective="distance", rank=None):
             a[i], jnp.where(zero, 0.0, xa[i]), b[i], jnp.where(zero, 0.0, xb[i]))
 
 
-def solve_jax(angles, mask, merged, target, objective="distance"):
+def solve_jax(angles, mask, merged, target, objective="distance", scale=1.0):
     """Closed-form optimum of one pose LP in JAX (same rules as
     :func:`solve_closed_form`; ``objective`` is static).  ``angles`` are the
     world angles of the unit columns (rad), ``target`` is ``T''`` (m).
@@ -229,19 +232,24 @@ def solve_jax(angles, mask, merged, target, objective="distance"):
     """
     psi = jnp.arctan2(target[1], target[0])
     delta = wrap_angle(angles - psi)
-    return solve_delta(delta, mask, merged, jnp.hypot(target[0], target[1]), objective)
+    return solve_delta(delta, mask, merged, jnp.hypot(target[0], target[1]), objective, scale=scale)
 
 
 # --------------------------------------------------------------------------
 # Reference: cvxpy
 # --------------------------------------------------------------------------
-def solve_cvxpy(angles, mask, merged, target, objective="distance", paper_form=True) -> LPSolution:
-    """The same LP solved by cvxpy (reference solver).
+def solve_cvxpy(angles, mask, merged, target, objective="distance", paper_form=True,
+                scale=1.0) -> LPSolution:
+    """The same LP solved by cvxpy (reference solver), independently of the
+    closed form: feasibility is the solver's verdict.
 
     With ``paper_form`` the two equality rows are the paper's projections on
     ``t'`` and ``t'_perp``; otherwise the x/y components.  ``objective="pushes"``
     is solved as the paper's MILP (binary per non-merged column, big-M), first
-    minimising the number of pushes, then the distance at that number.
+    minimising the number of pushes, then the distance at that number.  The
+    big-M bound comes from the data alone: a lexicographic optimum is a basic
+    solution of at most two columns ``a, b`` (Caratheodory in the plane), whose
+    weights are at most ``|T''| / |sin(angle_a - angle_b)|``.
     """
     import cvxpy as cp
 
@@ -252,10 +260,11 @@ def solve_cvxpy(angles, mask, merged, target, objective="distance", paper_form=T
     k = len(angles)
     idx = np.flatnonzero(mask)
     norm_t = float(np.hypot(*target))
-    if norm_t <= ZERO_TARGET:
+    if norm_t <= ZERO_TARGET * scale:
         return LPSolution(True, 0.0, 0, np.zeros(k))
     if len(idx) == 0:
         return LPSolution(False, math.inf, 0, np.zeros(k))
+    used = 1e-7 * norm_t   # solver tolerance: weights below this count as zero
     cols = np.stack([np.cos(angles[idx]), np.sin(angles[idx])])
     if paper_form:
         t_hat = target / norm_t
@@ -273,12 +282,10 @@ def solve_cvxpy(angles, mask, merged, target, objective="distance", paper_form=T
             return LPSolution(False, math.inf, 0, np.zeros(k))
         w = np.zeros(k)
         w[idx] = np.maximum(x.value, 0.0)
-        return LPSolution(True, float(prob.value), int(np.sum((w > 1e-9) & ~merged)), w)
+        return LPSolution(True, float(prob.value), int(np.sum((w > used) & ~merged)), w)
     if objective != "pushes":
         raise ValueError(f"objective: expected 'distance' or 'pushes', got {objective!r}")
     free = merged[idx]
-    if not solve_closed_form(angles, mask, merged, target, "distance").feasible:
-        return LPSolution(False, math.inf, 0, np.zeros(k))
     z = cp.Variable(len(idx), boolean=True)
     # big-M: the lexicographic optimum is a basic solution of its support (at most two
     # columns a, b), whose weights are at most |T''| / |sin(angle_a - angle_b)|.

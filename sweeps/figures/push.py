@@ -31,6 +31,7 @@ from kernels.planar import rot2_np  # noqa: E402
 from planning import PushPart, PushPlan, prepare_part  # noqa: E402
 from planning.pushing import stability  # noqa: E402
 from planning.pushing.stability import PushStability  # noqa: E402
+from sweeps.figures.plan_steps import mark_steps  # noqa: E402
 
 START_COLOR = "tab:blue"
 GOAL_COLOR = "tab:green"
@@ -225,7 +226,8 @@ def _span(ax, a: float, b: float, y: float, color, lw: float, tick: float, alpha
 
 
 def plot_psd(part_or_vertices, path, margin_deg: float = 7.0, com=None, title: Optional[str] = None,
-             name: Optional[str] = None, n_grid: int = 3600, dpi: int = 150) -> PushStability:
+             name: Optional[str] = None, n_grid: int = 3600, dpi: int = 150,
+             plan: Optional[PushPlan] = None) -> PushStability:
     """Draw the push stability diagram for normal pushes and save it to ``path``.
 
     Horizontal axis: the part's orientation relative to the fence, 0..360
@@ -238,7 +240,11 @@ def plot_psd(part_or_vertices, path, margin_deg: float = 7.0, com=None, title: O
     the touching vertex) as single bold lines, unstable edges flush as dotted
     lines.  Bottom panel, one row per stable edge: the maximum CW and CCW
     reorient angles (light brackets) and the step angles after the margin
-    (dark brackets).  Edges are labelled by caller vertex-index pairs.
+    (dark brackets; for a slip-aware plan at most the sticking limit).  With a
+    ``plan``, its chosen reorient steps are marked on their edges' rows: an
+    arrow from the orientation relative to the fence where each reorient push
+    starts to where its edge lands, numbered by the push's index in the plan.
+    Edges are labelled by caller vertex-index pairs.
 
     Args:
       part_or_vertices: as :func:`push_stability`.
@@ -246,10 +252,17 @@ def plot_psd(part_or_vertices, path, margin_deg: float = 7.0, com=None, title: O
       margin_deg, com, n_grid: as :func:`push_stability`.
       title: optional title.
       name: the part's name for the default title (default: a PartFile's name).
+      plan: optional :class:`~planning.PushPlan` of this part whose reorient
+        steps are marked (the part's tables then follow the plan's settings).
 
     Returns:
       The :class:`PushStability` data drawn.
     """
+    if plan is not None:
+        part_or_vertices = prepare_part(
+            plan.vertices, plan.com, plan.margin_deg, plan.safety_factor,
+            support=None if plan.support_c is None else {"c": list(plan.support_c)},
+            min_fence_mu=plan.min_fence_mu)
     part, file_name = _as_part(part_or_vertices, margin_deg, com)
     name = name or file_name
     data = stability.push_stability(part, n_grid=n_grid)
@@ -317,6 +330,8 @@ def plot_psd(part_or_vertices, path, margin_deg: float = 7.0, com=None, title: O
         bx.text(_wrap_deg(x - 0.5 * mx_ccw), y - 0.36, f"CCW {mx_ccw:.1f}° (step {st_ccw:.1f}°)",
                 fontsize=7, ha="center", va="center", color=col, zorder=5,
                 bbox=dict(facecolor="white", edgecolor="none", alpha=0.8, pad=0.2))
+    if plan is not None:
+        mark_steps(bx, plan, part, data, stable)
     bx.set_ylim(-0.6, nrow - 0.4)
     bx.set_yticks(range(nrow))
     bx.set_yticklabels([f"edge {list(data.caller_edge(e))}" for e in reversed(stable)], fontsize=8)
@@ -328,6 +343,9 @@ def plot_psd(part_or_vertices, path, margin_deg: float = 7.0, com=None, title: O
                for e in stable]
     if np.any(data.final_edge < 0):
         handles.append(Patch(facecolor="0.6", alpha=0.35, label="ends on a vertex"))
+    if plan is not None:
+        handles.append(Line2D([], [], color="k", lw=1.2, marker=">", markersize=5,
+                              label=f"the plan's reorient steps ({plan.n_reorients})"))
     handles += [Line2D([], [], color="0.5", lw=4.2, label="convergent (stable edge)"),
                 Line2D([], [], color="k", lw=2.2, label="divergent (vertex)"),
                 Line2D([], [], color="0.35", lw=1.0, ls=":", label="unstable edge flush"),

@@ -1,0 +1,186 @@
+"""The pose planner's options and the hard inputs: model-based reorient
+distances (``support``), slip-aware plans (``min_fence_mu``), a workspace, the
+effort budget, safety factor exactly 1 from unwrapped starts, near-marginal
+parts, parts at every scale (millimetres, 1e9 m), one by one and batched."""
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from kernels import polygon as pg
+from planning.pushing import batch as pb
+from planning.pushing import planner as pp
+from tests import strategies as S
+from tests.test_pose_planner import (_agree, _fixed_parts, _pairs, _plan, _plan_or_budget, _size,
+                                     check_plan)
+from oracles import push_numpy as oracle
+
+pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
+
+
+@pytest.mark.parametrize("name, options", [
+    ("nice", dict(support={"c": [0.4, 0.8]}, min_fence_mu=0.5)),   # c in units of the part's radius
+    ("biplus", dict(support={"c": [0.2, 0.6]})),
+    ("uni", dict(workspace=1.5)),                                  # half-width, in metres
+    ("nice", dict(workspace=0.1, strategy="paper")),
+])
+def test_batch_agrees_with_single_with_options(name, options):
+    """The options give the same plans one by one and in a batch."""
+    pts, com = _fixed_parts()[name]
+    starts, goals = (a[:40] for a in _pairs())
+    body = oracle.body_from_part(pts, com)[0]
+    kw = dict(options)
+    if "support" in kw:
+        radius = float(np.max(np.hypot(*body.T)))
+        kw["support"] = {"c": [x * radius for x in kw["support"]["c"]]}
+    if "workspace" in kw:
+        h = kw.pop("workspace")
+        starts, goals = starts * [0.1, 0.1, 1.0], goals * [0.1, 0.1, 1.0]
+        kw["workspace"] = (-h, h, -h, h)
+    singles = []
+    for s, g in zip(starts, goals):
+        try:
+            singles.append(_plan(pts, s, g, com=com, **kw))
+        except pp.PlanningError:
+            singles.append(None)
+    batch = pb.plan_pose_batch(pts, starts, goals, com=com, chunk=64, **kw)
+    assert [p is not None for p in singles] == batch.ok.tolist()
+    assert batch.ok.mean() > 0.25
+    if "workspace" in kw:
+        assert batch.replanned   # the constrained LP was needed somewhere
+    _agree(batch, singles, (name, options))
+    c = kw.get("support", {}).get("c")
+    for b in np.flatnonzero(batch.ok)[::5]:
+        check_plan(batch.plan(b), pts, com, starts[b], goals[b], support_c=c,
+                   min_mu=kw.get("min_fence_mu"), workspace=kw.get("workspace"))
+
+
+
+RECT = [[-0.03, -0.01], [0.03, -0.01], [0.03, 0.01], [-0.03, 0.01]]
+RECT_40_20 = [[0.0, 0.0], [0.04, 0.0], [0.04, 0.02], [0.0, 0.02]]   # examples/rectangle.yaml
+
+
+@pytest.mark.parametrize("goal", [[0.22878430364261387, 0.0064239033261871414, -0.9783187754826552],
+                                  [0.04283736027346463, -0.2961546704014139, 1.7131054551536122],
+                                  [0.12505125414831963, 0.17349277422308756, 1.8799062969936164]])
+def test_safety_factor_one_from_an_unwrapped_start(goal):
+    """safety_factor = 1 leaves a reorient push no slack when the LP adds none:
+    the replay's rounding of the (unwrapped, 6.2590 rad) start angle made such a
+    push a hair short ("push 4 ended on edge -1 instead of 2").  Every reorient
+    push now turns REORIENT_GUARD rad beyond its plan; tested on the paper's
+    strategy (where it was found) and the default one."""
+    start = [0.01, 0.02, 6.2590]
+    for kw in ({}, {"strategy": "paper"}):
+        plan = pp.plan_pose(RECT_40_20, start, goal, margin_deg=10, safety_factor=1.0, **kw)
+        check_plan(plan, RECT_40_20, None, start, goal, margin_deg=10, safety=1.0)
+
+
+def test_safety_factor_one():
+    """safety_factor = 1 is allowed (>= 1) and gives valid plans, one and many at once."""
+    start, goal = [0.0, 0.0, 0.0], [0.1, 0.2, 2.5]
+    plan = pp.plan_pose(RECT, start, goal, safety_factor=1.0)
+    check_plan(plan, RECT, None, start, goal, safety=1.0)
+    rng = np.random.default_rng(5)
+    starts = np.c_[rng.uniform(-0.2, 0.2, (64, 2)), rng.uniform(-8, 8, 64)]
+    goals = np.c_[rng.uniform(-0.2, 0.2, (64, 2)), rng.uniform(-math.pi, math.pi, 64)]
+    batch = pb.plan_pose_batch(RECT, starts, goals, margin_deg=10, safety_factor=1.0, chunk=64)
+    assert batch.ok.all()
+
+
+def test_margin_zero_is_rejected():
+    """margin_deg = 0 would need infinite pushes from the divergent orientation."""
+    with pytest.raises(ValueError, match="^margin_deg"):
+        pp.plan_pose(RECT, [0.0, 0.0, 0.0], [0.1, 0.2, 2.5], margin_deg=0.0)
+
+
+# --------------------------------------------------------------------------
+# near-marginal parts, scale, the effort budget
+# --------------------------------------------------------------------------
+def _marginal_parts(delta, count=7, seed=21):
+    rng = np.random.default_rng(seed)
+    out = []
+    while len(out) < count:
+        pts, com = S.numpy_random_part(rng, max_points=7)
+        body, _, _ = oracle.body_from_part(pts, com)
+        e = int(rng.integers(len(body)))
+        new = S.near_marginal(pts, com, e, int(rng.integers(2)), delta, bool(rng.integers(2)))
+        if new is not None:
+            out.append((pts, new))
+    return out
+
+
+class _Timeout(Exception):
+    pass
+
+
+@pytest.mark.parametrize("delta", [1e-7, 1e-9])
+def test_near_marginal_parts_plan_in_the_usual_time(delta):
+    """A foot of the centre of mass within ``delta`` of an edge end (relative to
+    the edge) makes that edge's maximum reorient angle in one sense tiny; the
+    margin rule halves it, and angle-eating used to plan ~1e7 steps (a hang, or
+    MemoryError).  Now no plan has more than ``max_reorients`` reorient pushes:
+    such a step is simply not used.  Seven parts, each within 20 s (the alarm
+    turns a hang into a failure)."""
+    import signal
+
+    def alarm(*_):
+        raise _Timeout()
+
+    old = signal.signal(signal.SIGALRM, alarm)
+    try:
+        for pts, com in _marginal_parts(delta):
+            start, goal = np.array([0.0, 0.0, 0.3]), np.array([0.1, -0.05, -2.2])
+            signal.alarm(20)
+            try:
+                for strategy in ("search", "paper"):
+                    plan = _plan_or_budget(pts, com, start, goal, strategy=strategy)
+                    if plan is not None:
+                        check_plan(plan, pts, com, start, goal)
+            finally:
+                signal.alarm(0)
+    finally:
+        signal.signal(signal.SIGALRM, old)
+
+
+def test_effort_budget_error_says_so():
+    """A part whose step angles cannot make a turn within max_reorients gets a
+    PlanningError that names the budget."""
+    with pytest.raises(pp.PlanningError, match="max_reorients=2"):
+        pp.plan_pose(RECT, [0.0, 0.0, 0.0], [0.1, 0.2, 3.0], max_reorients=2, strategy="paper")
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e3, 1e9])
+def test_plans_are_exact_at_every_scale(scale):
+    """The same task at scales 1e-3 .. 1e9: every length tolerance is relative
+    to the part's size, so each plan verifies (a 1e9 m part failed its own
+    1e-9 m check) and lengths scale exactly; implausible sizes for metres warn."""
+    pts, com = _fixed_parts()["nice"]
+    start, goal = np.array([0.1, -0.2, 0.4]), np.array([0.3, 0.1, -2.0])
+    ref = _plan(pts, start, goal, com=com)
+    sc = np.array([scale, scale, 1.0])
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        plan = pp.plan_pose(np.asarray(pts) * scale, start * sc, goal * sc, com=np.asarray(com) * scale)
+    warned = any(issubclass(w.category, pg.PartWarning) and "implausible" in str(w.message) for w in seen)
+    size = _size(oracle.body_from_part(pts, com)[0]) * scale
+    assert warned == (not 1e-4 <= size <= 5.0), [str(w.message) for w in seen]
+    check_plan(plan, np.asarray(pts) * scale, np.asarray(com) * scale, start * sc, goal * sc)
+    assert plan.total_distance == pytest.approx(ref.total_distance * scale, rel=1e-9)
+    assert plan.n_pushes == ref.n_pushes
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", pg.PartWarning)
+        batch = pb.plan_pose_batch(np.asarray(pts) * scale, (start * sc)[None], (goal * sc)[None],
+                                   com=np.asarray(com) * scale)
+    assert batch.ok.all() and batch.total_distance[0] == pytest.approx(plan.total_distance, rel=1e-9)
+
+
+def test_millimetre_part_warns():
+    with pytest.warns(pg.PartWarning, match="millimetres"):
+        pg.make_polygon([[0, 0], [30, 0], [30, 20], [0, 20]])
+    with pytest.warns(pg.PartWarning, match="implausible"):
+        pg.make_polygon([[0, 0], [3e-9, 0], [3e-9, 2e-9]])
+
+
