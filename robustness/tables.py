@@ -163,6 +163,7 @@ PLANS_SCHEMA = pa.schema([
     pa.field("verdict", STR),                       # solved | not_solvable | no_plan ...
     pa.field("reason", STR),
     pa.field("plan_class", STR),                    # push plans
+    pa.field("distance_rule", STR),                 # push plans: peshkin | quasi-static
     pa.field("n_steps", I64),                       # pushes or tumbles (0 without a plan)
     pa.field("total_distance_m", F64),              # push plans: total fence travel
     pa.field("straight_distance_m", F64),           # |goal - start| of the position
