@@ -42,8 +42,9 @@ import time
 import warnings
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+# first, even when ROOT is already on PYTHONPATH: the package ``robustness`` must win
+# over bench/robustness.py (this script's folder is sys.path[0])
+sys.path.insert(0, str(ROOT))
 
 import jax  # noqa: E402
 import numpy as np  # noqa: E402

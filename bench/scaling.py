@@ -46,8 +46,9 @@ import time
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = ROOT / "results" / "scaling"
-if str(ROOT) not in sys.path:       # the package ``robustness`` before bench/robustness.py
-    sys.path.insert(0, str(ROOT))
+# first, even when ROOT is already on PYTHONPATH: the package ``robustness`` must win
+# over bench/robustness.py (this script's folder is sys.path[0])
+sys.path.insert(0, str(ROOT))
 
 
 def _bench_robustness():

@@ -113,7 +113,13 @@ def check_plan(plan: PushPlan, vertices, com, start, goal, margin_deg=7.0, safet
             rc = p[:2] - W[piv]
             beta1 = math.atan2(abs(d[0] * rc[1] - d[1] * rc[0]), float(d @ rc))
             want = safety * oracle.peshkin_distance(body, piv, beta1, beta1 + abs(o.rotation), rate_c)
-            assert push.min_distance == pytest.approx(want, rel=1e-8, abs=1e-12 * size), (i, push)
+            # its conditioning: d want / d beta = safety k / sin(beta) at either end (k = want's
+            # gain), and both ends carry rounding of ~1e-15 rad per radian of |theta| (1e-13 here)
+            k = safety * oracle.peshkin_distance(body, piv, 2 * math.atan(math.exp(-1.0)), 0.5 * math.pi,
+                                                 rate_c)
+            cond = k * (1 / math.sin(beta1) + 1 / math.sin(beta1 + abs(o.rotation)))
+            tol = 1e-8 * want + 1e-12 * size + cond * 1e-13 * (1 + abs(p[2]))
+            assert push.min_distance == pytest.approx(want, abs=tol), (i, push, cond)
             if min_mu is not None:
                 assert _stick_ok(math.hypot(*v), support_c[0], min_mu, beta1, beta1 + abs(o.rotation)), i
             senses.append(sense)

@@ -242,7 +242,7 @@ def plan_one(part: PushPart, settings: Settings, start, goal, solver: str = "clo
         results[i] = (float(cand.need.sum() + extra), npush, w)
     best = choose(table, results, settings.objective)
     if best is None:
-        raise PlanningError(_no_plan_message(part, settings, start, goal, cands, boxes))
+        raise PlanningError(_no_plan_message(part, settings, start, goal, cands, boxes, table))
     cost, _, w = results[best]
     return assemble(part, settings, start, goal, cands[best], table, w)
 
@@ -263,7 +263,7 @@ def choose(table: dict, results: list, objective: str) -> Optional[int]:
     return min(i for i in feas if results[i][0] <= low * (1.0 + sq.COST_TIE))
 
 
-def _no_plan_message(part: PushPart, settings: Settings, start, goal, cands, boxes) -> str:
+def _no_plan_message(part: PushPart, settings: Settings, start, goal, cands, boxes, table) -> str:
     where = (f"no feasible pose plan for this {part.class_name} part from {start.tolist()} to "
              f"{goal.tolist()}")
     if settings.workspace is not None and boxes:
@@ -278,8 +278,19 @@ def _no_plan_message(part: PushPart, settings: Settings, start, goal, cands, box
         return (f"{where}: every candidate needs more than max_reorients={settings.max_reorients} "
                 f"reorient pushes, or none is allowed (step angles in degrees per stable edge and "
                 f"sense, - CW + CCW: {steps}{_slip_note(part)}); raise max_reorients")
+    over = _over_budget(table, cands, start, goal)
+    budget = (f"; {over} candidate(s) need more than max_reorients={settings.max_reorients} reorient "
+              f"pushes and were not tried: raise max_reorients" if over else "")
     return (f"{where}: no candidate's push directions positively span the required translation"
-            f"{_slip_note(part)}")
+            f"{budget}{_slip_note(part)}")
+
+
+def _over_budget(table: dict, cands: list, start, goal) -> int:
+    """How many candidates were set aside only for the ``max_reorients`` budget."""
+    theta0 = wrap_angle_np(float(start[2]))
+    thetag = theta0 + wrap_angle_np(float(goal[2]) - theta0)
+    return sum(1 for row, c in enumerate(cands) if c is None and not table["trans"][row]
+               and sq.expand(table, row, theta0, thetag, 1 << 30) is not None)
 
 
 def _slip_note(part: PushPart) -> str:
