@@ -97,3 +97,31 @@ tasks:
     c = pd.read_parquet(out / "certificates")
     assert (c["model"] == "mujoco").all()
     assert "mujoco" in r.stdout.lower()
+
+
+def test_evaluate_tumble_in_mujoco_beside_the_exact_model():
+    """A tumble plan's physics rows carry the exact kinematics' answer on the same draw;
+    the quasi-static columns stay empty (tumbles have no quasi-static model)."""
+    import pathlib
+    import warnings
+
+    import jax
+
+    from planning import plan_tumble
+    from robustness import FrictionRange, GeometryTolerance, Sampler, evaluate
+    from robustness.physics import PhysicsRun
+    from sweeps.partfile import load_part
+
+    cube = load_part(pathlib.Path(__file__).resolve().parents[1] / "examples" / "cube.yaml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plan = plan_tumble(cube.vertices, goal=(0.0, 0.0, 0.0, 1), com=cube.com, eps=2e-3)
+    sam = Sampler(geometry=GeometryTolerance(tau_com=1e-3),
+                  friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(1.5, 1.5)))
+    ev = evaluate(plan, sam, 1, jax.random.key(0), model="mujoco", physics=PhysicsRun(backend="c"))
+    s = ev.samples
+    assert ev.model == "mujoco" and (s["final_face"] == s["planned_face"]).all()
+    assert s["success"].all() and s["success_exact"].all() and s["success_quasistatic"].isna().all()
+    assert (s["dpos_vs_exact_m"] < 1e-3).all() and (s["dtheta_vs_exact_rad"].abs() < 0.01).all()
+    with pytest.raises(ValueError, match="friction.mu_f"):
+        evaluate(plan, Sampler(), 1, jax.random.key(0), model="mujoco")
