@@ -146,7 +146,7 @@ class Evaluation(Strict):
     seed: int = Field(0, ge=0)
     model: Literal["quasistatic", "exact", "mujoco"] = "quasistatic"
     dtype: Literal["float64", "float32"] = "float64"
-    physics: Physics = Field(default_factory=lambda: Physics())
+    physics: Physics = Field(default_factory=Physics)
 
     def sampler(self):
         """The :class:`~robustness.Sampler` of these tolerances."""

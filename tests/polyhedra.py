@@ -1,7 +1,7 @@
 """Polyhedra for the tumbling tests (metres): the bundled examples, boxes, seeded
 random hulls, and the hard families -- non-triangular faces (prisms, frustums,
 antiprism-like bands), nearly coplanar faces, slivers -- with a hypothesis
-strategy over all of them."""
+strategy over all of them; and a brute-force enumeration of tumble words."""
 import math
 import pathlib
 
@@ -10,6 +10,21 @@ import yaml
 from hypothesis import strategies as st
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
+
+
+def non_backtracking_words(table, root, depth):
+    """Brute force: every word of 1..``depth`` tumbles from face ``root`` that never
+    rolls straight back (a face sequence; ``table.neighbors[f]`` the faces next to f),
+    shortest first."""
+    frontier = [((), root, None)]
+    for _ in range(depth):
+        nxt = []
+        for w, f, prev in frontier:
+            for g in table.neighbors[f]:
+                if g != prev:
+                    nxt.append((w + (g,), g, f))
+        yield from (w for w, _, _ in nxt)
+        frontier = nxt
 
 
 def example(name):

@@ -55,39 +55,12 @@ def _rot(t):
     return np.array([[c, -s], [s, c]])
 
 
-def well_conditioned(vertices, com) -> bool:
-    """The part is a sane test subject (see module docstring)."""
-    pts = np.asarray(vertices, float)
-    try:
-        body, _, _ = oracle.body_from_part(pts, com)
-    except Exception:  # qhull: degenerate
-        return False
-    n = len(body)
-    if not 3 <= n <= 6:
-        return False
-    diam = max(float(np.linalg.norm(a - b)) for a in body for b in body)
-    if diam <= 0:
-        return False
-    for k in range(n):
-        a, b, c = body[k - 1], body[k], body[(k + 1) % n]
-        e1, e2 = b - a, c - b
-        if np.linalg.norm(e2) < 0.05 * diam:
-            return False
-        ext = math.atan2(e1[0] * e2[1] - e1[1] * e2[0], float(e1 @ e2))
-        if ext < MIN_EXTERIOR:
-            return False
-        # distance of the com (origin) to edge k -> k+1, and foot position
-        h = (b[0] * c[1] - b[1] * c[0]) / np.linalg.norm(e2)
-        if h < 0.03 * diam:
-            return False
-        f = float(-b @ e2) / float(e2 @ e2)
-        if min(abs(f), abs(f - 1.0)) < 1e-3:
-            return False
-    return True
-
-
-def valid_part(vertices, com, max_vertices: int = 12) -> bool:
-    """A valid part for the planner's property tests (module docstring)."""
+def _part_ok(vertices, com, max_vertices: int, min_edge: float, min_exterior: float,
+             min_inside: float, min_foot) -> bool:
+    """Hull of 3..``max_vertices`` vertices; every edge at least ``min_edge`` of the
+    diameter, every exterior angle at least ``min_exterior`` (rad), the centre of mass
+    at least ``min_inside`` of the diameter inside every edge and, unless
+    ``min_foot`` is None, its foot on every edge at least ``min_foot`` from an end."""
     pts = np.asarray(vertices, float)
     try:
         body, _, _ = oracle.body_from_part(pts, com)
@@ -102,13 +75,28 @@ def valid_part(vertices, com, max_vertices: int = 12) -> bool:
     for k in range(n):
         a, b, c = body[k - 1], body[k], body[(k + 1) % n]
         e1, e2 = b - a, c - b
-        if np.linalg.norm(e2) < 0.01 * diam:
+        if np.linalg.norm(e2) < min_edge * diam:
             return False
-        if math.atan2(e1[0] * e2[1] - e1[1] * e2[0], float(e1 @ e2)) < math.radians(1.0):
+        if math.atan2(e1[0] * e2[1] - e1[1] * e2[0], float(e1 @ e2)) < min_exterior:
             return False
-        if (b[0] * c[1] - b[1] * c[0]) / np.linalg.norm(e2) < 0.01 * diam:
+        # distance of the com (origin) to edge k -> k+1, and foot position
+        if (b[0] * c[1] - b[1] * c[0]) / np.linalg.norm(e2) < min_inside * diam:
             return False
+        if min_foot is not None:
+            f = float(-b @ e2) / float(e2 @ e2)
+            if min(abs(f), abs(f - 1.0)) < min_foot:
+                return False
     return True
+
+
+def well_conditioned(vertices, com) -> bool:
+    """The part is a sane test subject for rate and event comparisons (module docstring)."""
+    return _part_ok(vertices, com, 6, 0.05, MIN_EXTERIOR, 0.03, 1e-3)
+
+
+def valid_part(vertices, com, max_vertices: int = 12) -> bool:
+    """A valid part for the planner's property tests (module docstring)."""
+    return _part_ok(vertices, com, max_vertices, 0.01, math.radians(1.0), 0.01, None)
 
 
 def near_marginal(pts, com, edge: int, at_end: int, delta: float, inside: bool):

@@ -15,30 +15,18 @@ from planning.tumbling.effort import Effort
 from planning.tumbling.motions import Motion
 from planning.tumbling.planner import analyze_polyhedron
 from planning.tumbling.shorten import ShortPlanner
-from tests.polyhedra import box, example, noisy
+from tests.polyhedra import box, example, noisy, non_backtracking_words
 
 
 def planner(V, com=None, **kw):
     return ShortPlanner(analyze_polyhedron(V, com), **kw)
 
 
-def all_words(table, root, depth):
-    frontier = [((), root, None)]
-    for _ in range(depth):
-        nxt = []
-        for w, f, prev in frontier:
-            for g in table.neighbors[f]:
-                if g != prev:
-                    nxt.append((w + (g,), g, f))
-        yield from (w for w, _, _ in nxt)
-        frontier = nxt
-
-
 def shortest_length(table, target: Motion, face: int, up_to: int, scale: float) -> int:
     """Brute force: the fewest tumbles reaching ``target`` on ``face`` (or up_to + 1)."""
     if face == 0 and abs(target.z) < 1e-9 * scale and abs(wrap_angle_np(target.angle)) < 1e-9:
         return 0
-    for w in all_words(table, 0, up_to):
+    for w in non_backtracking_words(table, 0, up_to):
         if w[-1] != face:
             continue
         m = table.word_motion(0, w)

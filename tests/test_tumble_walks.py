@@ -16,28 +16,13 @@ from planning.tumbling.loops import LoopFinder, LoopTolerances
 from planning.tumbling.planner import analyze_polyhedron
 from planning.tumbling.walks import akey, enumerate_walks, grid_key
 from planning.tumbling.words import concat, inverse, junction_cancel, loop_power_length, power, purge
-from tests.polyhedra import example
+from tests.polyhedra import example, non_backtracking_words
 
 TWO_PI = 2 * math.pi
 
 
 def analysis(name):
     return analyze_polyhedron(*example(name))
-
-
-def all_walks(table, root, depth):
-    """Every non-backtracking word of length <= depth from root (brute force)."""
-    out = [()]
-    frontier = [((), root, None)]
-    for _ in range(depth):
-        nxt = []
-        for w, f, prev in frontier:
-            for g in table.neighbors[f]:
-                if g != prev:
-                    nxt.append((w + (g,), g, f))
-        out.extend(w for w, _, _ in nxt)
-        frontier = nxt
-    return out
 
 
 def config_key(table, root, w, scale):
@@ -56,7 +41,7 @@ def test_enumerated_walks_are_the_distinct_configurations_at_their_shortest(name
     W = enumerate_walks(table, 0, 10**6, 1e-9 * scale, max_depth=depth)
     assert W.cost >= len(W)
     brute = {}
-    for w in all_walks(table, 0, depth):
+    for w in [(), *non_backtracking_words(table, 0, depth)]:
         k = config_key(table, 0, w, scale)
         brute[k] = min(brute.get(k, depth + 1), len(w))
     got = {}

@@ -82,8 +82,7 @@ class Candidate:
 def candidates(part: PushPart, table: dict, settings: Settings, start, goal) -> list:
     """Expand every template of ``table`` for this start/goal pair (None where
     a template does not apply), with its LP data."""
-    theta0 = wrap_angle_np(float(start[2]))
-    thetag = theta0 + wrap_angle_np(float(goal[2]) - theta0)
+    theta0, thetag = _orientations(start, goal)
     same = angle_distance(theta0, thetag) <= SAME_ORIENTATION
     out = []
     for row in range(len(table["trans"])):
@@ -93,6 +92,13 @@ def candidates(part: PushPart, table: dict, settings: Settings, start, goal) -> 
         ex = sq.expand(table, row, theta0, thetag, settings.max_reorients)
         out.append(None if ex is None else _lp_data(part, row, ex[0], ex[1], start, goal))
     return out
+
+
+def _orientations(start, goal) -> tuple[float, float]:
+    """Start orientation wrapped to (-pi, pi] and the goal's orientation unwrapped to
+    within pi of it (rad): the reorientations a candidate must turn."""
+    theta0 = wrap_angle_np(float(start[2]))
+    return theta0, theta0 + wrap_angle_np(float(goal[2]) - theta0)
 
 
 def _lp_data(part: PushPart, row: int, steps, thetas, start, goal) -> Candidate:
@@ -287,8 +293,7 @@ def _no_plan_message(part: PushPart, settings: Settings, start, goal, cands, box
 
 def _over_budget(table: dict, cands: list, start, goal) -> int:
     """How many candidates were set aside only for the ``max_reorients`` budget."""
-    theta0 = wrap_angle_np(float(start[2]))
-    thetag = theta0 + wrap_angle_np(float(goal[2]) - theta0)
+    theta0, thetag = _orientations(start, goal)
     return sum(1 for row, c in enumerate(cands) if c is None and not table["trans"][row]
                and sq.expand(table, row, theta0, thetag, 1 << 30) is not None)
 
