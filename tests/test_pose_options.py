@@ -5,6 +5,7 @@ parts, parts at every scale (millimetres, 1e9 m), one by one and batched."""
 from __future__ import annotations
 
 import math
+import pathlib
 import warnings
 
 import numpy as np
@@ -184,3 +185,39 @@ def test_millimetre_part_warns():
         pg.make_polygon([[0, 0], [3e-9, 0], [3e-9, 2e-9]])
 
 
+
+
+def test_uni_stable_runs_also_try_multiples_of_extra_steps(monkeypatch):
+    """A uni-stable part steers only with its reorient runs: the search also
+    tries 2, 3 and 4 times ``extra_steps`` more steps per run (a superset of the
+    candidates, so no plan gets longer), and on the bundled uni-stable part,
+    goals within 15 cm, some plans get shorter; every plan is replayed."""
+    from planning.pushing import sequences as sq
+    from sweeps.partfile import load_part
+
+    assert sq.step_extras(pg.UNI_STABLE, 3) == (0, 1, 2, 3, 6, 9, 12)
+    assert sq.step_extras(pg.NICE_STABLE, 3) == sq.step_extras(pg.BIPLUS_STABLE, 3) == (0, 1, 2, 3)
+    assert sq.step_extras(pg.UNI_STABLE, 0) == (0,)
+    part = load_part(pathlib.Path(__file__).parent.parent / "examples" / "unistable.yaml")
+    rng = np.random.default_rng(3)
+    r, a = 0.15 * np.sqrt(rng.uniform(0, 1, 6)), rng.uniform(-math.pi, math.pi, 6)
+    starts = np.c_[np.zeros((6, 2)), rng.uniform(-math.pi, math.pi, 6)]
+    goals = np.c_[r * np.cos(a), r * np.sin(a), rng.uniform(-math.pi, math.pi, 6)]
+
+    def lengths():
+        out = []
+        for s, g in zip(starts, goals):
+            plan = _plan(part.vertices, s, g, com=part.com)
+            check_plan(plan, part.vertices, part.com, s, g)
+            out.append(plan.total_distance)
+        return np.array(out)
+
+    more = lengths()
+    monkeypatch.setattr(sq, "UNI_STEP_MULTIPLES", ())
+    sq.candidate_table.cache_clear()
+    try:
+        fewer = lengths()
+    finally:
+        sq.candidate_table.cache_clear()
+    assert np.all(more <= fewer * (1 + 1e-9))
+    assert np.any(more < 0.97 * fewer), (more, fewer)

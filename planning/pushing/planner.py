@@ -199,7 +199,9 @@ def plan_pose(vertices, start, goal, com=None, margin_deg: float = 7.0,
       workspace: optional ``(xmin, xmax, ymin, ymax)`` (m, world): every pose
         of the plan and the part swept during every push stay inside.
       max_reorients: the effort budget: no plan has more reorient pushes.
-      extra_steps: the search tries ``n_min .. n_min + extra_steps`` steps per run.
+      extra_steps: the search tries ``n_min .. n_min + extra_steps`` steps per run
+        (uni-stable parts also 2, 3 and 4 times ``extra_steps`` more;
+        :mod:`planning.pushing.sequences`).
 
     Returns:
       A :class:`~planning.pushing.plan.PushPlan` whose exact replay reaches the

@@ -23,7 +23,11 @@ on the same edge by the smaller of its two step angles, then the main run.
 * the number of steps: ``n_min .. n_min + extra_steps`` equal steps
   (``n_min`` the fewest the step angle allows); more, smaller steps start
   farther from the divergent orientation, where the distance rule's
-  ``ln tan`` grows slowly, but make more pushes;
+  ``ln tan`` grows slowly, but make more pushes.  Uni-stable parts also try
+  ``n_min + m extra_steps`` for ``m`` in ``UNI_STEP_MULTIPLES`` (2, 3, 4): with
+  one stable edge their reorient runs are their only way to steer, a turn
+  with small steps sweeps a tighter circle, and the extra-turn plans that
+  cover missing push directions need a full turn's worth of steps;
 * the stable edge of each step: one edge for the whole run (nice-stable parts:
   among the edges whose distance per radian of small steps, ``gain /
   sin(beta2)``, is within ``RATE_PRUNE`` of the best edge's in that sense), and
@@ -75,6 +79,10 @@ EXCURSION_FRACTIONS = (0.5, 1.0)
 #: exceeds the best edge's (in that sense) by more than this factor runs no main run
 RATE_PRUNE = 1.5
 SPLIT_FRACTIONS = (1.0 / 3.0, 2.0 / 3.0)
+#: uni-stable parts steer only by their reorient runs: their main runs also try
+#: these multiples of ``extra_steps`` more steps (more, smaller steps turn on a
+#: tighter circle, towards the distance rule's least distance per radian)
+UNI_STEP_MULTIPLES = (2, 3, 4)
 
 # plan classes (index into planning.pushing.plan.PLAN_CLASSES)
 TRANSLATION, CLS_CW, CLS_CCW, CLS_SING_CW, CLS_SING_CCW = range(5)
@@ -158,6 +166,16 @@ def _paper_rows(part: PushPart, stable, usable, sidx, tier: int) -> list:
     return rows
 
 
+def step_extras(object_class: int, extra_steps: int) -> tuple:
+    """The steps a main run may take beyond the fewest (module docstring):
+    ``0 .. extra_steps``, and for uni-stable parts also ``UNI_STEP_MULTIPLES``
+    times ``extra_steps``."""
+    extras = set(range(extra_steps + 1))
+    if object_class == pg.UNI_STABLE:
+        extras |= {m * extra_steps for m in UNI_STEP_MULTIPLES}
+    return tuple(sorted(extras))
+
+
 def _search_rows(part: PushPart, stable, usable, sidx, extra_steps: int) -> list:
     """The search's own candidates (module docstring), all of tier 0."""
     rows = []
@@ -165,6 +183,7 @@ def _search_rows(part: PushPart, stable, usable, sidx, extra_steps: int) -> list
     turns = (0,) if cls == pg.NICE_STABLE else (0, 1)
     fracs = () if cls == pg.NICE_STABLE else EXCURSION_FRACTIONS
     splits = SPLIT_FRACTIONS if cls == pg.BIPLUS_STABLE else ()
+    extras = step_extras(cls, extra_steps)
     for sense in (pg.CW, pg.CCW):
         opp = 1 - sense
         cheap = [e for e in stable if usable[e, opp]]
@@ -187,7 +206,7 @@ def _search_rows(part: PushPart, stable, usable, sidx, extra_steps: int) -> list
             for pre_e, pre_ang, pre_cnt, post_e, post_ang, post_cnt in excs:
                 sing = pre_e >= 0 or post_e >= 0
                 for a, b, f in pairs:
-                    for extra in range(extra_steps + 1):
+                    for extra in extras:
                         rows.append(_row(cls=(CLS_SING_CW if sing else CLS_CW) + sense, sense=sense,
                                          turns=t, a=a, b=b, sa=sidx[a], sb=sidx[b], extra=extra,
                                          split=f, pre_e=pre_e, pre_ang=pre_ang, pre_cnt=pre_cnt,
