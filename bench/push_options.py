@@ -13,7 +13,9 @@ margin 7 deg, safety factor 1.15: the setting of ``bench/push_planning.py``):
   (30 x 30 cm around the start).  Goals whose goal pose itself does not hold the
   part inside are set aside and counted.  Every plan's poses are checked inside
   here independently (part extent at each replayed pose); ``ws_ok`` is the
-  fraction of the remaining goals that got a plan.
+  fraction of the remaining goals that got a plan.  For the goals without one,
+  the scale of the smallest workspace found (the planner's ``WorkspaceError``:
+  the workspace scaled about its centre) says how much larger a table they need.
 * **slip-aware**: the support range ``c`` of each part is the 5-95 % range of
   the default sampler's limit-surface ratio (16 support points, Dirichlet 1,
   centred under the centre of mass); plans with ``support`` only and with
@@ -30,7 +32,7 @@ margin 7 deg, safety factor 1.15: the setting of ``bench/push_planning.py``):
   range; ``mj_ok`` is the fraction of runs ending within 1 % of the start-goal
   distance and 1 degree of the goal.
 
-Last line: ``RESULT ws_ok=F no_slip=F no_slip_support_only=F mj_ok=F
+Last line: ``RESULT ws_ok=F ws_fail_scale_median=S no_slip=F no_slip_support_only=F mj_ok=F
 slip_aware_cost_median=R slip_aware_cost_max=R``.
 """
 from __future__ import annotations
@@ -51,7 +53,7 @@ sys.path.append(os.path.dirname(__file__))
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-from planning import plan_pose_batch, prepare_part  # noqa: E402
+from planning import WorkspaceError, plan_pose, plan_pose_batch, prepare_part  # noqa: E402
 from planning.pushing.workspace import part_extent  # noqa: E402
 from push_planning import bundled_polygons, near_goals  # noqa: E402
 from robustness import FrictionRange, Sampler, evaluate  # noqa: E402
@@ -96,8 +98,15 @@ def workspace_rows(parts, starts, goals):
         free = plan_pose_batch(verts, starts[fits], goals[fits], com=com)
         ok_in = np.array([bool(b.ok[i]) and inside(b, WORKSPACE, i) for i in range(len(b))])
         ratio = b.total_distance[b.ok] / straight[fits][b.ok]
+        scales = []   # the failed goals: the least scale of the workspace the planner's error names
+        for i in np.flatnonzero(~b.ok):
+            try:
+                plan_pose(verts, starts[fits][i], goals[fits][i], com=com, workspace=WORKSPACE)
+                scales.append(1.0)
+            except WorkspaceError as err:
+                scales.append(err.scale)
         rows.append(dict(part=name, cls=cls, goals=int(fits.sum()), set_aside=int((~fits).sum()),
-                         ok=float(ok_in.mean()), replanned=len(b.replanned), secs=secs,
+                         ok=float(ok_in.mean()), replanned=len(b.replanned), secs=secs, scales=np.array(scales),
                          median=float(np.median(ratio)),
                          median_free=float(np.median(free.total_distance / straight[fits]))))
     return rows
@@ -196,10 +205,12 @@ def main(argv=None) -> None:
     wrows = workspace_rows(parts, starts, goals)
     print(f"workspace 30 x 30 cm around the start, {args.goals} goals within 15 cm")
     print(f"{'part':<16}{'class':<15}{'goals':>6}{'aside':>6}{'ok':>8}{'numpy':>7}{'median':>8}"
-          f"{'free':>7}{'s':>7}")
+          f"{'free':>7}{'s':>7}   failed: scale of the smallest workspace found (min / median / max)")
     for r in wrows:
+        sc = np.quantile(r["scales"], [0.0, 0.5, 1.0]) if len(r["scales"]) else None
         print(f"{r['part']:<16}{r['cls']:<15}{r['goals']:>6}{r['set_aside']:>6}{r['ok']:>8.1%}"
-              f"{r['replanned']:>7}{r['median']:>8.2f}{r['median_free']:>7.2f}{r['secs']:>7.1f}")
+              f"{r['replanned']:>7}{r['median']:>8.2f}{r['median_free']:>7.2f}{r['secs']:>7.1f}   "
+              + ("-" if sc is None else f"{sc[0]:.3f} / {sc[1]:.3f} / {sc[2]:.3f}"))
     n_ws = sum(r["goals"] for r in wrows)
     ws_ok = sum(r["ok"] * r["goals"] for r in wrows) / n_ws
 
@@ -231,7 +242,8 @@ def main(argv=None) -> None:
     runs = [o for p in prow for o in p["ok"]]
     mj_ok = float(np.mean(runs)) if runs else math.nan
     allrel = np.array(allrel)
-    print(f"RESULT ws_ok={ws_ok:.4f} no_slip={ns / max(tot, 1):.4f} "
+    fail_scales = np.concatenate([r["scales"] for r in wrows])
+    print(f"RESULT ws_ok={ws_ok:.4f} ws_fail_scale_median={_median(fail_scales):.3f} no_slip={ns / max(tot, 1):.4f} "
           f"no_slip_support_only={nsup / max(totsup, 1):.4f} mj_ok={mj_ok:.3f} "
           f"slip_aware_cost_median={_median(allrel):.3f} "
           f"slip_aware_cost_max={allrel.max() if len(allrel) else math.nan:.3f}")

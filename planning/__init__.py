@@ -13,7 +13,7 @@ every returned plan has been replayed by the exact kinematics of
 :mod:`kernels`.  Units: metres, radians, CCW positive.
 """
 from planning.pushing.batch import PushPlanBatch, plan_pose_batch
-from planning.pushing.part import PlanningError, PushPart, prepare_part
+from planning.pushing.part import PlanningError, PushPart, WorkspaceError, prepare_part
 from planning.pushing.plan import Push, PushPlan
 from planning.pushing.planner import plan_pose
 from planning.tumbling.analysis import TumbleAnalysis
@@ -22,6 +22,6 @@ from planning.tumbling.planner import analyze_polyhedron, plan_tumble
 
 __all__ = [
     "plan_pose", "plan_pose_batch", "prepare_part", "PushPart", "PushPlanBatch", "Push",
-    "PushPlan", "PlanningError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
+    "PushPlan", "PlanningError", "WorkspaceError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
     "Tumble", "TumblePlan",
 ]

@@ -221,3 +221,74 @@ def test_uni_stable_runs_also_try_multiples_of_extra_steps(monkeypatch):
         sq.candidate_table.cache_clear()
     assert np.all(more <= fewer * (1 + 1e-9))
     assert np.any(more < 0.97 * fewer), (more, fewer)
+
+
+def test_no_sticking_reorient_push_says_why():
+    """The bundled uni-stable part has no reorient push that sticks at fence
+    friction 0.5 over its sampler's c range: the error says that only
+    translations exist, and what to change, instead of asking for a larger
+    reorient budget."""
+    from sweeps.partfile import load_part
+
+    part = load_part(pathlib.Path(__file__).parent.parent / "examples" / "unistable.yaml")
+    kw = dict(com=part.com, support={"c": [0.0014, 0.0152]}, min_fence_mu=0.5)
+    with pytest.raises(pp.PlanningError, match="only translation plans exist.*higher min_fence_mu") as err:
+        _plan(part.vertices, (0, 0, 0), (0.1, 0.05, 1.0), **kw)
+    assert "max_reorients" not in str(err.value)
+    assert _plan(part.vertices, (0, 0, 0), (0.1, 0.05, 1.0), **{**kw, "min_fence_mu": None}).n_pushes > 0
+
+
+def test_workspace_error_names_a_workspace_that_holds_a_plan():
+    """A uni-stable part turns on a circle of 8 cm or more: 7.8 cm from the start
+    with a 24 deg turn, no plan stays inside 30 x 30 cm.  The error names the
+    smallest workspace found, the given one scaled about its centre, and a plan
+    does fit that one (replayed, inside)."""
+    from sweeps.partfile import load_part
+
+    part = load_part(pathlib.Path(__file__).parent.parent / "examples" / "unistable.yaml")
+    start, goal = np.array([0.0, 0.0, -0.0162]), np.array([0.034, -0.0701, -0.438])
+    ws = (-0.15, 0.15, -0.15, 0.15)
+    with pytest.raises(pp.WorkspaceError, match=r"smallest workspace found \(this one scaled about its "
+                                                r"centre, by 1\.\d+\)") as err:
+        _plan(part.vertices, start, goal, com=part.com, workspace=ws)
+    scale, box = err.value.scale, err.value.smallest
+    assert 1.0 < scale < 2.0
+    np.testing.assert_allclose(box, np.array(ws) * scale, rtol=1e-12)
+    roomy = tuple(b + d for b, d in zip(box, (-1e-6, 1e-6, -1e-6, 1e-6)))
+    plan = _plan(part.vertices, start, goal, com=part.com, workspace=roomy)
+    check_plan(plan, part.vertices, part.com, start, goal, workspace=roomy)
+    with pytest.raises(pp.WorkspaceError):      # and it is the smallest: 1 % less holds none
+        _plan(part.vertices, start, goal, com=part.com, workspace=tuple(0.99 * b for b in box))
+
+
+def test_uni_stable_last_step_of_its_own(monkeypatch):
+    """Uni-stable main runs may end with a step of a quarter to all of the step
+    angle, the steps before it sharing the rest (rule ``LAST``): on the bundled
+    part this goal's plan drops from over 3x to under 2x the straight distance;
+    the batch planner gives the same plan."""
+    from planning.pushing import sequences as sq
+    from sweeps.partfile import load_part
+
+    part = load_part(pathlib.Path(__file__).parent.parent / "examples" / "unistable.yaml")
+    start, goal = np.array([0.0, 0.0, -3.0411]), np.array([-0.1223, 0.0359, 0.9589])
+    straight = math.hypot(goal[0], goal[1])
+    plan = _plan(part.vertices, start, goal, com=part.com)
+    check_plan(plan, part.vertices, part.com, start, goal)
+    turns = [p.rotation for p in plan.pushes if p.rotation]
+    step = _cw_step(part)
+    assert plan.total_distance < 2.0 * straight
+    assert abs(abs(turns[-1]) - 0.75 * step) < 1e-9 and len({round(t, 12) for t in turns[:-1]}) == 1
+    batch = pb.plan_pose_batch(part.vertices, start[None], goal[None], com=part.com)
+    assert abs(batch.total_distance[0] - plan.total_distance) <= 1e-12 * plan.total_distance
+    monkeypatch.setattr(sq, "LAST_FRACTIONS", ())
+    sq.candidate_table.cache_clear()
+    try:
+        assert _plan(part.vertices, start, goal, com=part.com).total_distance > 3.0 * straight
+    finally:
+        sq.candidate_table.cache_clear()
+
+
+def _cw_step(part) -> float:
+    """The CW step angle (rad) of a bundled uni-stable part's one stable edge."""
+    p = pp.prepare_part(part.vertices, part.com)
+    return float(p.step[p.stable[0], pg.CW])

@@ -7,7 +7,8 @@ Per candidate the work is O(stable edges), whatever the number of steps:
 
 * a candidate's reorient pushes form *runs* of equal steps (pre-excursion,
   the main run on edge A, then on edge B, post-excursion; the paper's
-  angle-eating run is full steps and one last step).  A push of angle ``a``
+  angle-eating run is full steps and one last step, rule ``LAST`` equal steps
+  and a last step of its own).  A push of angle ``a``
   about pivot ``v`` that ends at orientation ``theta`` moves the centre of mass
   by ``R(theta) Q`` with ``Q = R(-sigma a) v - v + need(a) u(omega)``, so a run's
   displacement is ``Q`` times a geometric sum of rotations (closed form);
@@ -170,7 +171,7 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
     host["spost"] = np.array([sidx.get(int(e), 0) for e in host["post_e"]])
     host["row"] = np.arange(len(host["trans"])) if rows is None else np.asarray(rows)
     has_pre, has_post = bool(np.any(host["pre_cnt"] > 0)), bool(np.any(host["post_cnt"] > 0))
-    simple = not (np.any(host["split"] != 0.0) or np.any(host["rule"] == sq.EAT))
+    simple = not (np.any(host["split"] != 0.0) or np.any(host["rule"] != sq.EQUAL))
     span = np.max(TWO_PI * (1 + host["turns"]) + host["pre_ang"] + host["post_ang"])
     crossings = max(1, int(math.ceil(span / TWO_PI - 1e-9)))
     cand = {k: jnp.asarray(v) for k, v in host.items()}
@@ -190,16 +191,19 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
         base = delta + TWO_PI * c["turns"]
         total = base + c["pre_ang"] + c["post_ang"]
         step = jnp.where(c["step"] > 0, c["step"], 1.0)
-        n = jnp.ceil(total / step * (1.0 - sq.STEP_ROUND)).astype(jnp.int32) + c["extra"]
+        lastr = c["rule"] == sq.LAST              # n - 1 equal steps share ``rest``, then ``last``
+        rest = total - c["last"]
+        n = jnp.where(lastr, jnp.ceil(rest / step * (1.0 - sq.STEP_ROUND)).astype(jnp.int32) + c["extra"] + 1,
+                      jnp.ceil(total / step * (1.0 - sq.STEP_ROUND)).astype(jnp.int32) + c["extra"])
         p, q = c["pre_cnt"], c["post_cnt"]
         r = jnp.where(trans, 0, n + p + q)
         split = c["split"] != 0.0
         valid = jnp.where(trans, jnp.abs(wrap_angle(thetag - theta0)) <= SAME_ORIENTATION,
-                          (c["step"] > 0) & (r <= R) & (~split | (n >= 2)))
+                          (c["step"] > 0) & (r <= R) & (~split | (n >= 2)) & (~lastr | (rest > 0.0)))
         eat = c["rule"] == sq.EAT
         nf = n.astype(total.dtype)
         j = jnp.where(split, jnp.clip(jnp.round(c["split"] * nf).astype(jnp.int32), 1, n - 1), n)
-        alpha = total / nf
+        alpha = jnp.where(lastr, rest / jnp.where(nf > 1.0, nf - 1.0, 1.0), total / nf)
         a_main = jnp.where(eat, step, alpha)
         s_main = sgn * a_main
         theta_m0 = theta0 - sgn * c["pre_ang"]
@@ -214,7 +218,7 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
             shift = mag * _rotq(cen, QA)
             sum_need = nf * needA
         else:
-            a_last = jnp.where(eat, total - (nf - 1.0) * step, alpha)
+            a_last = jnp.where(eat, total - (nf - 1.0) * step, jnp.where(lastr, c["last"], alpha))
             last_on_b = (j < n) & ~eat
             needB = _need(c["gB"], c["b2B"], alpha)
             needL = _need(jnp.where(last_on_b, c["gB"], c["gA"]), jnp.where(last_on_b, c["b2B"], c["b2A"]),
@@ -377,7 +381,7 @@ def _assemble(g, c, theta0, ns, R, stable, drop, feasible):
     edge = sel(c["pre_e"], c["a"], c["b"], jnp.where(lb, c["b"], c["a"]), c["post_e"])
     piv = sel(c["pivP"], c["pivA"], c["pivB"], jnp.where(lb, c["pivB"], c["pivA"]), c["pivO"])
     need = sel(c["needP"], g["needA"], g["needB"], g["needL"], c["needO"])
-    a_last = jnp.where(c["rule"] == sq.EAT, g["a_last"], g["a_main"])
+    a_last = g["a_last"]
     least = sel(c["leastP"], _least(c["gA"], c["b2A"], g["a_main"]), _least(c["gB"], c["b2B"], g["a_main"]),
                 jnp.where(lb, _least(c["gB"], c["b2B"], a_last), _least(c["gA"], c["b2A"], a_last)),
                 c["leastO"])

@@ -51,6 +51,17 @@ class PlanningError(RuntimeError):
     """No plan could be produced or verified; the message says why."""
 
 
+class WorkspaceError(PlanningError):
+    """No plan fits the workspace.  ``scale``: the least factor found by which
+    the workspace, scaled about its centre, holds a plan (``inf``: none found);
+    ``smallest``: that workspace ``(xmin, xmax, ymin, ymax)`` (m), or None."""
+
+    def __init__(self, message: str, scale: float = math.inf, smallest=None):
+        super().__init__(message)
+        self.scale = scale
+        self.smallest = None if smallest is None else tuple(float(x) for x in smallest)
+
+
 # --------------------------------------------------------------------------
 # Part preparation (host side)
 # --------------------------------------------------------------------------

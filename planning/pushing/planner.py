@@ -33,7 +33,7 @@ from kernels.precision import float64
 from kernels.push import replay_pushes
 from planning.pushing import pose_lp, sequences as sq, workspace as wsp
 from planning.pushing.part import (ANG_TOL, OBJECTIVES, SAME_ORIENTATION, PlanningError, PushPart,
-                                   check_pose, prepare_part)
+                                   WorkspaceError, check_pose, prepare_part)
 from planning.pushing.plan import Push, PushPlan
 
 SOLVERS = ("closed_form", "cvxpy")
@@ -250,7 +250,9 @@ def plan_one(part: PushPart, settings: Settings, start, goal, solver: str = "clo
         results[i] = (float(cand.need.sum() + extra), npush, w)
     best = choose(table, results, settings.objective)
     if best is None:
-        raise PlanningError(_no_plan_message(part, settings, start, goal, cands, boxes, table))
+        if settings.workspace is not None and boxes:
+            raise _workspace_error(part, settings, start, goal, boxes)
+        raise PlanningError(_no_plan_message(part, settings, start, goal, cands, table))
     cost, _, w = results[best]
     return assemble(part, settings, start, goal, cands[best], table, w)
 
@@ -271,15 +273,30 @@ def choose(table: dict, results: list, objective: str) -> Optional[int]:
     return min(i for i in feas if results[i][0] <= low * (1.0 + sq.COST_TIE))
 
 
-def _no_plan_message(part: PushPart, settings: Settings, start, goal, cands, boxes, table) -> str:
-    where = (f"no feasible pose plan for this {part.class_name} part from {start.tolist()} to "
-             f"{goal.tolist()}")
-    if settings.workspace is not None and boxes:
-        # smallest (by area) workspace, relative to the start, that one candidate needs
-        box = min(boxes, key=lambda b: (b[1] - b[0]) * (b[3] - b[2]))
-        return (f"{where} inside the workspace {list(settings.workspace)}: no candidate fits; the "
-                f"smallest workspace found is (xmin, xmax, ymin, ymax) = ({box[0]:.6g}, {box[1]:.6g}, "
-                f"{box[2]:.6g}, {box[3]:.6g}) m ({box[1] - box[0]:.4g} x {box[3] - box[2]:.4g} m)")
+def _where(part: PushPart, start, goal) -> str:
+    return f"no feasible pose plan for this {part.class_name} part from {start.tolist()} to {goal.tolist()}"
+
+
+def _workspace_error(part: PushPart, settings: Settings, start, goal, boxes) -> WorkspaceError:
+    """No candidate fits the workspace: the error names the smallest workspace
+    found (the given one scaled about its centre; :func:`workspace.smallest_workspace`)."""
+    scale, box = wsp.smallest_workspace(boxes, settings.workspace)
+    found = (f"the smallest workspace found (this one scaled about its centre, by {scale:.4g}) is "
+             f"(xmin, xmax, ymin, ymax) = ({box[0]:.6g}, {box[1]:.6g}, {box[2]:.6g}, {box[3]:.6g}) m "
+             f"({box[1] - box[0]:.4g} x {box[3] - box[2]:.4g} m)" if math.isfinite(scale)
+             else "no larger workspace about its centre was found either")
+    return WorkspaceError(f"{_where(part, start, goal)} inside the workspace {list(settings.workspace)}: no "
+                          f"candidate fits; {found}", scale, box if math.isfinite(scale) else None)
+
+
+def _no_plan_message(part: PushPart, settings: Settings, start, goal, cands, table) -> str:
+    where = _where(part, start, goal)
+    if (all(c is None for c in cands) and part.min_fence_mu is not None
+            and not np.any(part.step[list(part.stable)] > 0.0)):
+        return (f"{where}: only translation plans exist (the goal orientation must be the start's): no "
+                f"reorient push of this part sticks at fence friction {part.min_fence_mu:g} for every c in "
+                f"{list(part.support_c)} m; give a higher min_fence_mu (the fence's real friction) or a "
+                f"narrower support c range, or drop min_fence_mu")
     if all(c is None for c in cands):
         steps = {f"{e}{'+' if s else '-'}": round(math.degrees(part.step[e, s]), 4)
                  for e in part.stable for s in (0, 1)}

@@ -27,7 +27,12 @@ on the same edge by the smaller of its two step angles, then the main run.
   ``n_min + m extra_steps`` for ``m`` in ``UNI_STEP_MULTIPLES`` (2, 3, 4): with
   one stable edge their reorient runs are their only way to steer, a turn
   with small steps sweeps a tighter circle, and the extra-turn plans that
-  cover missing push directions need a full turn's worth of steps;
+  cover missing push directions need a full turn's worth of steps.  Their
+  main runs may also end with a step of its own (rule ``LAST``): a quarter,
+  half, three quarters or all of the step angle, the steps before it sharing
+  the rest equally; the last push direction then falls elsewhere, which often
+  turns a detour into a direct approach (on the bundled part a fifth of the
+  goals get 8 % to 69 % shorter plans);
 * the stable edge of each step: one edge for the whole run (nice-stable parts:
   among the edges whose distance per radian of small steps, ``gain /
   sin(beta2)``, is within ``RATE_PRUNE`` of the best edge's in that sense), and
@@ -39,7 +44,8 @@ on the same edge by the smaller of its two step angles, then the main run.
   opposite sense (cheapest: the smallest ``gain / sin(beta2)``, the distance
   per radian of small steps), split into the fewest steps.
 
-Not searched: unequal steps within a run (beyond the two-edge split), more
+Not searched: unequal steps within a run (beyond the two-edge split and the
+last step of its own), more
 than two edges per run, more than one excursion per plan or one extra turn,
 excursions and turns for nice-stable parts (their translations span the plane
 at every orientation, so nearly every candidate is feasible without them), and
@@ -83,13 +89,16 @@ SPLIT_FRACTIONS = (1.0 / 3.0, 2.0 / 3.0)
 #: these multiples of ``extra_steps`` more steps (more, smaller steps turn on a
 #: tighter circle, towards the distance rule's least distance per radian)
 UNI_STEP_MULTIPLES = (2, 3, 4)
+#: uni-stable parts: main runs whose last step turns these fractions of the step
+#: angle and the steps before it share the rest equally (rule ``LAST``)
+LAST_FRACTIONS = (0.25, 0.5, 0.75, 1.0)
 
 # plan classes (index into planning.pushing.plan.PLAN_CLASSES)
 TRANSLATION, CLS_CW, CLS_CCW, CLS_SING_CW, CLS_SING_CCW = range(5)
-EQUAL, EAT = 0, 1
+EQUAL, EAT, LAST = 0, 1, 2
 
 FIELDS = ("cls", "trans", "tier", "sense", "turns", "rule", "a", "b", "sa", "sb", "extra",
-          "split", "pre_e", "pre_ang", "pre_cnt", "post_e", "post_ang", "post_cnt", "step")
+          "split", "pre_e", "pre_ang", "pre_cnt", "post_e", "post_ang", "post_cnt", "step", "last")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -120,7 +129,7 @@ def _rate(part: PushPart, e: int, sense: int) -> float:
 def _row(**kw) -> dict:
     base = dict(cls=0, trans=0, tier=0, sense=0, turns=0, rule=EQUAL, a=0, b=0, sa=0, sb=0, extra=0,
                 split=0.0, pre_e=-1, pre_ang=0.0, pre_cnt=0, post_e=-1, post_ang=0.0, post_cnt=0,
-                step=1.0)
+                step=1.0, last=0.0)
     base.update(kw)
     return base
 
@@ -206,12 +215,16 @@ def _search_rows(part: PushPart, stable, usable, sidx, extra_steps: int) -> list
             for pre_e, pre_ang, pre_cnt, post_e, post_ang, post_cnt in excs:
                 sing = pre_e >= 0 or post_e >= 0
                 for a, b, f in pairs:
-                    for extra in extras:
-                        rows.append(_row(cls=(CLS_SING_CW if sing else CLS_CW) + sense, sense=sense,
-                                         turns=t, a=a, b=b, sa=sidx[a], sb=sidx[b], extra=extra,
-                                         split=f, pre_e=pre_e, pre_ang=pre_ang, pre_cnt=pre_cnt,
-                                         post_e=post_e, post_ang=post_ang, post_cnt=post_cnt,
-                                         step=min(part.step[a, sense], part.step[b, sense])))
+                    step = min(part.step[a, sense], part.step[b, sense])
+                    lasts = [(EQUAL, 0.0)] + ([(LAST, fr * step) for fr in LAST_FRACTIONS]
+                                              if cls == pg.UNI_STABLE and a == b and step > 0 else [])
+                    for rule, last in lasts:
+                        for extra in extras:
+                            rows.append(_row(cls=(CLS_SING_CW if sing else CLS_CW) + sense, sense=sense,
+                                             turns=t, rule=rule, a=a, b=b, sa=sidx[a], sb=sidx[b],
+                                             extra=extra, split=f, pre_e=pre_e, pre_ang=pre_ang,
+                                             pre_cnt=pre_cnt, post_e=post_e, post_ang=post_ang,
+                                             post_cnt=post_cnt, step=step, last=last))
     return rows
 
 
@@ -251,8 +264,8 @@ def expand(table: dict, row: int, theta0: float, thetag: float,
     Returns ``(steps, thetas)``: the :class:`Step` list and the ``len(steps) + 1``
     orientations (rad; ``thetas[0] = theta0``, the last one ``theta0 + sgn Delta``
     exactly), or None when the candidate does not apply (a translation plan for
-    different orientations, a two-edge split of one step, or more than
-    ``max_reorients`` reorient pushes).
+    different orientations, a two-edge split of one step, a last step of its
+    own that turns the whole run, or more than ``max_reorients`` reorient pushes).
     """
     c = {k: v[row] for k, v in table.items()}
     if c["trans"]:
@@ -263,7 +276,13 @@ def expand(table: dict, row: int, theta0: float, thetag: float,
     total = delta + 2 * math.pi * int(c["turns"]) + float(c["pre_ang"]) + float(c["post_ang"])
     if c["step"] <= 0.0:
         return None
-    n = main_count(total, float(c["step"]), int(c["extra"]))
+    if c["rule"] == LAST:
+        rest = total - float(c["last"])
+        if not rest > 0.0:
+            return None
+        n = main_count(rest, float(c["step"]), int(c["extra"])) + 1
+    else:
+        n = main_count(total, float(c["step"]), int(c["extra"]))
     if n + int(c["pre_cnt"]) + int(c["post_cnt"]) > max_reorients:
         return None
     opp = 1 - sense
@@ -273,6 +292,8 @@ def expand(table: dict, row: int, theta0: float, thetag: float,
     if c["rule"] == EAT:
         full = float(c["step"])
         steps += [Step(int(c["a"]), sense, full)] * (n - 1) + [Step(int(c["a"]), sense, total - (n - 1) * full)]
+    elif c["rule"] == LAST:
+        steps += [Step(int(c["a"]), sense, rest / (n - 1))] * (n - 1) + [Step(int(c["a"]), sense, float(c["last"]))]
     else:
         if c["split"] != 0.0 and n < 2:
             return None

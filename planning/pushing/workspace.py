@@ -176,6 +176,42 @@ def solve_in_workspace(cols: np.ndarray, target: np.ndarray, G, a, kinds, worksp
     return w
 
 
+def smallest_scale(cols: np.ndarray, target: np.ndarray, G, a, kinds, workspace) -> float:
+    """The least factor ``s`` by which ``workspace``, scaled about its centre,
+    holds a plan of this candidate (its push lengths free: the LP in
+    ``(w, s)``, minimise ``s`` subject to ``cols w = target``, ``w >= 0`` and
+    every row inside the scaled workspace; HiGHS via scipy).  ``inf`` when the
+    solver finds none."""
+    from scipy.optimize import linprog
+
+    ws = np.asarray(workspace, float)
+    centre = np.array([0.5 * (ws[0] + ws[1])] * 2 + [0.5 * (ws[2] + ws[3])] * 2)
+    half = np.array([0.5 * (ws[1] - ws[0])] * 2 + [0.5 * (ws[3] - ws[2])] * 2)
+    lower = kinds % 2 == 0
+    # lower: a + G w >= c - s h  <=>  -G w - h s <= a - c ;  upper: G w - h s <= c - a
+    A_ub = np.c_[np.where(lower[:, None], -G, G), -half[kinds]]
+    b_ub = np.where(lower, a - centre[kinds], centre[kinds] - a)
+    c = np.zeros(cols.shape[1] + 1)
+    c[-1] = 1.0
+    res = linprog(c, A_ub=A_ub, b_ub=b_ub, A_eq=np.c_[cols, np.zeros(2)], b_eq=target,
+                  bounds=(0, None), method="highs")
+    return float(res.x[-1]) if res.status == 0 and res.x is not None else math.inf
+
+
+def smallest_workspace(found: list, workspace, tries: int = 16):
+    """``(scale, box)``: the least scale (:func:`smallest_scale`) of ``workspace``
+    about its centre over the candidates in ``found`` (``(needed box, cols,
+    target, G, a, kinds)`` per candidate whose unconstrained optimum did not
+    fit, as :func:`fit` records them; the ``tries`` with the smallest needed
+    boxes are solved), and that scaled workspace ``(xmin, xmax, ymin, ymax)`` (m)."""
+    ws = np.asarray(workspace, float)
+    order = sorted(found, key=lambda f: (f[0][1] - f[0][0]) * (f[0][3] - f[0][2]))[:tries]
+    scale = min((smallest_scale(*f[1:], ws) for f in order), default=math.inf)
+    cx, cy = 0.5 * (ws[0] + ws[1]), 0.5 * (ws[2] + ws[3])
+    hx, hy = 0.5 * (ws[1] - ws[0]) * scale, 0.5 * (ws[3] - ws[2]) * scale
+    return scale, np.array([cx - hx, cx + hx, cy - hy, cy + hy])
+
+
 def swept_boxes(body: np.ndarray, start, directions, poses_after, pivots, rotations,
                 min_distances) -> np.ndarray:
     """Bounding boxes ``(Q, 4)`` ``(xmin, xmax, ymin, ymax)`` of the part swept by
@@ -267,15 +303,16 @@ def check_inside(part, ws, pose, field: str) -> None:
 
 def fit(part, cand, w, ws, start, boxes):
     """The candidate's LP optimum inside the workspace: the closed form's if it
-    fits, else the constrained LP's; None when none fits.  Appends the box the
-    unconstrained optimum needs to ``boxes`` (for the error message)."""
+    fits, else the constrained LP's; None when none fits.  Appends ``(box the
+    unconstrained optimum needs, LP data)`` to ``boxes`` (for the error
+    message's :func:`smallest_workspace`)."""
     ev = events(part, cand)
     G, a, kinds = constraint_rows(ev, part.body, np.asarray(start[:2], float), len(cand.angles))
     tol = part.pos_tol(*start[:2])
     if violation(G, a, kinds, ws, w) <= tol:
         return w
-    boxes.append(needed_box(G, a, kinds, w))
     cols = np.stack([np.cos(cand.angles), np.sin(cand.angles)])
+    boxes.append((needed_box(G, a, kinds, w), cols, cand.target, G, a, kinds))
     return solve_in_workspace(cols, cand.target, G, a, kinds, ws, tol)
 
 
