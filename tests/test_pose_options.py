@@ -292,3 +292,85 @@ def _cw_step(part) -> float:
     """The CW step angle (rad) of a bundled uni-stable part's one stable edge."""
     p = pp.prepare_part(part.vertices, part.com)
     return float(p.step[p.stable[0], pg.CW])
+
+
+@pytest.mark.parametrize("objective", ["distance", "pushes"])
+def test_workspace_bound_gives_the_plan_of_fitting_every_candidate(monkeypatch, objective):
+    """With a workspace, candidates are fitted in the order of their
+    unconstrained optimum and the fitting stops once none left can be chosen:
+    the plans (or the WorkspaceError and its scale) are those of fitting every
+    candidate, and most fits are skipped."""
+    from planning.pushing import workspace as wsp
+    from sweeps.partfile import load_part
+
+    part = load_part(pathlib.Path(__file__).parent.parent / "examples" / "unistable.yaml")
+    rng = np.random.default_rng(5)
+    ws = (-0.15, 0.15, -0.15, 0.15)
+    calls = [0]
+    real_fit = wsp.fit
+
+    def counted(*a, **k):
+        calls[0] += 1
+        return real_fit(*a, **k)
+
+    monkeypatch.setattr(wsp, "fit", counted)
+
+    def run(exhaustive):
+        monkeypatch.setattr(pp, "EXHAUSTIVE_FIT", exhaustive)
+        calls[0] = 0
+        out = []
+        for start, goal in pairs:
+            try:
+                out.append(_plan(part.vertices, start, goal, com=part.com, workspace=ws, objective=objective))
+            except pp.WorkspaceError as err:
+                out.append(err.scale)
+        return out, calls[0]
+
+    prepared = pp.prepare_part(part.vertices, part.com)
+    pairs = []
+    while len(pairs) < 6:   # goals within 15 cm whose pose the workspace holds
+        r, a = 0.15 * math.sqrt(rng.uniform()), rng.uniform(-math.pi, math.pi)
+        start = np.array([0.0, 0.0, rng.uniform(-math.pi, math.pi)])
+        goal = np.array([r * math.cos(a), r * math.sin(a), rng.uniform(-math.pi, math.pi)])
+        if not any(wsp.outside(wsp.pose_box(prepared, p), ws, 0.0) for p in (start, goal)):
+            pairs.append((start, goal))
+    bounded, n_bounded = run(False)
+    every, n_every = run(True)
+    assert n_bounded < 0.5 * n_every
+    assert any(isinstance(p, float) for p in bounded) and any(not isinstance(p, float) for p in bounded)
+    for (start, goal), p, q in zip(pairs, bounded, every):
+        if isinstance(q, float):
+            assert p == q
+            continue
+        assert [(x.kind, x.edge, x.distance) for x in p.pushes] == [(x.kind, x.edge, x.distance) for x in q.pushes]
+        check_plan(p, part.vertices, part.com, start, goal, workspace=ws)
+
+
+def test_plans_float64_cannot_replay_are_not_plans(monkeypatch):
+    """A sliver of a uni-stable part, half a turn in place, paper strategy: its
+    lowest tier's best LP pushes 4.7e9 m (translations that nearly cancel), which
+    float64 cannot replay to 1e-9 of the part's size.  Such candidates are not
+    plans: the planners (one by one and batched, the same plan) fall back to a
+    replayable one; where every candidate is too long the error says so."""
+    from planning.pushing.part import PushPart
+
+    pts = np.array([[0.00425469, 0.0], [-0.00273486, 0.00325928], [-0.11170408, -0.0560999],
+                    [0.00531837, -0.02243996]])
+    com = np.zeros(2)
+    start, goal = np.array([0.0, 0.0, -4 * math.pi]), np.array([0.0, 0.0, math.pi])
+    kw = dict(com=com, margin_deg=1.0, safety_factor=1.0, strategy="paper")
+    plan = _plan(pts, start, goal, **kw)
+    part = pp.prepare_part(pts, com, 1.0, 1.0)
+    assert plan.total_distance < 1e3 < part.longest_plan < 1e4
+    check_plan(plan, pts, com, start, goal, margin_deg=1.0, safety=1.0)
+    batch = pb.plan_pose_batch(pts, start[None], goal[None], **kw)
+    _agree(batch, [plan], "sliver")
+    monkeypatch.setattr(PushPart, "longest_plan", property(lambda self: 1e-3 * self.size))
+    with pytest.raises(pp.PlanningError, match=r"the shortest candidate pushes [\d.e+]+ m in all, .* more "
+                                               r"than float64 can replay .*strategy='search'"):
+        _plan(pts, start, goal, **kw)
+    pb._plan_fns.cache_clear()          # the batch's compiled planners hold the limit
+    try:
+        assert not pb.plan_pose_batch(pts, start[None], goal[None], **kw).ok[0]
+    finally:
+        pb._plan_fns.cache_clear()

@@ -256,8 +256,13 @@ def _pairs(count=160):
     return starts, goals
 
 
-@functools.lru_cache(maxsize=None)
 def _single_plans(name, objective, strategy="search"):
+    """The numpy planner's plans of :func:`_pairs` (cached: one key per call however it is spelled)."""
+    return _single_plans_cached(name, objective, strategy)
+
+
+@functools.lru_cache(maxsize=None)
+def _single_plans_cached(name, objective, strategy):
     pts, com = _fixed_parts()[name]
     starts, goals = _pairs()
     return [_plan(pts, s, g, com=com, objective=objective, strategy=strategy) for s, g in zip(starts, goals)]

@@ -305,8 +305,8 @@ def _workspace_fallback(batch: PushPlanBatch) -> None:
             piv = np.where(batch.kind[b] == 2, batch.contact[b], -1)[live]
             boxes = wsp.swept_boxes(part.body, batch.starts[b], batch.direction[b][live],
                                     batch.pose_after[b][live], piv, batch.rotation[b][live],
-                                    batch.min_distance[b][live] * (1.0 + 1e-9))
-            tol = part.pos_tol(*batch.starts[b, :2])
+                                    batch.min_distance[b][live] * (1.0 + wsp.SWEEP_GUARD))
+            tol = wsp.plan_tol(part, batch.starts[b], batch.goals[b], float(batch.total_distance[b]))
             fits = not any(wsp.outside(box, ws, tol) for box in boxes)
         if fits:
             continue

@@ -180,6 +180,7 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
     stable = jnp.asarray(np.array(part.stable))
     js = jnp.arange(ns)
     scale = part.size
+    longest = part.longest_plan
     big = jnp.iinfo(jnp.int32).max
 
     def shift_of(theta0, thetag, T, c):
@@ -274,7 +275,7 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
         feas, cost, npush, ia, xa, ib, xb = pose_lp.solve_delta(
             dlt.ravel(), ok.ravel(), merged.ravel(), jnp.hypot(target[0], target[1]), objective,
             (rows * ns + edges).ravel(), scale=scale)
-        feas = feas & g["valid"]
+        feas = feas & g["valid"] & (g["sum_need"] + cost <= longest)
         fl = lambda x: x.ravel()  # noqa: E731
         return dict(feas=feas, total=jnp.where(feas, g["sum_need"] + cost, jnp.inf), npush=g["r"] + npush,
                     row_a=fl(rows)[ia], col_a=fl(edges)[ia], ang_a=psi + fl(dlt)[ia], mrg_a=fl(merged)[ia],

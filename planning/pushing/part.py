@@ -147,18 +147,28 @@ class PushPart:
         total = sum(np.abs(np.asarray(x, float)) for x in lengths) if lengths else 0.0
         return POS_TOL * self.size + 64.0 * np.finfo(float).eps * total
 
-    def reorient_min(self, edge: int, sense: int, alpha: float) -> float:
-        """Least distance (m) that completes a reorient of ``alpha`` rad onto hull
-        ``edge`` in ``sense`` under the distance rule, times the safety factor."""
-        b2 = float(self.beta2[edge, sense])
-        return float(pg.peshkin_length_np(self.gain[edge, sense], b2 - alpha, b2))
+    @property
+    def longest_plan(self) -> float:
+        """The longest total push distance (m) a plan may have: world coordinates
+        round by about ``64 eps`` per metre pushed, so longer plans (push
+        directions that nearly cancel, pushes of many km for a part of cm) could
+        not be replayed to ``POS_TOL`` of the part's size in float64; about 7e4
+        part sizes.  Candidates past it are not plans."""
+        return POS_TOL * self.size / (64.0 * np.finfo(float).eps)
 
-    def reorient_need(self, edge: int, sense: int, alpha: float) -> float:
+    def reorient_min(self, edge, sense, alpha):
+        """Least distance (m) that completes a reorient of ``alpha`` rad onto hull
+        ``edge`` in ``sense`` under the distance rule, times the safety factor.
+        Scalars give a float; arrays of one shape (``edge``, ``sense`` ints) an array."""
+        b2 = self.beta2[edge, sense]
+        return pg.peshkin_length_np(self.gain[edge, sense], b2 - np.asarray(alpha, float), b2)
+
+    def reorient_need(self, edge, sense, alpha):
         """The distance (m) a plan gives a reorient of ``alpha`` rad at least:
         :meth:`reorient_min` of ``alpha`` plus ``REORIENT_GUARD``
-        (:func:`guarded_start`)."""
-        b2 = float(self.beta2[edge, sense])
-        return float(pg.peshkin_length_np(self.gain[edge, sense], guarded_start(b2, alpha), b2))
+        (:func:`guarded_start`).  Scalars or arrays, as :meth:`reorient_min`."""
+        b2 = self.beta2[edge, sense]
+        return pg.peshkin_length_np(self.gain[edge, sense], guarded_start(b2, np.asarray(alpha, float)), b2)
 
     def peshkin(self, edge: int, pivot: int, alpha: float) -> float:
         """:meth:`reorient_min` for the pivot ``pivot`` (kept for callers that name it)."""

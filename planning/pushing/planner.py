@@ -28,7 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels.planar import angle_distance, rot2_np, wrap_angle_np
+from kernels.planar import angle_distance, wrap_angle_np
 from kernels.precision import float64
 from kernels.push import replay_pushes
 from planning.pushing import pose_lp, sequences as sq, workspace as wsp
@@ -102,22 +102,30 @@ def _orientations(start, goal) -> tuple[float, float]:
 
 
 def _lp_data(part: PushPart, row: int, steps, thetas, start, goal) -> Candidate:
-    body = part.body
+    """The candidate's LP data: reorient ``i`` (pivot ``v`` in the body frame)
+    moves the centre of mass by ``R(theta_i) v - R(theta_i+1) v`` plus its
+    distance along its push direction; the LP's columns are the push
+    directions ``theta_i + omega_j`` into each stable edge (world, rad)."""
     r = len(steps)
-    need, least, shifts = np.zeros(r), np.zeros(r), np.zeros((r, 2))
-    sidx = {e: i for i, e in enumerate(part.stable)}
-    ns = len(part.stable)
+    omega = part.omega
+    ns = len(omega)
     merged = np.zeros((r + 1, ns), bool)
-    for i, st in enumerate(steps):
-        k = int(part.pivot[st.edge, st.sense])
-        need[i] = part.reorient_need(st.edge, st.sense, st.alpha)
-        least[i] = part.reorient_min(st.edge, st.sense, st.alpha)
-        th = thetas[i + 1] + part.omega[sidx[st.edge]]
-        shifts[i] = (rot2_np(thetas[i]) @ body[k] - rot2_np(thetas[i + 1]) @ body[k]
-                     + need[i] * np.array([math.cos(th), math.sin(th)]))
-        merged[i + 1, sidx[st.edge]] = True
+    need, least, shifts = np.zeros(r), np.zeros(r), np.zeros((r, 2))
+    if r:
+        edge = np.array([st.edge for st in steps])
+        sense = np.array([st.sense for st in steps])
+        alpha = np.array([st.alpha for st in steps])
+        col = np.searchsorted(part.stable, edge)          # stable is sorted: column of each edge
+        need = part.reorient_need(edge, sense, alpha)
+        least = part.reorient_min(edge, sense, alpha)
+        v = part.body[part.pivot[edge, sense]]             # (r, 2) pivot vertices, body frame
+        c0, s0, c1, s1 = np.cos(thetas[:-1]), np.sin(thetas[:-1]), np.cos(thetas[1:]), np.sin(thetas[1:])
+        th = thetas[1:] + omega[col]
+        shifts = np.stack([(c0 - c1) * v[:, 0] - (s0 - s1) * v[:, 1] + need * np.cos(th),
+                           (s0 - s1) * v[:, 0] + (c0 - c1) * v[:, 1] + need * np.sin(th)], axis=1)
+        merged[np.arange(1, r + 1), col] = True
     target = np.asarray(goal[:2], float) - np.asarray(start[:2], float) - shifts.sum(axis=0)
-    angles = (thetas[:, None] + part.omega[None, :]).ravel()
+    angles = (thetas[:, None] + omega[None, :]).ravel()
     return Candidate(row, steps, thetas, angles, merged.ravel(), target, need, least, shifts)
 
 
@@ -232,29 +240,71 @@ def plan_one(part: PushPart, settings: Settings, start, goal, solver: str = "clo
     solve = pose_lp.solve_closed_form if solver == "closed_form" else pose_lp.solve_cvxpy
     scale = part.size
     results = [None] * len(cands)
-    boxes = []
     for i, cand in enumerate(cands):
         if cand is None:
             continue
         sol = solve(cand.angles, np.ones(len(cand.angles), bool), cand.merged, cand.target,
                     settings.objective, scale=scale)
-        if not sol.feasible:
-            continue
-        w = sol.weights
-        if settings.workspace is not None:
-            w = wsp.fit(part, cand, w, settings.workspace, start, boxes)
-            if w is None:
-                continue
-        extra = float(w.sum())
-        npush = len(cand.steps) + int(np.sum((w > pose_lp.DROP * scale) & ~cand.merged))
-        results[i] = (float(cand.need.sum() + extra), npush, w)
+        if sol.feasible:
+            results[i] = _result(cand, sol.weights, scale)
+    longest = [r[0] for r in results if r is not None and r[0] > part.longest_plan]
+    results = [None if r is None or r[0] > part.longest_plan else r for r in results]
+    boxes = []
+    if settings.workspace is not None:
+        results = fit_workspace(part, settings, start, cands, table, results, boxes)
+        longest += [r[0] for r in results if r is not None and r[0] > part.longest_plan]
+        results = [None if r is None or r[0] > part.longest_plan else r for r in results]
     best = choose(table, results, settings.objective)
     if best is None:
         if settings.workspace is not None and boxes:
             raise _workspace_error(part, settings, start, goal, boxes)
+        if longest:
+            raise PlanningError(_too_long_message(part, settings, start, goal, min(longest)))
         raise PlanningError(_no_plan_message(part, settings, start, goal, cands, table))
     cost, _, w = results[best]
     return assemble(part, settings, start, goal, cands[best], table, w)
+
+
+def _result(cand: Candidate, w, scale: float) -> tuple:
+    """``(cost, pushes, weights)`` of a candidate's LP weights ``w`` (m)."""
+    npush = len(cand.steps) + int(np.sum((w > pose_lp.DROP * scale) & ~cand.merged))
+    return float(cand.need.sum() + float(w.sum())), npush, w
+
+
+# A candidate's optimum inside the workspace is no better than its optimum
+# without one; BOUND_SLACK (relative) covers the constrained LP's rounding.
+BOUND_SLACK = 1e-7
+EXHAUSTIVE_FIT = False   # tests: fit every candidate (the bound must not change the plan)
+
+
+def fit_workspace(part: PushPart, settings: Settings, start, cands: list, table: dict,
+                  results: list, boxes: list) -> list:
+    """The candidates' optima inside the workspace (:func:`workspace.fit`), as
+    ``results`` (``(cost, pushes, weights)`` or None).  Exact branch and bound:
+    a candidate's constrained optimum is never better, in :func:`choose`'s order
+    (tier, then fewest pushes for ``pushes``, then cost), than its unconstrained
+    one, so candidates are fitted in that order of their unconstrained optimum
+    and the fitting stops once no later one can be chosen (outside the cost tie
+    ``COST_TIE`` of the best fitted); those left are None.  :func:`choose` then
+    picks what it would pick after fitting every candidate.  ``boxes`` collects
+    the candidates that did not fit (for the :class:`WorkspaceError`)."""
+    pushes = settings.objective == "pushes"
+    order = sorted((i for i, r in enumerate(results) if r is not None),
+                   key=lambda i: (int(table["tier"][i]), results[i][1] if pushes else 0, results[i][0], i))
+    out = [None] * len(results)
+    best = None      # (tier, pushes, cost) of the best fitted so far, in choose()'s order
+    for i in order:
+        tier, npush, cost = int(table["tier"][i]), results[i][1] if pushes else 0, results[i][0]
+        if best is not None and not EXHAUSTIVE_FIT and (tier, npush) >= best[:2] and (
+                (tier, npush) > best[:2] or cost * (1.0 - BOUND_SLACK) > best[2] * (1.0 + sq.COST_TIE)):
+            break       # this one and every later one rank below the best fitted
+        w = wsp.fit(part, cands[i], results[i][2], settings.workspace, start, boxes)
+        if w is None:
+            continue
+        out[i] = _result(cands[i], w, part.size)
+        key = (tier, out[i][1] if pushes else 0, out[i][0])
+        best = key if best is None or key < best else best
+    return out
 
 
 def choose(table: dict, results: list, objective: str) -> Optional[int]:
@@ -287,6 +337,14 @@ def _workspace_error(part: PushPart, settings: Settings, start, goal, boxes) -> 
              else "no larger workspace about its centre was found either")
     return WorkspaceError(f"{_where(part, start, goal)} inside the workspace {list(settings.workspace)}: no "
                           f"candidate fits; {found}", scale, box if math.isfinite(scale) else None)
+
+
+def _too_long_message(part: PushPart, settings: Settings, start, goal, shortest: float) -> str:
+    return (f"{_where(part, start, goal)}: the shortest candidate pushes {shortest:.4g} m in all, "
+            f"{shortest / part.size:.3g} times the part's size (its push directions nearly cancel), "
+            f"more than float64 can replay to 1e-9 of the part's size ({part.longest_plan:.4g} m)"
+            + ("; strategy='search' tries more reorientation sequences" if settings.strategy == "paper"
+               else "; try another margin_deg"))
 
 
 def _no_plan_message(part: PushPart, settings: Settings, start, goal, cands, table) -> str:
@@ -360,7 +418,7 @@ def assemble(part: PushPart, settings: Settings, start, goal, cand: Candidate, t
              min_distance=mn, pose_after=tuple(float(x) for x in poses[i]), rotation=rot)
         for i, (k, d, dist, e, pv, mn, rot) in enumerate(items))
     if settings.workspace is not None:
-        wsp.check_swept(part, settings.workspace, start, items, poses)
+        wsp.check_swept(part, settings.workspace, start, goal, items, poses)
     return make_plan(part, settings, start, goal, pushes, int(table["cls"][cand.row]),
                      int(table["turns"][cand.row]), err)
 

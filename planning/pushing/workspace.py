@@ -37,6 +37,12 @@ from kernels.planar import rot2_np
 from planning.pushing.part import PlanningError
 
 
+# A reorient's pivot is taken to advance its minimum distance times 1 + SWEEP_GUARD
+# while the part turns (the rotation may complete a rounding later): the LP rows
+# and the check of a finished plan use the same length.
+SWEEP_GUARD = 1e-9
+
+
 def check_workspace(workspace) -> Optional[tuple[float, float, float, float]]:
     """Validate ``workspace = (xmin, xmax, ymin, ymax)`` (m); returns floats or None."""
     if workspace is None:
@@ -265,7 +271,7 @@ def events(part, cand) -> Events:
             v = part.body[piv]
             d = np.array([math.cos(cand.angles[c]), math.sin(cand.angles[c])])
             arc = arc_box(part.body - v, cand.thetas[i - 1], th)
-            m = cand.need[i - 1]
+            m = max(float(cand.need[i - 1]), float(cand.least[i - 1]) * (1.0 + SWEEP_GUARD))
             seg = np.array([min(0.0, m * d[0]), max(0.0, m * d[0]), min(0.0, m * d[1]), max(0.0, m * d[1])])
             const.append(cand.shifts[i - 1]); col.append(c); unit.append(d); theta.append(th)
             sweep.append(seg + arc); poff.append(rot2_np(cand.thetas[i - 1]) @ v)
@@ -316,13 +322,22 @@ def fit(part, cand, w, ws, start, boxes):
     return solve_in_workspace(cols, cand.target, G, a, kinds, ws, tol)
 
 
-def check_swept(part, ws, start, items, poses) -> None:
+def plan_tol(part, start, goal, total: float) -> float:
+    """Tolerance (m) of the swept check of a finished plan from ``start`` to
+    ``goal`` pushing ``total`` (m): the fit's (a plan on the workspace's edge
+    may leave it by ``pos_tol`` at the start) plus the replay's (the pose error
+    the planner's verification allows)."""
+    return float(part.pos_tol(*np.asarray(start[:2], float))
+                 + part.pos_tol(math.hypot(*start[:2]), math.hypot(*goal[:2]), total))
+
+
+def check_swept(part, ws, start, goal, items, poses) -> None:
     """The swept-part check of a plan with a workspace (raises PlanningError)."""
     boxes = swept_boxes(part.body, start, [it[1] for it in items], poses,
                             [-1 if it[4] is None else it[4] for it in items],
                             [0.0 if it[6] is None else it[6] for it in items],
-                            [0.0 if it[5] is None else it[5] * (1.0 + 1e-9) for it in items])
-    tol = part.pos_tol(*start[:2])
+                            [0.0 if it[5] is None else it[5] * (1.0 + SWEEP_GUARD) for it in items])
+    tol = plan_tol(part, start, goal, sum(it[2] for it in items))
     for i, b in enumerate(boxes):
         if outside(b, ws, tol):
             raise PlanningError(f"push {i} sweeps the part over x [{b[0]:.6g}, {b[1]:.6g}], y "
