@@ -31,7 +31,7 @@ pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 def test_batch_agrees_with_single_with_options(name, options):
     """The options give the same plans one by one and in a batch."""
     pts, com = _fixed_parts()[name]
-    starts, goals = (a[:40] for a in _pairs())
+    starts, goals = (a[:40:2 if name == "uni" else 1] for a in _pairs())   # uni: 0.5 s a plan
     body = oracle.body_from_part(pts, com)[0]
     kw = dict(options)
     if "support" in kw:
@@ -334,6 +334,7 @@ def test_workspace_bound_gives_the_plan_of_fitting_every_candidate(monkeypatch, 
         goal = np.array([r * math.cos(a), r * math.sin(a), rng.uniform(-math.pi, math.pi)])
         if not any(wsp.outside(wsp.pose_box(prepared, p), ws, 0.0) for p in (start, goal)):
             pairs.append((start, goal))
+    pairs = [pairs[i] for i in (0, 3, 4, 5)]      # three plans (6 to 11 pushes) and one WorkspaceError
     bounded, n_bounded = run(False)
     every, n_every = run(True)
     assert n_bounded < 0.5 * n_every

@@ -256,15 +256,27 @@ def _pairs(count=160):
     return starts, goals
 
 
+# The uni- and biplus-stable parts' search solves ~600 candidate LPs a plan (0.4 s in
+# the numpy planner): they are checked on every third pair (each kind of pair kept).
+AGREE_STRIDE = {"uni": 3, "biplus": 3}
+
+
+def _agree_pairs(name):
+    """The start/goal pairs of the agreement tests for part ``name``."""
+    starts, goals = _pairs()
+    k = AGREE_STRIDE.get(name, 1)
+    return starts[::k], goals[::k]
+
+
 def _single_plans(name, objective, strategy="search"):
-    """The numpy planner's plans of :func:`_pairs` (cached: one key per call however it is spelled)."""
+    """The numpy planner's plans of :func:`_agree_pairs` (cached: one key per call however it is spelled)."""
     return _single_plans_cached(name, objective, strategy)
 
 
 @functools.lru_cache(maxsize=None)
 def _single_plans_cached(name, objective, strategy):
     pts, com = _fixed_parts()[name]
-    starts, goals = _pairs()
+    starts, goals = _agree_pairs(name)
     return [_plan(pts, s, g, com=com, objective=objective, strategy=strategy) for s, g in zip(starts, goals)]
 
 
@@ -276,7 +288,7 @@ AGREEMENT = ([(n, "distance", "search") for n in ("uni", "biplus", "nice", "wide
 @pytest.mark.parametrize("name, objective, strategy", AGREEMENT)
 def test_batch_agrees_with_single(name, objective, strategy):
     pts, com = _fixed_parts()[name]
-    starts, goals = _pairs()
+    starts, goals = _agree_pairs(name)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pg.PartWarning)
         batch = pb.plan_pose_batch(pts, starts, goals, com=com, objective=objective, chunk=64,
@@ -318,7 +330,7 @@ def _agree(batch, singles, name):
 @pytest.mark.parametrize("name", ["uni", "biplus", "nice"])
 def test_pushes_objective_is_fewer_pushes_longer_distance(name):
     pts, com = _fixed_parts()[name]
-    starts, goals = _pairs()
+    starts, goals = _agree_pairs(name)
     fewer = 0
     for b, (pd, pn) in enumerate(zip(_single_plans(name, "distance"), _single_plans(name, "pushes"))):
         assert pn.n_pushes <= pd.n_pushes, b
@@ -334,8 +346,8 @@ def test_pushes_objective_is_fewer_pushes_longer_distance(name):
 @pytest.mark.parametrize("name", ["biplus", "nice"])
 def test_cvxpy_solver_gives_the_same_plans(name):
     pts, com = _fixed_parts()[name]
-    starts, goals = _pairs()
-    for b in (5, 30, 47, 90, 150):
+    starts, goals = _agree_pairs(name)
+    for b in (5, 30, 53):
         cf = _single_plans(name, "distance")[b]
         ref = _plan(pts, starts[b], goals[b], com=com, solver="cvxpy")
         assert ref.total_distance == pytest.approx(cf.total_distance, rel=1e-7)
@@ -347,7 +359,7 @@ def test_cvxpy_solver_with_pushes_objective():
     """plan_pose(objective="pushes", solver="cvxpy") gives the closed form's plan,
     on the uni-stable part, where many candidate LPs are infeasible."""
     pts, com = _fixed_parts()["uni"]
-    starts, goals = _pairs()
+    starts, goals = _agree_pairs("uni")
     b = 40
     cf = _single_plans("uni", "pushes")[b]
     ref = _plan(pts, starts[b], goals[b], com=com, objective="pushes", solver="cvxpy")
@@ -490,7 +502,7 @@ def test_plan_json_round_trip():
     plans = []
     for name in ("uni", "biplus", "nice"):
         for objective in ("distance", "pushes"):
-            plans += _single_plans(name, objective)[::20]
+            plans += _single_plans(name, objective)[::5]
     pts, com = _fixed_parts()["uni"]
     body = oracle.body_from_part(pts, com)[0]
     (e,) = oracle.stable_edges(body)
