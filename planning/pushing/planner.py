@@ -252,8 +252,6 @@ def plan_one(part: PushPart, settings: Settings, start, goal, solver: str = "clo
     boxes = []
     if settings.workspace is not None:
         results = fit_workspace(part, settings, start, cands, table, results, boxes)
-        longest += [r[0] for r in results if r is not None and r[0] > part.longest_plan]
-        results = [None if r is None or r[0] > part.longest_plan else r for r in results]
     best = choose(table, results, settings.objective)
     if best is None:
         if settings.workspace is not None and boxes:
@@ -286,8 +284,10 @@ def fit_workspace(part: PushPart, settings: Settings, start, cands: list, table:
     one, so candidates are fitted in that order of their unconstrained optimum
     and the fitting stops once no later one can be chosen (outside the cost tie
     ``COST_TIE`` of the best fitted); those left are None.  :func:`choose` then
-    picks what it would pick after fitting every candidate.  ``boxes`` collects
-    the candidates that did not fit (for the :class:`WorkspaceError`)."""
+    picks what it would pick after fitting every candidate.  A fitted plan
+    longer than ``part.longest_plan`` does not fit.  ``boxes`` collects the
+    candidates whose unconstrained optimum did not fit (for the
+    :class:`WorkspaceError`)."""
     pushes = settings.objective == "pushes"
     order = sorted((i for i, r in enumerate(results) if r is not None),
                    key=lambda i: (int(table["tier"][i]), results[i][1] if pushes else 0, results[i][0], i))
@@ -302,6 +302,9 @@ def fit_workspace(part: PushPart, settings: Settings, start, cands: list, table:
         if w is None:
             continue
         out[i] = _result(cands[i], w, part.size)
+        if out[i][0] > part.longest_plan:       # (the unconstrained one was not)
+            out[i] = None
+            continue
         key = (tier, out[i][1] if pushes else 0, out[i][0])
         best = key if best is None or key < best else best
     return out
