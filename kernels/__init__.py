@@ -14,6 +14,7 @@ Kernels take the dtype of their inputs (float32 or float64); planners and
 bounds run them under :func:`kernels.precision.float64`.  Units: metres,
 radians, CCW positive.
 """
+from kernels.facets import TOLERANCE_MERGE_FACTOR
 from kernels.planar import rot2, wrap_angle
 from kernels.polygon import PartError, PartWarning, Polygon, PolygonGeometry, make_polygon, polygon_geometry
 from kernels.polyhedron import Polyhedron, make_polyhedron
@@ -23,7 +24,7 @@ from kernels.quasistatic import SimOutcome, limit_surface_ratio, simulate_push, 
 from kernels.tumble import TumbleConfig, make_config, replay, tumble
 
 __all__ = [
-    "wrap_angle", "rot2", "PartError", "PartWarning", "Polygon", "PolygonGeometry", "make_polygon",
+    "TOLERANCE_MERGE_FACTOR", "wrap_angle", "rot2", "PartError", "PartWarning", "Polygon", "PolygonGeometry", "make_polygon",
     "polygon_geometry", "Polyhedron", "TumbleGeometry", "make_polyhedron", "tumble_geometry",
     "PushOutcome", "replay_push", "replay_pushes", "SimOutcome", "limit_surface_ratio",
     "simulate_push", "simulate_pushes", "TumbleConfig", "make_config", "replay", "tumble",

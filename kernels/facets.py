@@ -66,11 +66,31 @@ def check_not_flat(v: np.ndarray) -> None:
         )
 
 
-def merge_hull_faces(v: np.ndarray, tol: float):
+#: Faces at a part's tolerance: with every vertex coordinate known to
+#: +-tau_v (metres), each corner of a planar face may move by sqrt(3) tau_v,
+#: and a quadrilateral's fourth corner then lies within about
+#: (1 + 3) sqrt(3) tau_v ~ 6.9 tau_v of the plane of its other three (an
+#: affine combination with coefficients summing to 3 in absolute value); so
+#: triangles whose corners lie within ``TOLERANCE_MERGE_FACTOR * tau_v`` of a
+#: common plane are one face at that tolerance (the same argument as
+#: :func:`robustness.hulls.face_merge_tol`).
+TOLERANCE_MERGE_FACTOR = 8.0
+
+
+def merge_distance(v: np.ndarray, tol: float, tau_v: float = 0.0) -> float:
+    """The face-merging distance (metres) of points ``v``: ``tol`` times
+    their diameter, or ``TOLERANCE_MERGE_FACTOR * tau_v`` when larger (the
+    faces at the part's tolerance ``tau_v``, metres)."""
+    return max(tol * diameter(v), TOLERANCE_MERGE_FACTOR * float(tau_v))
+
+
+def merge_hull_faces(v: np.ndarray, tol: float, tau_v: float = 0.0):
     """Merge Qhull's triangles into maximal planar faces.
 
     Returns a list of face cycles (caller indices, CCW seen from outside,
-    starting at the smallest index).  ``tol`` is relative to the diameter.
+    starting at the smallest index).  ``tol`` is relative to the diameter;
+    ``tau_v`` (metres, >= 0) widens the merging distance to the part's
+    tolerance (:func:`merge_distance`).
     """
     try:
         hull = ConvexHull(v)
@@ -79,7 +99,7 @@ def merge_hull_faces(v: np.ndarray, tol: float):
             f"vertices: Qhull could not build the convex hull ({str(exc).splitlines()[0]}); "
             "check that the points span a volume"
         ) from None
-    dist_tol = tol * diameter(v)
+    dist_tol = merge_distance(v, tol, tau_v)
     rings = [_face_ring(v, hull, members, dist_tol) for members in _coplanar_groups(v, hull, dist_tol)]
     cycles = []
     for ring in _drop_collinear(rings, v, dist_tol):

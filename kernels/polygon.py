@@ -39,6 +39,15 @@ OBJECT_CLASS_NAMES = ("uni-stable", "biplus-stable", "nice-stable")
 CW, CCW = 0, 1
 SENSE_NAMES = ("cw", "ccw")
 
+#: An edge whose centre-of-mass foot lies within this fraction of its length of
+#: one of its ends is *marginal*: flush on the fence, the part balances on that
+#: end vertex with the centre of mass straight above it, an unstable
+#: equilibrium.  A marginal edge is not stable (the paper's "strictly inside",
+#: made robust to rounding): no plan lands it, the replay stops at the
+#: equilibrium (:attr:`kernels.push.PushOutcome.marginal`) and the push function
+#: resolves it (:mod:`planning.pushing.stability`).
+MARGINAL_FOOT = 1e-12
+
 
 # --------------------------------------------------------------------------
 # Host-side validation
@@ -211,7 +220,10 @@ class PolygonGeometry:
         mass on edge ``e``, as a fraction of the edge from vertex ``e`` (0) to
         vertex ``e+1`` (1).
       height: (n,) distance from the centre of mass to edge ``e``'s line, m.
-      stable: (n,) bool, edge ``e`` is stable (``0 < foot < 1``).
+      stable: (n,) bool, edge ``e`` is stable: its foot lies strictly inside,
+        more than :data:`MARGINAL_FOOT` from either end.
+      marginal: (n,) bool, edge ``e`` is marginal: its foot lies within
+        :data:`MARGINAL_FOOT` of an end (not stable; see :data:`MARGINAL_FOOT`).
       radius: () radius of the smallest circle about the centre of mass that
         encloses the part, m.
     """
@@ -222,6 +234,7 @@ class PolygonGeometry:
     foot: jax.Array
     height: jax.Array
     stable: jax.Array
+    marginal: jax.Array
     radius: jax.Array
 
 
@@ -242,10 +255,11 @@ def polygon_geometry(body) -> PolygonGeometry:
     exterior = mod_2pi(nu - jnp.roll(nu, 1))
     foot = jnp.sum(-body * e, axis=1) / jnp.sum(e * e, axis=1)
     height = cross2(e, -body) / jnp.linalg.norm(e, axis=1)
-    stable = (foot > 0.0) & (foot < 1.0)
+    stable = (foot > MARGINAL_FOOT) & (foot < 1.0 - MARGINAL_FOOT)
+    marginal = (jnp.abs(foot) <= MARGINAL_FOOT) | (jnp.abs(foot - 1.0) <= MARGINAL_FOOT)
     radius = jnp.max(jnp.linalg.norm(body, axis=1))
     return PolygonGeometry(body=body, nu=nu, exterior=exterior, foot=foot, height=height,
-                           stable=stable, radius=radius)
+                           stable=stable, marginal=marginal, radius=radius)
 
 
 def radius_function(geom: PolygonGeometry, phi):

@@ -55,8 +55,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels.errors import PartError, PartWarning, warn_implausible_size
-from kernels.facets import (angle_between, as_points, check_not_flat, diameter, extent,
-                            merge_hull_faces, newell, validate_topology, volume_centroid)
+from kernels.facets import (TOLERANCE_MERGE_FACTOR, angle_between, as_points, check_not_flat,
+                            diameter, extent, merge_hull_faces, newell, validate_topology,
+                            volume_centroid)
 from kernels.planar import TWO_PI
 
 #: Default relative tolerance (times the part's diameter) for merging Qhull's
@@ -264,13 +265,32 @@ class Polyhedron:
         )
 
 
-def _face_cycles(v: np.ndarray, tol: float) -> list[tuple[int, ...]]:
-    cycles = merge_hull_faces(v, tol)
+def _face_cycles(v: np.ndarray, tol: float, tau_v: float = 0.0) -> list[tuple[int, ...]]:
+    cycles = merge_hull_faces(v, tol, tau_v)
     cycles.sort(key=lambda c: tuple(sorted(c)))
     return cycles
 
 
-def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Polyhedron:
+def _closed_hull(cycles) -> dict:
+    """:func:`kernels.facets.validate_topology` of the face cycles, and at
+    least four faces (a closed hull; PartError naming ``vertices``)."""
+    if len(cycles) < 4:
+        raise PartError(f"vertices: the hull has only {len(cycles)} faces (it is numerically "
+                        "flat); a polyhedron needs at least 4 faces")
+    return validate_topology(cycles)
+
+
+def _closes(v: np.ndarray, tol: float) -> bool:
+    """Whether the hull's faces as given (no tolerance) close up."""
+    try:
+        _closed_hull(_face_cycles(v, tol, 0.0))
+    except PartError:
+        return False
+    return True
+
+
+def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL,
+                    tau_v: float = 0.0) -> Polyhedron:
     """Validate a convex polyhedral part and compute its geometry (host side).
 
     Args:
@@ -283,6 +303,13 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
       tol: relative tolerance (times the diameter) under which Qhull's
         triangles are merged into one planar face and collinear corners
         dropped.
+      tau_v: the precision to which the vertices are known (metres, >= 0;
+        each coordinate within +-tau_v): the faces are those at that
+        tolerance, triangles whose corners lie within
+        ``TOLERANCE_MERGE_FACTOR * tau_v`` of a common plane being one face
+        (:func:`kernels.facets.merge_distance`), so that a part known to
+        tau_v gets the same faces (numbers, frames) whatever its noise below
+        it.  0: the faces of the coordinates as given (to ``tol``).
 
     Warns:
       :class:`PartWarning` when points are dropped, when faces are coplanar
@@ -292,13 +319,26 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL) -> Po
       the part's size, so a part is accepted the same way at any scale.
 
     Raises:
-      ValueError naming ``vertices`` or ``com`` and saying how to fix it.
+      ValueError naming ``vertices``, ``com`` or ``tau_v`` (a tolerance at
+      which the merged faces do not close up) and saying how to fix it.
     """
     v = as_points(vertices)
     check_not_flat(v)
+    if isinstance(tau_v, bool) or not isinstance(tau_v, (int, float, np.floating, np.integer)) \
+            or not math.isfinite(float(tau_v)) or float(tau_v) < 0:
+        raise PartError(f"tau_v: must be a finite number >= 0 (metres), got {tau_v!r}")
     m = v.shape[0]
-    cycles = _face_cycles(v, tol)
-    directed = validate_topology(cycles)
+    cycles = _face_cycles(v, tol, float(tau_v))
+    try:
+        directed = _closed_hull(cycles)
+    except PartError:
+        if tau_v > 0 and _closes(v, tol):  # the tolerance merged faces that are not one
+            raise PartError(
+                f"tau_v: at {float(tau_v):g} m the part's faces are not determined: merging "
+                f"the faces within {TOLERANCE_MERGE_FACTOR:g} tau_v of a common plane leaves no "
+                f"closed hull; give a smaller tau_v (the part is {extent(v):.3g} m across)"
+            ) from None
+        raise
 
     hull_vertices = tuple(sorted({i for c in cycles for i in c}))
     warn_implausible_size(extent(v[list(hull_vertices)]))

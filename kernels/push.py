@@ -6,12 +6,17 @@ slip between fence and part.  The fence starts touching the part (the
 approach travel before contact is not part of the push distance).  While a
 single vertex touches the fence the part rotates about it as it advances with
 the fence; when an edge lands flush the push either becomes a pure
-translation (stable edge) or the part goes on rotating about the edge's far
-vertex (unstable edge).  The rotation rate is the slowest one that quasi-static
-support friction allows (see :func:`kernels.polygon.peshkin_distance`), so a
-push of at least the Peshkin distance always completes and a shorter one may
-stop part-way.  The final pose of a completed push does not depend on the
-rate: the contact vertex advances exactly ``distance`` along ``d``.
+translation (stable edge) or the part goes on rotating about the edge's end
+towards the foot of the centre of mass (unstable edge).  A *marginal* edge
+(foot at one of its ends, :data:`kernels.polygon.MARGINAL_FOOT`) that lands
+leaves the part balanced on that end with the centre of mass straight above
+it, an unstable equilibrium without torque: the push translates on and ends
+there, on a vertex, and the outcome names the edge (``marginal``).  The
+rotation rate is the slowest one that quasi-static support friction allows
+(see :func:`kernels.polygon.peshkin_distance`), so a push of at least the
+Peshkin distance always completes and a shorter one may stop part-way.  The
+final pose of a completed push does not depend on the rate: the contact vertex
+advances exactly ``distance`` along ``d``.
 
 The slowest rate is Peshkin's ``d beta / ds = rho sin(beta) / (a^2 + rho^2)``
 (``a`` the part's radius about the centre of mass: any support pressure).  A
@@ -50,6 +55,8 @@ class PushOutcome:
       rotation: () signed rotation of the part during the push (rad, CCW +).
       landings: () number of edges that landed flush during the push (an edge
         flush at the start does not land).
+      marginal: () hull index of the marginal edge lying flush at the end (the
+        push ended at its unstable equilibrium, ``edge`` -1), -1 otherwise.
       finished: () bool, the replay spent the whole distance.  False only
         when its pass limit ran out first (it cannot for a valid convex part
         and the default limit): then ``pose`` is where the replay stopped,
@@ -61,6 +68,7 @@ class PushOutcome:
     complete: jax.Array
     rotation: jax.Array
     landings: jax.Array
+    marginal: jax.Array
     finished: jax.Array
 
 
@@ -114,9 +122,11 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance, rate_c=None,
         flush_ok = flush >= 0
         fl = jnp.maximum(flush, 0)
         stable_now = flush_ok & geom.stable[fl]
+        # a marginal edge flush: the centre of mass is above its end, no torque (equilibrium)
+        marginal_now = flush_ok & geom.marginal[fl]
         # pivot: after an unstable edge landed, its endpoint towards the foot of the
         # centre of mass; otherwise the vertex whose normal cone holds the fence side.
-        toward = jnp.where(geom.foot[fl] <= 0.0, fl, (fl + 1) % n)
+        toward = jnp.where(geom.foot[fl] < 0.5, fl, (fl + 1) % n)
         phi_free = wrap_angle(ang_u - theta)
         k = jnp.where(flush_ok, toward, contact_vertex(geom, phi_free))
         phi0 = jnp.where(flush_ok, geom.nu[fl], phi_free)
@@ -124,7 +134,7 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance, rate_c=None,
         v = geom.body[k]
         cr = cross2(u, v)
         sigma = jnp.sign(cr)  # rotation sense of the part (CCW +)
-        divergent = sigma == 0
+        divergent = (sigma == 0) | marginal_now
         target = jnp.where(sigma < 0, k, (k - 1) % n)
         delta = jnp.where(sigma < 0, mod_2pi(geom.nu[target] - phi0), mod_2pi(phi0 - geom.nu[target]))
         # a normal cone is narrower than pi: a wrap past 2 pi is the target a rounding error behind
@@ -168,12 +178,15 @@ def replay_push(geom: PolygonGeometry, pose, direction, distance, rate_c=None,
     # always suffice.
     init = (jnp.asarray(0), pose[:2], pose[2], jnp.asarray(distance, dtype), jnp.asarray(-1),
             jnp.asarray(False), jnp.asarray(0.0, dtype), jnp.asarray(0), jnp.asarray(-1))
-    _, pos, theta, _, _, done, rot_tot, landings, final_edge = jax.lax.while_loop(
+    _, pos, theta, _, flush, done, rot_tot, landings, final_edge = jax.lax.while_loop(
         lambda st: (~st[5]) & (st[0] < passes), body, init)
     out_pose = jnp.concatenate([pos, wrap_angle(theta)[None]])
     final_edge = jnp.where(done, final_edge, -1)
+    # the last edge that lay flush is still flush when the push ended translating on it
+    marginal = jnp.where(done & (final_edge < 0) & (flush >= 0) & geom.marginal[jnp.maximum(flush, 0)],
+                         flush, -1)
     return PushOutcome(pose=out_pose, edge=final_edge, complete=final_edge >= 0,
-                       rotation=rot_tot, landings=landings, finished=done)
+                       rotation=rot_tot, landings=landings, marginal=marginal, finished=done)
 
 
 def replay_pushes(geom: PolygonGeometry, pose, directions, distances, rate_c=None):

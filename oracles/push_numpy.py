@@ -12,9 +12,13 @@ the part in the direction ``d`` (it touches the vertices with the smallest
 Events:
 
 * An edge lies flush with the fence.  If the foot of the perpendicular from the
-  centre of mass onto that edge lies strictly inside the edge, the part
-  translates with the fence for the rest of the push.  Otherwise it pivots
-  about the edge's endpoint on the centre-of-mass side.
+  centre of mass onto that edge lies strictly inside the edge (more than
+  ``MARGINAL_FOOT`` of its length from either end), the part translates with
+  the fence for the rest of the push.  If it lies within ``MARGINAL_FOOT`` of
+  an end (a marginal edge), the centre of mass is straight above that end
+  vertex: an unstable equilibrium without torque, the part translates and the
+  push ends there, on a vertex.  Otherwise it pivots about the edge's endpoint
+  on the centre-of-mass side.
 * A single vertex P touches the fence.  Support friction (acting, whatever the
   pressure distribution, so as to drag the centre of mass C back) turns the part
   about P so that C falls back towards the fence: the sense is the sign of
@@ -41,6 +45,10 @@ import math
 import numpy as np
 from scipy.spatial import ConvexHull
 
+#: fraction of an edge's length: a foot this close to an end is marginal (the
+#: library's rule, by specification: kernels.polygon.MARGINAL_FOOT)
+MARGINAL_FOOT = 1e-12
+
 
 @dataclasses.dataclass
 class Outcome:
@@ -49,6 +57,7 @@ class Outcome:
     complete: bool        # ended with a stable edge flush
     rotation: float       # signed rotation during the push (rad, CCW +)
     landings: int         # vertices that reached the fence (edges that landed)
+    marginal: int = -1    # marginal edge flush at the end (its unstable equilibrium), -1 if none
 
 
 def wrap(a: float) -> float:
@@ -94,7 +103,8 @@ def body_from_part(vertices, com=None):
 
 def stable_edges(body) -> list[int]:
     """Edges (k -> k+1 of a CCW body-frame polygon) whose foot of the
-    perpendicular from the centre of mass (origin) lies strictly inside."""
+    perpendicular from the centre of mass (origin) lies strictly inside, more
+    than ``MARGINAL_FOOT`` of the edge from either end."""
     body = np.asarray(body, float)
     n = len(body)
     out = []
@@ -102,7 +112,7 @@ def stable_edges(body) -> list[int]:
         a, b = body[k], body[(k + 1) % n]
         e = b - a
         f = float(-a @ e) / float(e @ e)
-        if 0.0 < f < 1.0:
+        if MARGINAL_FOOT < f < 1.0 - MARGINAL_FOOT:
             out.append(k)
     return out
 
@@ -139,8 +149,9 @@ def replay_push(body, pose, direction, distance, rate_c=None) -> Outcome:
     rotation = 0.0
     landings = 0
 
-    def result(edge):
-        return Outcome(np.array([C[0], C[1], wrap(theta)]), edge, edge >= 0, rotation, landings)
+    def result(edge, marginal=-1):
+        return Outcome(np.array([C[0], C[1], wrap(theta)]), edge, edge >= 0, rotation, landings,
+                       marginal)
 
     proj = W @ d
     pivot = int(np.argmin(proj))    # the vertex the fence touches first
@@ -157,9 +168,12 @@ def replay_push(body, pose, direction, distance, rate_c=None) -> Outcome:
             P, Q = W[flush], W[(flush + 1) % n]
             e = Q - P
             f = float((C - P) @ e) / float(e @ e)
-            if 0.0 < f < 1.0:          # stable: translate with the fence
+            if MARGINAL_FOOT < f < 1.0 - MARGINAL_FOOT:   # stable: translate with the fence
                 C = C + s * d
                 return result(flush)
+            if min(abs(f), abs(f - 1.0)) <= MARGINAL_FOOT:  # marginal: balanced on the end vertex
+                C = C + s * d
+                return result(-1, flush)
             pivot = (flush + 1) % n if f >= 1.0 else flush   # centre-of-mass side
         P = W[pivot].copy()
         rc = C - P

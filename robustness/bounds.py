@@ -270,7 +270,8 @@ def tumble_plan_bound(plan, geometry: GeometryTolerance = GeometryTolerance(),
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PartWarning)
-        poly = make_polyhedron(np.asarray(plan.vertices), np.asarray(plan.com))
+        poly = make_polyhedron(np.asarray(plan.vertices), np.asarray(plan.com),
+                               tau_v=plan.tau_v)  # the plan's faces
     e = execution
     start = make_config(*plan.start[:3], int(plan.start[3]), dtype=jnp.float64)
     faces = np.asarray(plan.faces, np.int32)

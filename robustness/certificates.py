@@ -6,10 +6,11 @@ stated model (quasi-static pushes, the exact replay, or exact tumbles) drawn
 from the stated tolerances:
 
 * **certified**: the one-sided Clopper-Pearson lower bound of the success
-  probability at the required confidence is at least ``p``.  That is the only
-  probability claim made, and the certificate's ``claim`` says it in words:
-  the bound, the confidence, the number of samples, the model and what was
-  perturbed.
+  probability at the required confidence (at each look's share of it when the
+  samples were drawn sequentially, see below) is at least ``p``.  That is the
+  only probability claim made, and the certificate's ``claim`` says it in
+  words: the bound, the confidence, the procedure, the number of samples, the
+  model and what was perturbed.
 * **not certified**, with a ``reason``:
 
   - ``too_few_samples``: every sample succeeded, but ``n`` is below the
@@ -22,6 +23,24 @@ from the stated tolerances:
     every sample is the same replay and no probability can be claimed.
 
 * **no plan**: the planner found none (its reason is in ``note``).
+
+How many samples, and at which confidence each bound is taken, is the
+certificate's :class:`Schedule` (its ``procedure``):
+
+* ``fixed`` (``n_samples = N``): one look at ``N`` samples, the plain one-sided
+  Clopper-Pearson bound at the required confidence.
+* ``sequential_bonferroni`` (``n_samples = "auto"``): looks at a schedule of
+  sample counts fixed before any sample is drawn (:func:`auto_schedule`: the
+  fewest that could certify, doubling, up to the cap), stopping at the first
+  look that decides.  Re-testing at every look at the full confidence would not
+  hold it (a plan exactly at the requirement came out "certified" in 28 % of
+  runs at 95 %), so ``alpha = 1 - confidence`` is split over the ``K`` looks:
+  each look's bounds are taken at ``1 - alpha / K`` (``look_confidence``).  By
+  the union bound, the chance that ANY look's lower bound exceeds the true
+  success probability, or any upper bound falls below it, is at most
+  ``alpha``: a false "certified" and a false "below_requirement" each have
+  probability at most ``alpha`` over the whole procedure
+  (:func:`robustness.stats.sequential_rates` computes both exactly).
 
 The analytic first-order bound of :mod:`robustness.bounds` is reported beside
 the verdict with the model it assumes (``bound_model``): it is the linearised
@@ -36,9 +55,12 @@ import dataclasses
 import math
 from typing import Callable, Optional
 
+import numpy as np
+
 from robustness import stats
 
 VERDICTS = ("certified", "not certified", "no plan")
+PROCEDURES = ("fixed", "sequential_bonferroni")
 REASONS = ("", "too_few_samples", "failures", "below_requirement", "nothing_perturbed", "no_plan")
 BOUND_MODEL = ("first-order worst case of the exact no-slip kinematics over the tolerance box "
                "(linearised, not a guarantee)")
@@ -55,6 +77,10 @@ class Certificate:
       ci_low_one_sided: one-sided Clopper-Pearson lower bound at ``confidence``.
       samples_needed: fewest all-successful samples that would certify.
       required_probability, confidence: the requirement.
+      procedure: one of :data:`PROCEDURES`; look_confidence: the confidence of
+      each look's bounds (``confidence`` for a fixed count, ``1 - alpha / n_looks``
+      when sequential); n_looks, look_counts: the schedule; look: the look the
+      verdict was taken at (1-based; 0 without samples).
       nothing_perturbed: no source of variation in the samples.
       perturbed: what varied (part geometry, start pose, fence friction...).
       dominant_failure_mode: the commonest failure, ``none`` without failures.
@@ -77,6 +103,11 @@ class Certificate:
     perturbed: tuple
     dominant_failure_mode: str
     model: str
+    procedure: str = "fixed"
+    look_confidence: float = math.nan
+    n_looks: int = 1
+    look: int = 1
+    look_counts: tuple = ()
     bound_position_m: float = math.nan
     bound_theta_rad: float = math.nan
     bound_within_eps: Optional[bool] = None
@@ -88,7 +119,63 @@ class Certificate:
         """The certificate's fields for the ``certificates`` table."""
         d = dataclasses.asdict(self)
         d.pop("perturbed")
+        d["look_counts"] = [int(c) for c in self.look_counts]
         return d
+
+
+@dataclasses.dataclass(frozen=True)
+class Schedule:
+    """The looks of a certification, fixed before any sample is drawn.
+
+    Attributes:
+      counts: increasing total sample counts, one per look.
+      confidence: the confidence the whole procedure holds (in (0, 1)).
+    """
+
+    counts: tuple
+    confidence: float
+
+    def __post_init__(self):
+        c = tuple(int(x) for x in self.counts)
+        if not c or c[0] < 1 or any(b <= a for a, b in zip(c, c[1:])):
+            raise ValueError(f"counts: expected increasing sample counts >= 1, got {list(c)}")
+        if not (0.0 < self.confidence < 1.0):
+            raise ValueError(f"confidence: expected a number in (0, 1), got {self.confidence!r}")
+        object.__setattr__(self, "counts", c)
+
+    @property
+    def n_looks(self) -> int:
+        """``K``, the number of looks."""
+        return len(self.counts)
+
+    @property
+    def procedure(self) -> str:
+        """``fixed`` (one look) or ``sequential_bonferroni``."""
+        return "fixed" if self.n_looks == 1 else "sequential_bonferroni"
+
+    @property
+    def look_confidence(self) -> float:
+        """Confidence of each look's one-sided bounds: ``1 - (1 - confidence) / K``."""
+        return 1.0 - (1.0 - self.confidence) / self.n_looks
+
+    def describe(self) -> str:
+        """The procedure in words (named in every claim)."""
+        if self.n_looks == 1:
+            return (f"one-sided Clopper-Pearson at {_pct(self.confidence)} confidence, fixed "
+                    f"n = {self.counts[0]}")
+        c = [str(x) for x in self.counts]
+        shown = ", ".join(c if len(c) <= 6 else c[:3] + ["..."] + c[-2:])
+        return (f"sequential: Bonferroni over {self.n_looks} looks at n = {shown}, each a "
+                f"one-sided Clopper-Pearson bound at {_pct(self.look_confidence)} confidence, "
+                f"{_pct(self.confidence)} over all looks")
+
+
+def _pct(c: float) -> str:
+    """A confidence as a percentage with three significant digits of ``1 - c``,
+    rounded down (95%, 98.75%, 99.583%): never overstated, never 100%."""
+    d = max(0, 2 - math.floor(math.log10(100.0 * (1.0 - c))))
+    t = f"{math.floor(100.0 * c * 10 ** d + 1e-6) / 10 ** d:.{d}f}"
+    return (t.rstrip("0").rstrip(".") if "." in t else t) + "%"
 
 
 def perturbed_sources(sampler, kind: str, model: str) -> tuple:
@@ -118,7 +205,7 @@ def perturbed_sources(sampler, kind: str, model: str) -> tuple:
 
 def decide(summary: dict, required_probability: float, confidence: float, *, kind: str,
            model: str, perturbed: tuple, pos_eps_m: float = math.nan,
-           theta_eps_rad: float = math.nan) -> Certificate:
+           theta_eps_rad: float = math.nan, schedule: Optional[Schedule] = None) -> Certificate:
     """The certificate of a task's Monte-Carlo summary (see the module docstring).
 
     Args:
@@ -129,11 +216,23 @@ def decide(summary: dict, required_probability: float, confidence: float, *, kin
       perturbed: :func:`perturbed_sources` of the sampler.
       pos_eps_m, theta_eps_rad: the success tolerances (to report whether the
         analytic bound lies within them).
+      schedule: the looks the samples were drawn by (:func:`auto_schedule`;
+        ``n`` must be one of its counts); None: one fixed look at ``n``.  Every
+        bound is taken at its ``look_confidence``.
     """
     p, conf = float(required_probability), float(confidence)
     n, k = int(summary["n"]), int(summary["n_success"])
-    low = stats.one_sided_lower(k, n, conf) if n else 0.0
-    need = stats.samples_needed(p, conf)
+    if schedule is None:
+        schedule = Schedule((max(n, 1),), conf)
+    elif schedule.confidence != conf:
+        raise ValueError(f"schedule: its confidence {schedule.confidence} is not the required "
+                         f"{conf}")
+    if n and n not in schedule.counts:
+        raise ValueError(f"summary: n = {n} samples is not a look of the schedule "
+                         f"{list(schedule.counts)}")
+    lc = schedule.look_confidence
+    low = stats.one_sided_lower(k, n, lc) if n else 0.0
+    need = stats.samples_needed(p, lc)
     dominant = str(summary.get("dominant_failure_mode") or "none")
     bp = float(summary.get("bound_position_m", math.nan))
     bt = float(summary.get("bound_theta_rad", math.nan))
@@ -144,8 +243,14 @@ def decide(summary: dict, required_probability: float, confidence: float, *, kin
                   confidence=conf, nothing_perturbed=not perturbed, perturbed=tuple(perturbed),
                   dominant_failure_mode=dominant, model=model, bound_position_m=bp,
                   bound_theta_rad=bt, bound_within_eps=within,
-                  bound_violated=summary.get("bound_violated"))
+                  bound_violated=summary.get("bound_violated"), **_procedure(schedule, n))
+    sequential = schedule.n_looks > 1
     what = f"{n} samples of the {model} model"
+    how = (f"{schedule.describe()}; verdict at look {schedule.counts.index(n) + 1} of "
+           f"{schedule.n_looks}: {what}" if sequential and n
+           else f"one-sided Clopper-Pearson over {what}")
+    at = (f"at the look's {_pct(lc)} confidence ({_pct(conf)} over all looks)" if sequential
+          else f"at {_pct(conf)} confidence")
     varied = f"perturbed: {', '.join(perturbed)}" if perturbed else "nothing perturbed"
     notes = []
     if summary.get("bound_violated"):
@@ -160,50 +265,63 @@ def decide(summary: dict, required_probability: float, confidence: float, *, kin
                            note="; ".join(notes), **common)
     if n and low >= p:
         return Certificate(verdict="certified", reason="",
-                           claim=(f"P(success) >= {low:.4f} >= {p:g} at {conf:.0%} confidence "
-                                  f"(one-sided Clopper-Pearson over {what}; {varied})"),
+                           claim=(f"P(success) >= {low:.4f} >= {p:g} at {_pct(conf)} confidence "
+                                  f"({how}; {varied})"),
                            note="; ".join(notes), **common)
     if n and k == n:
         return Certificate(verdict="not certified", reason="too_few_samples",
                            claim=(f"{k}/{n} succeeded, but at least {need} successes without a "
-                                  f"failure are needed for p >= {p:g} at {conf:.0%} confidence "
-                                  f"(one-sided Clopper-Pearson lower bound {low:.4f}; {varied})"),
+                                  f"failure are needed for p >= {p:g} {at} (one-sided "
+                                  f"Clopper-Pearson lower bound {low:.4f}; {varied})"),
                            note="; ".join(notes), **common)
-    upper = stats.one_sided_upper(k, n, conf) if n else 1.0
+    upper = stats.one_sided_upper(k, n, lc) if n else 1.0
     reason = "below_requirement" if upper < p else "failures"
     tail = (f"; even the upper bound {upper:.4f} is below {p:g}: more samples cannot certify"
             if reason == "below_requirement" else "")
     return Certificate(verdict="not certified", reason=reason,
-                       claim=(f"{k}/{n} succeeded ({what}; {varied}): one-sided Clopper-Pearson "
-                              f"lower bound {low:.4f} < {p:g} at {conf:.0%} confidence; dominant "
-                              f"failure: {dominant}{tail}"),
+                       claim=(f"{k}/{n} succeeded ({how}; {varied}): one-sided Clopper-Pearson "
+                              f"lower bound {low:.4f} < {p:g} {at}; dominant failure: "
+                              f"{dominant}{tail}"),
                        note="; ".join(notes), **common)
 
 
-def no_plan(reason: str, required_probability: float, confidence: float, model: str) -> Certificate:
-    """The certificate of a task the planner could not serve (nothing sampled)."""
+def _procedure(schedule: Schedule, n: int) -> dict:
+    """The certificate's procedure fields for a verdict taken at ``n`` samples."""
+    return dict(procedure=schedule.procedure, look_confidence=schedule.look_confidence,
+                n_looks=schedule.n_looks, look=schedule.counts.index(n) + 1 if n else 0,
+                look_counts=schedule.counts)
+
+
+def no_plan(reason: str, required_probability: float, confidence: float, model: str,
+            schedule: Optional[Schedule] = None) -> Certificate:
+    """The certificate of a task the planner could not serve (nothing sampled);
+    ``schedule``: the looks it would have had (its procedure is recorded)."""
+    schedule = schedule or Schedule((stats.samples_needed(required_probability, confidence),),
+                                    confidence)
     return Certificate(verdict="no plan", reason="no_plan", claim=f"no plan: {reason}",
                        n_samples=0, n_success=0, success_rate=math.nan, ci_low_one_sided=math.nan,
-                       samples_needed=stats.samples_needed(required_probability, confidence),
+                       samples_needed=stats.samples_needed(required_probability,
+                                                           schedule.look_confidence),
                        required_probability=required_probability, confidence=confidence,
                        nothing_perturbed=False, perturbed=(), dominant_failure_mode="no_plan",
-                       model=model, note=f"planner: {reason}")
+                       model=model, note=f"planner: {reason}", **_procedure(schedule, 0))
 
 
-def decided(n: int, k: int, required_probability: float, confidence: float) -> bool:
-    """Whether more samples could still change the verdict: False while the
-    requirement lies between the one-sided lower and upper bounds."""
+def decided(n: int, k: int, required_probability: float, look_confidence: float) -> bool:
+    """Whether a look at ``k`` successes of ``n`` decides the verdict: the
+    one-sided lower bound at ``look_confidence`` reaches the requirement, or the
+    upper bound lies below it (a :class:`Schedule`'s ``look_confidence``, not the
+    overall confidence, when there are several looks)."""
     if n == 0:
         return False
-    return (stats.one_sided_lower(k, n, confidence) >= required_probability
-            or stats.one_sided_upper(k, n, confidence) < required_probability)
+    return (stats.one_sided_lower(k, n, look_confidence) >= required_probability
+            or stats.one_sided_upper(k, n, look_confidence) < required_probability)
 
 
-def auto_sample_counts(required_probability: float, confidence: float, cap: int,
-                       first: Optional[int] = None) -> list[int]:
-    """The sample counts ``--n-samples auto`` tries in turn: the fewest that
-    could certify (all successful), then doubling up to ``cap``."""
-    n = max(1, first or stats.samples_needed(required_probability, confidence))
+def auto_sample_counts(required_probability: float, look_confidence: float, cap: int) -> list[int]:
+    """Doubling sample counts: the fewest that could certify at
+    ``look_confidence`` (all successful), doubling while below ``cap``, then ``cap``."""
+    n = stats.samples_needed(required_probability, look_confidence)
     out = []
     while n < cap:
         out.append(n)
@@ -212,23 +330,45 @@ def auto_sample_counts(required_probability: float, confidence: float, cap: int,
     return out
 
 
-def grow(evaluate_more: Callable[[int], tuple[int, int]], counts: list[int],
-         required_probability: float, confidence: float) -> tuple[int, int]:
-    """Draw samples until the verdict is decided or the last count is reached.
+def auto_schedule(required_probability: float, confidence: float, cap: int) -> Schedule:
+    """The looks of ``--n-samples auto``, fixed before any sample is drawn.
+
+    The counts double from the fewest all-successful samples that certify at
+    the per-look confidence ``1 - alpha / K`` up to ``cap``; the smallest ``K``
+    whose doubling schedule has at most ``K`` looks is taken (a larger ``K``
+    starts higher, so has no more looks), and each look's bounds are then at
+    ``1 - alpha / (number of looks)``: Bonferroni over the looks, so the whole
+    procedure holds ``confidence`` (see the module docstring).
+    """
+    if not (isinstance(cap, (int, np.integer)) and cap >= 1):
+        raise ValueError(f"max_samples: expected an integer >= 1, got {cap!r}")
+    alpha = 1.0 - float(confidence)
+    K = 1
+    while True:
+        counts = auto_sample_counts(required_probability, 1.0 - alpha / K, int(cap))
+        if len(counts) <= K:
+            return Schedule(tuple(counts), float(confidence))
+        K += 1
+
+
+def grow(evaluate_more: Callable[[int], tuple[int, int]], schedule: Schedule,
+         required_probability: float) -> tuple[int, int]:
+    """Draw samples look by look until one decides (at the schedule's
+    ``look_confidence``) or the last look is reached.
 
     Args:
       evaluate_more: ``f(n_total) -> (n, k)``: extends the evaluation to
         ``n_total`` samples (reusing those drawn before) and returns the totals.
-      counts: increasing targets (:func:`auto_sample_counts`).
+      schedule: the looks (:func:`auto_schedule`, or one fixed count).
 
     Returns:
       ``(n, k)`` at the end.
     """
     n = k = 0
-    for target in counts:
+    for target in schedule.counts:
         n, k = evaluate_more(int(target))
-        if decided(n, k, required_probability, confidence):
-            break
+        if n < target or decided(n, k, required_probability, schedule.look_confidence):
+            break       # n < target: interrupted
     return n, k
 
 
@@ -253,8 +393,10 @@ def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence
       key: a ``jax.random`` key; block ``b`` of samples uses ``fold_in(key, b)``, so
         growing the sample count keeps the samples drawn before.
       required_probability, confidence: the requirement (both in (0, 1)).
-      n_samples: an integer, or ``"auto"``: grow from the fewest samples that
-        could certify, doubling, until the verdict is decided or ``max_samples``.
+      n_samples: an integer (one look, the plain one-sided bound), or ``"auto"``:
+        the sequential procedure of :func:`auto_schedule` (looks from the fewest
+        samples that could certify, doubling, up to ``max_samples``; Bonferroni
+        over the looks), stopping at the first look that decides.
       model, dtype, pos_eps_m, theta_eps_rad, physics, task, bound: as in
         :func:`robustness.evaluate`.
 
@@ -280,12 +422,12 @@ def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence
         pe = 1e-3 if pos_eps_m is None else pos_eps_m
         te = math.radians(1.0) if theta_eps_rad is None else theta_eps_rad
     if n_samples == "auto":
-        counts = auto_sample_counts(required_probability, confidence, int(max_samples))
+        schedule = auto_schedule(required_probability, confidence, int(max_samples))
     elif isinstance(n_samples, int) and not isinstance(n_samples, bool) and n_samples >= 1:
-        counts = [n_samples]
+        schedule = Schedule((n_samples,), confidence)
     else:
         raise ValueError(f"n_samples: expected an integer >= 1 or 'auto', got {n_samples!r}")
-    block = counts[0]
+    block = schedule.counts[0]
     frames: list = []
 
     def more(total: int):
@@ -304,16 +446,17 @@ def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence
         df = pd.concat(frames, ignore_index=True)
         return len(df), int(df["success"].sum())
 
-    grow(more, counts, required_probability, confidence)
+    grow(more, schedule, required_probability)
     samples = pd.concat(frames, ignore_index=True)
     summary = summarise(samples, plan, sampler, kind=kind, model=model,
                         dtype=jnp.dtype(dtype).name, pos_eps_m=pe, theta_eps_rad=te,
                         confidence=confidence, task=task, bound=bound)
     cert = decide(summary, required_probability, confidence, kind=kind, model=model,
                   perturbed=perturbed_sources(sampler, kind, model), pos_eps_m=pe,
-                  theta_eps_rad=te)
+                  theta_eps_rad=te, schedule=schedule)
     return cert, samples, summary
 
 
-__all__ = ["Certificate", "certify", "decide", "no_plan", "perturbed_sources", "decided",
-           "auto_sample_counts", "grow", "VERDICTS", "REASONS", "BOUND_MODEL"]
+__all__ = ["Certificate", "Schedule", "certify", "decide", "no_plan", "perturbed_sources",
+           "decided", "auto_sample_counts", "auto_schedule", "grow", "VERDICTS", "REASONS",
+           "PROCEDURES", "BOUND_MODEL"]

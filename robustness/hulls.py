@@ -16,6 +16,8 @@ import functools
 
 import numpy as np
 
+from kernels import TOLERANCE_MERGE_FACTOR
+
 
 def polyhedron_combinatorics_changed(vertices, polyhedron, merge_tol: float) -> np.ndarray:
     """Per-sample :func:`kernels.polyhedron.combinatorics_changed` (host-side
@@ -84,7 +86,8 @@ def _compiled(topology):
     return jax.jit(lambda v, tol: polyhedron_hull_verdict_batch(v, tables, tol))
 
 
-def face_merge_tol(tau_v: float, diameter: float, factor: float = 8.0, floor: float = 1e-6) -> float:
+def face_merge_tol(tau_v: float, diameter: float, factor: float = TOLERANCE_MERGE_FACTOR,
+                   floor: float = 1e-6) -> float:
     """Relative face-merging tolerance for perturbed polyhedra.
 
     A face whose corners each move by at most ``sqrt(3) tau_v`` stays within
@@ -92,7 +95,8 @@ def face_merge_tol(tau_v: float, diameter: float, factor: float = 8.0, floor: fl
     (the fourth corner of a quadrilateral is an affine combination with
     coefficients summing in absolute value to 3), so faces that were planar
     nominally are still merged when their corners lie within
-    ``factor * tau_v`` (default 8 > 4 sqrt(3)) of a common plane; a perturbed
+    ``factor * tau_v`` (default ``kernels.facets.TOLERANCE_MERGE_FACTOR`` = 8 > 4 sqrt(3), the
+    factor the planner merges a part's faces at) of a common plane; a perturbed
     face that is bent more than that, or an edge flip, counts as a change of
     combinatorics.  Returned relative to the diameter, floored at ``floor``.
     """

@@ -350,7 +350,8 @@ def tumble_nominal(plan):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PartWarning)
-        return make_polyhedron(np.asarray(plan.vertices), np.asarray(plan.com))
+        return make_polyhedron(np.asarray(plan.vertices), np.asarray(plan.com),
+                               tau_v=plan.tau_v)  # the plan's faces
 
 
 def run_tumble(plan, params, in_axes, n, dtype, chunk, merge_tol=None, slip_theta=math.inf):

@@ -12,6 +12,16 @@
   cannot be met, whatever more samples show).
 * :func:`samples_needed`: how many all-successful samples certify a required
   probability at a confidence (``p^n <= alpha``).
+* :func:`certify_threshold`, :func:`below_threshold`: the fewest successes
+  whose lower bound reaches a requirement, the most whose upper bound stays
+  below it (the decision rule of one look, as counts).
+* :func:`sequential_rates`: the exact probabilities that a rule which looks at
+  a fixed schedule of sample counts, stopping at the first decided look, ends
+  certified or ends below the requirement, for a true success probability
+  (dynamic programming over the looks).  Re-testing at every look at the full
+  confidence does not hold that confidence (a plan exactly at the requirement
+  is "certified" far more often than ``1 - confidence``); splitting ``alpha``
+  over the looks (Bonferroni) does, and this function checks it exactly.
 """
 from __future__ import annotations
 
@@ -31,6 +41,11 @@ def _check(k: int, n: int, confidence: float) -> None:
         raise ValueError(f"k: expected 0 <= k <= n = {n}, got {k!r}")
     if not (0.0 < confidence < 1.0):
         raise ValueError(f"confidence: expected a number in (0, 1), got {confidence!r}")
+
+
+def _check_p(p_required: float) -> None:
+    if not (0.0 < p_required < 1.0):
+        raise ValueError(f"p_required: expected a number in (0, 1), got {p_required!r}")
 
 
 def clopper_pearson(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
@@ -66,8 +81,7 @@ def one_sided_upper(k: int, n: int, confidence: float = 0.95) -> float:
 def samples_needed(p_required: float, confidence: float) -> int:
     """Fewest samples that, all successful, put the one-sided lower bound at
     ``p_required`` or above: the smallest n with ``p_required ** n <= 1 - confidence``."""
-    if not (0.0 < p_required < 1.0):
-        raise ValueError(f"p_required: expected a number in (0, 1), got {p_required!r}")
+    _check_p(p_required)
     if not (0.0 < confidence < 1.0):
         raise ValueError(f"confidence: expected a number in (0, 1), got {confidence!r}")
     n = max(1, int(math.ceil(math.log(1.0 - confidence) / math.log(p_required))))
@@ -77,6 +91,76 @@ def samples_needed(p_required: float, confidence: float) -> int:
     while p_required ** n > 1.0 - confidence:
         n += 1
     return n
+
+
+def certify_threshold(n: int, p_required: float, confidence: float) -> int:
+    """Fewest successes ``k`` of ``n`` whose one-sided lower bound
+    (:func:`one_sided_lower` at ``confidence``) is at least ``p_required``;
+    ``n + 1`` when even ``k = n`` is not enough.  The bound increases with ``k``,
+    so this bisects on the very function a certificate uses."""
+    _check_p(p_required)
+    if one_sided_lower(n, n, confidence) < p_required:
+        return n + 1
+    lo, hi = 0, n            # lower(lo) < p_required <= lower(hi)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if one_sided_lower(mid, n, confidence) >= p_required else (mid, hi)
+    return hi
+
+
+def below_threshold(n: int, p_required: float, confidence: float) -> int:
+    """Most successes ``k`` of ``n`` whose one-sided upper bound
+    (:func:`one_sided_upper` at ``confidence``) is below ``p_required``; -1 when
+    none is (the bound increases with ``k``: bisection, as :func:`certify_threshold`)."""
+    _check_p(p_required)
+    if one_sided_upper(0, n, confidence) >= p_required:
+        return -1
+    lo, hi = 0, n            # upper(lo) < p_required <= upper(hi) = 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if one_sided_upper(mid, n, confidence) < p_required else (lo, mid)
+    return lo
+
+
+def sequential_rates(counts, p_required: float, look_confidence: float,
+                     p_true: float) -> tuple[float, float]:
+    """Exact outcome probabilities of a sequential test at fixed looks.
+
+    The rule: draw samples up to ``counts[0]``, ``counts[1]``, ... (increasing
+    totals); at each look with ``k`` successes of ``n``, stop "certified" when
+    ``k >= certify_threshold(n, p_required, look_confidence)``, stop "below"
+    when ``k <= below_threshold(n, p_required, look_confidence)``, else go on;
+    after the last look, stop undecided.  Samples are independent successes of
+    probability ``p_true``.
+
+    Returns:
+      ``(P(certified), P(below))`` over all looks, computed exactly: the
+      distribution of ``k`` among runs still going is carried from look to look
+      (convolved with the binomial of the new samples) and the decided mass
+      removed.  Both are monotone in ``p_true`` (more successes certify sooner),
+      so at ``p_true = p_required`` they are the largest false-certification and
+      false-"below" probabilities the rule can have.
+    """
+    from scipy.signal import fftconvolve
+
+    if not (0.0 <= p_true <= 1.0):
+        raise ValueError(f"p_true: expected a number in [0, 1], got {p_true!r}")
+    mass = np.ones(1)
+    prev, p_cert, p_below = 0, 0.0, 0.0
+    for n in (int(c) for c in counts):
+        if n <= prev:
+            raise ValueError(f"counts: expected increasing sample counts, got {list(counts)}")
+        inc = _st.binom.pmf(np.arange(n - prev + 1), n - prev, p_true)
+        mass = (np.convolve(mass, inc) if mass.size * inc.size <= 1 << 22
+                else np.clip(fftconvolve(mass, inc), 0.0, None))
+        c = certify_threshold(n, p_required, look_confidence)
+        f = below_threshold(n, p_required, look_confidence)
+        p_cert += float(mass[c:].sum())
+        p_below += float(mass[:f + 1].sum())
+        mass[c:] = 0.0
+        mass[:f + 1] = 0.0
+        prev = n
+    return p_cert, p_below
 
 
 def quantiles(values) -> dict:

@@ -99,12 +99,22 @@ def analytic_bound(plan, sampler, kind: str) -> dict:
 
 def empty_summary(task: str, kind: str, model: str, dtype: str, pos_eps_m: float,
                   theta_eps_rad: float, confidence: float, reason: str = "no_plan") -> dict:
-    """The summary row of a task with no samples (no plan): ``n = 0``, NaN
-    statistics, ``dominant_failure_mode`` = ``reason``."""
-    return {"task": task, "kind": kind, "model": model, "dtype": dtype, "n": 0, "n_success": 0,
-            "success_rate": math.nan, "confidence": confidence, "ci_low": math.nan,
-            "ci_high": math.nan, "ci_low_one_sided": math.nan, "pos_eps_m": pos_eps_m,
-            "theta_eps_rad": theta_eps_rad, "dominant_failure_mode": reason}
+    """The summary row of a task with no samples (no plan): every field of the
+    ``summary`` table, as :func:`summary_row` gives it for zero samples (``n = 0``,
+    every count 0, ``worst_sample_id`` -1, NaN statistics, null bound findings),
+    with ``dominant_failure_mode`` = ``reason``.  The same fields and types as a
+    planned task's row: column types never depend on the data."""
+    cols = ("sample_id", "err_pos_m", "err_x_m", "err_y_m", "err_theta_rad", "slip_m")
+    df = pd.DataFrame({c: np.zeros(0, np.int64 if c == "sample_id" else np.float64) for c in cols})
+    df["success"] = df["in_bound_model"] = np.zeros(0, bool)
+    df["failure_mode"] = np.zeros(0, object)
+    none = np.zeros(0, np.float64)
+    s = summary_row(df, kind, model, dtype, pos_eps_m, theta_eps_rad, confidence, None, task,
+                    (none, none))
+    s["paper_bound_position_m"] = s["paper_bound_theta_rad"] = math.nan
+    s["paper_bound_violated"] = None
+    s["dominant_failure_mode"] = reason
+    return s
 
 
 def bound_of(summary: dict) -> Optional[tuple[float, float]]:
@@ -167,7 +177,7 @@ def summary_row(df, kind, model, dtype_name, pe, te, confidence, b, task, dev,
     :class:`BoundViolation` and stored as ``bound_violated``."""
     n = len(df)
     k = int(df["success"].sum())
-    lo, hi = stats.clopper_pearson(k, n, confidence)
+    lo, hi = stats.clopper_pearson(k, n, confidence) if n else (math.nan, math.nan)
     s = {"task": task, "kind": kind, "model": model, "dtype": dtype_name, "n": n, "n_success": k,
          "success_rate": k / n if n else math.nan, "confidence": confidence, "ci_low": lo,
          "ci_high": hi,

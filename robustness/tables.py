@@ -19,7 +19,9 @@ Every table starts with ``run_id``; a study's swept parameters follow as
 ordinary columns (:func:`with_design`); the integer ``config_id`` is the Hive
 partition of the folder the file lies in.  Column types never depend on the
 data (a column that is all NaN is still float64, an integer column never
-becomes float), so the files of one table read back as one consistent frame.
+becomes float: every int64 column is declared not null, so a missing count or
+index is refused when the file is written; without samples a count is 0 and an
+index -1), so the files of one table read back as one consistent frame.
 The edge (:mod:`sweeps.store`) writes them, atomically, with provenance.
 """
 from __future__ import annotations
@@ -102,6 +104,16 @@ SAMPLES_RESULT_FIELDS = [
 ]
 
 SAMPLES_SCHEMA = pa.schema([RUN_FIELD] + SAMPLES_KEY_FIELDS + SAMPLED_FIELDS + SAMPLES_RESULT_FIELDS)
+
+
+def _ints_not_null(schema: pa.Schema) -> pa.Schema:
+    """``schema`` with every int64 field declared not null (a null would make pandas
+    read the whole column back as float64: its type would depend on the data)."""
+    return pa.schema([f.with_nullable(False) if f.type == I64 else f for f in schema],
+                     metadata=schema.metadata)
+
+
+SAMPLES_SCHEMA = _ints_not_null(SAMPLES_SCHEMA)
 
 
 def _quantile_fields(stem: str) -> list:
@@ -201,6 +213,11 @@ CERTIFICATES_SCHEMA = pa.schema([
     pa.field("success_rate", F64),
     pa.field("ci_low_one_sided", F64),
     pa.field("samples_needed", I64),
+    pa.field("procedure", STR),                     # fixed | sequential_bonferroni
+    pa.field("look_confidence", F64),               # confidence of each look's bounds
+    pa.field("n_looks", I64),                       # looks of the schedule
+    pa.field("look", I64),                          # the look the verdict was taken at (0: none)
+    pa.field("look_counts", pa.list_(I64)),         # the schedule's sample counts
     pa.field("nothing_perturbed", BOOL),
     pa.field("bound_position_m", F64),
     pa.field("bound_theta_rad", F64),
@@ -215,6 +232,9 @@ CERTIFICATES_SCHEMA = pa.schema([
     pa.field("recommended_safety_factor", F64),
     pa.field("note", STR),
 ])
+
+SUMMARY_SCHEMA, PLANS_SCHEMA, CERTIFICATES_SCHEMA = (
+    _ints_not_null(s) for s in (SUMMARY_SCHEMA, PLANS_SCHEMA, CERTIFICATES_SCHEMA))
 
 TABLES = {"samples": SAMPLES_SCHEMA, "summary": SUMMARY_SCHEMA, "plans": PLANS_SCHEMA,
           "certificates": CERTIFICATES_SCHEMA}

@@ -15,8 +15,14 @@ the reason (too few samples, failures and the dominant failure mode, nothing
 perturbed), or ``no plan``.  The analytic first-order bound is printed beside
 it with the model it assumes; it never certifies on its own.
 
-``--n-samples auto`` grows the sample count (from the fewest that could
-certify, doubling) until the verdict is decided or ``--max-samples``.  With a
+``--n-samples auto`` is a sequential test: it looks at a schedule of sample
+counts fixed in advance (from the fewest that could certify, doubling, up to
+``--max-samples``) and stops at the first look that decides; the error
+``1 - confidence`` is split over the ``K`` looks (Bonferroni: each look's bound
+at ``1 - (1 - confidence) / K``), so the verdict holds the stated confidence over
+all looks, and the certificate names the procedure (``procedure``,
+``look_confidence``, ``n_looks``, ``look``).  A fixed ``--n-samples N`` is one
+look, the plain one-sided bound.  With a
 ``margin_search`` section, a push task that is not certified is re-planned over
 a grid of margin angles and safety factors and the first setting that
 certifies is recommended.
@@ -116,8 +122,9 @@ def build_parser(prog: str = "nudge certify") -> Parser:
                       "interrupted (rerun to resume).")
     p.add_argument("config", help="certification config (YAML)")
     p.add_argument("--out", help="run folder (default results/certify-<config stem>/<run-id>)")
-    p.add_argument("--n-samples", help="Monte-Carlo samples per task, or 'auto' (grow until "
-                                       "decided)")
+    p.add_argument("--n-samples", help="Monte-Carlo samples per task, or 'auto' (a sequential "
+                                       "test: doubling looks up to --max-samples, stopping when "
+                                       "decided, the confidence split over the looks)")
     p.add_argument("--max-samples", type=int, help=f"cap of --n-samples auto (default "
                                                     f"{MAX_SAMPLES})")
     p.add_argument("--seed", type=int, help="override seed")
@@ -135,6 +142,7 @@ def load(path, n_samples=None, max_samples=None, seed=None):
       ConfigError: one line per mistake.
     """
     from robustness.physics.settings import check_pad_friction
+    from sweeps.plausible import screen_config
     from sweeps.study import load_part_ref
     from sweeps.yamlio import YamlError, dump_yaml, read_yaml
 
@@ -164,6 +172,7 @@ def load(path, n_samples=None, max_samples=None, seed=None):
         tasks = explicit_tasks(cfg.tasks, part.kind)
         if cfg.model == "mujoco":
             check_pad_friction(cfg.friction, "push" if part.kind == "polygon" else "tumble")
+        screen_config(cfg, part)   # implausible values (sweeps.plausible), before any work
     except ValueError as exc:   # ConfigError, or a friction the MuJoCo tumble device cannot use
         exc = exc if isinstance(exc, ConfigError) else ConfigError(str(exc))
         raise ConfigError(f"{path}: {exc.lines[0]}", [f"{path}: {ln}" for ln in exc.lines]) from None
@@ -238,7 +247,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     import jax
 
     from robustness import tables
-    from robustness.certificates import (auto_sample_counts, decide, grow, no_plan,
+    from robustness.certificates import (Schedule, auto_schedule, decide, grow, no_plan,
                                          perturbed_sources)
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
@@ -255,6 +264,8 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     store.write("plans", 0, f"t{ti:04d}", tables.frame([prow], tables.PLANS_SCHEMA),
                 tables.PLANS_SCHEMA)
     row = _task_row(cfg, part, name, start, goal, plan)
+    schedule = (auto_schedule(p, conf, cfg.max_samples) if cfg.n_samples == "auto"
+                else Schedule((int(cfg.n_samples),), conf))
     if plan is None:
         _log(quiet, f"[{name}] no plan: {reason}")
         from robustness.summary import empty_summary
@@ -262,20 +273,18 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         s = empty_summary(name, kind, model, cfg.dtype, cfg.eps.pos_eps_m, cfg.eps.theta_eps_rad,
                           conf)
         _write_summary(store, ti, s)
-        return {**row, **no_plan(reason, p, conf, model).to_row()}
-    counts = (auto_sample_counts(p, conf, cfg.max_samples) if cfg.n_samples == "auto"
-              else [int(cfg.n_samples)])
-    block = counts[0]
+        return {**row, **no_plan(reason, p, conf, model, schedule).to_row()}
     key = jax.random.fold_in(jax.random.key(cfg.seed), ti)
-    blocks = Blocks(cfg, store, plan, name, ti, key, block, model, done, flag)
-    n, k = grow(blocks.extend, counts, p, conf)
+    blocks = Blocks(cfg, store, plan, name, ti, key, schedule.counts[0], model, done, flag)
+    grow(blocks.extend, schedule, p)
     if flag.stop:
         return None
     summary = blocks.summary()
     _write_summary(store, ti, summary)
     cert = decide(summary, p, conf, kind=kind, model=model,
                   perturbed=perturbed_sources(cfg.sampler(), kind, model),
-                  pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad)
+                  pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+                  schedule=schedule)
     row.update(cert.to_row())
     if cert.verdict != "certified" and kind == "push" and cfg.margin_search is not None \
             and cfg.margin_search.enabled:
@@ -315,6 +324,12 @@ class Blocks:
             path = self.store.table_path("samples", 0, unit)
             if f"{unit}" in self.done:
                 df = pd.read_parquet(path, columns=["success"])
+                if len(df) != m:
+                    from sweeps.store import RunError
+
+                    raise RunError(f"{path}: holds {len(df)} samples, the schedule of this run "
+                                   f"draws {m} in this block (drawn by another version of nudge"
+                                   f"?): certify into a new --out folder")
             else:
                 cfg = self.cfg
                 with warnings.catch_warnings(record=True) as caught:

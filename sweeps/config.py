@@ -17,11 +17,12 @@ import dataclasses
 import math
 from typing import Literal, Optional, Union
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, model_validator
 
 from robustness.physics.settings import PhysicsSettings
 from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
-from sweeps.terminal import angle_value
+from sweeps.plausible import wrap
+from sweeps.terminal import EFFORT_BOUNDS, angle_value
 
 
 class ConfigError(ValueError):
@@ -56,8 +57,10 @@ class Planner(Strict):
     """Planner settings: pushing (margin, safety factor, objective; the search
     strategy, the model-based distances for a support ratio range ``support_c``
     ``[lo, hi]`` (m), slip-aware plans for a fence friction of at least
-    ``min_fence_mu``, a ``workspace`` ``[xmin, xmax, ymin, ymax]`` (m, world)) and
-    tumbling (the planner's accuracy and tolerances)."""
+    ``min_fence_mu``, a ``workspace`` ``[xmin, xmax, ymin, ymax]`` (m, world), the
+    search's effort: at most ``max_reorients`` reorient pushes, ``extra_steps``
+    more steps than the fewest per run) and tumbling (the planner's accuracy and
+    tolerances)."""
 
     @model_validator(mode="after")
     def _push_options(self):
@@ -78,7 +81,8 @@ class Planner(Strict):
         return dict(margin_deg=self.margin_deg, safety_factor=self.safety_factor,
                     objective=self.objective, strategy=self.strategy,
                     support=None if self.support_c is None else {"c": list(self.support_c)},
-                    min_fence_mu=self.min_fence_mu, workspace=self.workspace)
+                    min_fence_mu=self.min_fence_mu, workspace=self.workspace,
+                    max_reorients=self.max_reorients, extra_steps=self.extra_steps)
 
     margin_deg: float = Field(7.0, gt=0, lt=90)
     safety_factor: float = Field(1.15, ge=1)
@@ -87,6 +91,10 @@ class Planner(Strict):
     support_c: Optional[tuple[float, float]] = None
     min_fence_mu: Optional[float] = Field(None, ge=0)
     workspace: Optional[tuple[float, float, float, float]] = None
+    max_reorients: StrictInt = Field(24, ge=EFFORT_BOUNDS["max_reorients"][0],
+                                     le=EFFORT_BOUNDS["max_reorients"][1])
+    extra_steps: StrictInt = Field(3, ge=EFFORT_BOUNDS["extra_steps"][0],
+                                   le=EFFORT_BOUNDS["extra_steps"][1])
     tumble_eps: Optional[float] = Field(None, gt=0)
     tumble_tau_v: float = Field(0.0, ge=0)
     tau_g: Optional[float] = Field(None, ge=0)
@@ -180,6 +188,9 @@ HINTS = {
     "tumble_eps": "the tumble planner's accuracy (m / rad), > 0",
     "tumble_tau_v": "the vertex tolerance the tumble planner plans for, m (0: the nominal part)",
     "safety_factor": "the Peshkin safety factor, >= 1 (paper: 1.15)",
+    "max_reorients": "the most reorient pushes a plan may have, an integer 1..10000 (default 24)",
+    "extra_steps": "how many more steps than the fewest the push search tries per reorientation "
+                   "run, an integer 0..100 (default 3)",
     "mu_f": "a range [low, high] of fence friction coefficients >= 0",
     "mu_s": "a range [low, high] of support friction coefficients >= 0",
     "c": "a range [low, high] of limit-surface ratios in metres, > 0",
@@ -342,7 +353,7 @@ def parse_pose(values, field: str, kind: str) -> tuple:
                           f"{', face number' if want == 4 else ''}), got {n} value(s)")
     x = _length(values[0], f"{field}[0]")
     y = _length(values[1], f"{field}[1]")
-    th = parse_angle(values[2], f"{field}[2]")
+    th = wrap(parse_angle(values[2], f"{field}[2]"))   # stored in (-pi, pi]
     if want == 3:
         return (x, y, th)
     f = values[3]

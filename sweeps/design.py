@@ -16,6 +16,11 @@ together (equal lengths) instead of being crossed.  A scalar value swept on a
 range field (``friction.mu_f: [0.3, 0.8]`` is a range) sets both ends, so
 ``params: {friction.mu_f: [0.3, 0.5, 0.8]}`` sweeps the fence friction.
 
+A design has at most :data:`MAX_CONFIGS` (100,000) configurations: the size is
+counted from the axes' lengths (zipped axes once) before any value is drawn, and
+a larger design is refused with one line (``params: ...``), under ``--dry-run``
+too; sweep fewer values, zip axes that step together, or split the study.
+
 Command-line overrides in the habit of Hydra: ``--set planner.margin_deg=5,7,9``
 (a comma list becomes a grid axis) and ``--set samples=2000`` (one value sets
 the field, and replaces any axis on it).
@@ -80,33 +85,60 @@ Axis = Annotated[
                   custom_error_message=f"expected {AXIS_FORMS}")]
 
 
+#: The most configurations a study's design may have (counted before it is expanded).
+MAX_CONFIGS = 100_000
+
+
 class _AxisModel(BaseModel):
     axis: Axis
 
 
-def axis_values(path: str, spec, seed: int) -> list:
-    """The values of one axis (validated; errors name ``params.<path>``)."""
+def _axis(path: str, spec):
+    """The validated axis spec (errors name ``params.<path>``)."""
     try:
-        a = _AxisModel.model_validate({"axis": spec}).axis
+        return _AxisModel.model_validate({"axis": spec}).axis
     except ValidationError as exc:
         e = exc.errors()[0]
         msg = e["msg"] if e["type"] == "axis" else f"{e['msg']} ({AXIS_FORMS})"
         raise ConfigError(f"params.{path}: {msg}, got {spec!r}") from None
+
+
+def axis_length(path: str, spec) -> int:
+    """The number of values of one axis, counted without drawing them (validated;
+    errors name ``params.<path>``)."""
+    a = _axis(path, spec)
     if isinstance(a, list):
         if not a:
             raise ConfigError(f"params.{path}: the list is empty; give at least one value")
-        return list(a)
+        return len(a)
     if isinstance(a, Linspace):
-        lo, hi, n = a.linspace
+        n = a.linspace[2]
         if n < 1:
             raise ConfigError(f"params.{path}: linspace needs n >= 1, got {n}")
-        return [float(x) for x in np.linspace(lo, hi, n)]
+        return n
     if isinstance(a, Range):
         start, stop, step = a.range
         if step == 0 or (stop - start) / step < 0:
             raise ConfigError(f"params.{path}: range [start, stop, step] needs a step of the "
                               f"sign of stop - start, got {list(a.range)}")
-        n = int(math.ceil((stop - start) / step - 1e-12))
+        n = (stop - start) / step - 1e-12
+        return int(math.ceil(n)) if n < 1e18 else 10 ** 18
+    if isinstance(a, (Uniform, LogUniform)):
+        return a.n
+    return 1
+
+
+def axis_values(path: str, spec, seed: int) -> list:
+    """The values of one axis (validated; errors name ``params.<path>``)."""
+    n = axis_length(path, spec)
+    a = _axis(path, spec)
+    if isinstance(a, list):
+        return list(a)
+    if isinstance(a, Linspace):
+        lo, hi, _ = a.linspace
+        return [float(x) for x in np.linspace(lo, hi, n)]
+    if isinstance(a, Range):
+        start, _, step = a.range
         return [float(start + i * step) for i in range(n)]
     if isinstance(a, (Uniform, LogUniform)):
         lo, hi = a.uniform if isinstance(a, Uniform) else a.loguniform
@@ -137,31 +169,44 @@ def expand(params: dict, seed: int) -> tuple[list[str], list[dict]]:
     if not isinstance(zips, list) or not all(isinstance(z, list) and z for z in zips):
         raise ConfigError("params.zip: expected a list of lists of parameter paths, e.g. "
                           "zip: [[planner.margin_deg, planner.safety_factor]]")
-    axes = {p: axis_values(p, s, seed) for p, s in params.items()}
-    groups, used = [], set()
+    sizes = {p: axis_length(p, s) for p, s in params.items()}
+    used: set = set()
     for gi, z in enumerate(zips):
         for p in z:
-            if p not in axes:
+            if p not in sizes:
                 raise ConfigError(f"params.zip[{gi}]: {p!r} is not a swept parameter; zip names "
-                                  f"axes of params ({', '.join(axes) or 'none'})")
+                                  f"axes of params ({', '.join(sizes) or 'none'})")
             if p in used:
                 raise ConfigError(f"params.zip[{gi}]: {p!r} is zipped twice")
             used.add(p)
-        lens = {len(axes[p]) for p in z}
+        lens = {sizes[p] for p in z}
         if len(lens) != 1:
             raise ConfigError(f"params.zip[{gi}]: zipped axes need equal lengths, got "
-                              + ", ".join(f"{p}: {len(axes[p])}" for p in z))
+                              + ", ".join(f"{p}: {sizes[p]}" for p in z))
     order = []
-    for p in axes:
+    for p in sizes:
         if p in used:
             z = next(z for z in zips if p in z)
             if z not in order:
                 order.append(z)
         else:
             order.append([p])
+    _check_size(order, sizes)
+    axes = {p: axis_values(p, s, seed) for p, s in params.items()}
     groups = [[dict(zip(g, vals)) for vals in zip(*(axes[p] for p in g))] for g in order]
     points = [dict(kv for part in combo for kv in part.items()) for combo in itertools.product(*groups)]
     return list(axes), points
+
+
+def _check_size(order: list, sizes: dict) -> None:
+    """Refuse a design of more than :data:`MAX_CONFIGS` configurations (one line)."""
+    total = math.prod(sizes[g[0]] for g in order)
+    if total <= MAX_CONFIGS:
+        return
+    factors = " x ".join(f"{' = '.join(g)} ({sizes[g[0]]})" for g in order if sizes[g[0]] > 1)
+    raise ConfigError(f"params: the design has {total:,} configurations ({factors}), more than "
+                      f"the limit of {MAX_CONFIGS:,}; sweep fewer values, zip axes that step "
+                      "together (zip: [[a, b]]), or split the study")
 
 
 def parse_overrides(items) -> dict:

@@ -6,7 +6,10 @@ twice (a Dask worker that died and whose task Dask re-ran) writes the same files
 again; the driver records what finished.
 
 Dask: a ``LocalCluster`` on 127.0.0.1 with its dashboard off (unless asked;
-then at http://127.0.0.1:8787), or the cluster at ``address``.  Workers use JAX's persistent compilation cache
+then at http://127.0.0.1:8787), or the cluster at ``address``
+(``tcp://HOST:PORT``), which is probed first (:func:`check_scheduler`, a few
+seconds at most): a scheduler that cannot be reached is bad input
+(:class:`ExecutorError`), not a 30 s wait.  Workers use JAX's persistent compilation cache
 (:func:`enable_compilation_cache`), so each worker process compiles a kernel
 once per machine and later runs start warm.
 """
@@ -14,11 +17,52 @@ from __future__ import annotations
 
 import os
 import pathlib
+import socket
 from typing import Callable, Iterable, Iterator
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
 CACHE_ENV = "NUDGE_JAX_CACHE"
+#: Seconds to wait for a TCP connection to a scheduler (the probe), and for the client's handshake.
+PROBE_TIMEOUT_S, CONNECT_TIMEOUT_S = 3.0, 10.0
+
+
+class ExecutorError(RuntimeError):
+    """The executor cannot start: the scheduler address is malformed or nothing
+    answers there (bad input; the message names ``executor.address`` and the fix)."""
+
+
+def _unreachable(address: str, why) -> str:
+    return (f"executor.address: cannot reach the Dask scheduler at {address} ({why}); start one "
+            "(dask scheduler) or use executor: local")
+
+
+def check_scheduler(address: str, timeout_s: float = PROBE_TIMEOUT_S) -> None:
+    """Check, within ``timeout_s`` seconds, that something listens at a Dask
+    scheduler address (``tcp://HOST:PORT`` or ``tls://HOST:PORT``: a TCP
+    connection is opened and closed; other transports are left to the client).
+
+    Raises:
+      ExecutorError: a malformed address, or no connection (refused, timed
+        out, unknown host).
+    """
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, loc = parse_address(address)
+        if scheme not in ("tcp", "tls"):
+            return
+        host, port = parse_host_port(loc)
+    except ValueError as exc:
+        raise ExecutorError(f"executor.address: expected tcp://HOST:PORT (e.g. "
+                            f"tcp://10.0.0.5:8786), got {address!r} ({exc})") from None
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s):
+            pass
+    except socket.timeout:
+        raise ExecutorError(_unreachable(address, f"no answer in {timeout_s:g} s")) from None
+    except OSError as exc:
+        raise ExecutorError(_unreachable(address, exc.strerror or exc)) from None
 
 
 def cache_dir() -> str:
@@ -81,7 +125,11 @@ class DaskExecutor:
             os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.5")
         os.environ.setdefault("JAX_PLATFORMS", "cpu")
         if self.address:
-            self.client = Client(self.address)
+            check_scheduler(self.address)
+            try:
+                self.client = Client(self.address, timeout=f"{CONNECT_TIMEOUT_S:g}s")
+            except OSError as exc:   # the handshake timed out or the connection closed
+                raise ExecutorError(_unreachable(self.address, exc)) from None
         else:
             # loopback only; without the dashboard the scheduler's small HTTP server (health,
             # metrics) takes a free loopback port instead of 8787

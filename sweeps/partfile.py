@@ -11,9 +11,11 @@ Format (one part per file; keys other than these are rejected)::
 This module checks the *file*: YAML syntax, allowed keys, types, shapes and
 finiteness.  Geometry (convexity, zero area or volume, a centre of mass
 outside the part) is checked by :func:`kernels.polygon.make_polygon` and
-:func:`kernels.polyhedron.make_polyhedron` when the part is used.  Every
-failure raises :class:`PartFileError` (a ``ValueError``) with a one-line
-message that starts with the file's path and names the offending field.
+:func:`kernels.polyhedron.make_polyhedron` when the part is used, and by
+:func:`check_geometry` (the same functions) where a config names a part, so
+that a degenerate part is a config error before any work.  Every failure
+raises :class:`PartFileError` (a ``ValueError``) with a one-line message that
+starts with the file's path and names the offending field.
 """
 from __future__ import annotations
 
@@ -229,3 +231,30 @@ def load_part(path: Union[str, pathlib.Path]) -> PartFile:
     except YamlError as exc:
         raise PartFileError(str(exc)) from None
     return parse_part(doc, path)
+
+
+def check_geometry(part: PartFile) -> None:
+    """Check a part's geometry as the planners will, before any work: the
+    kernels' own checks (:func:`kernels.polygon.make_polygon`,
+    :func:`kernels.polyhedron.make_polyhedron`) of collinear or coincident
+    points (no area), coplanar points (no volume) and a centre of mass that is
+    not inside.  Their warnings (points that are not hull vertices, an
+    implausible size) are not shown here: the planner raises them again when it
+    uses the part.
+
+    Raises:
+      PartFileError: one line, the part's path and the field (``vertices`` or
+        ``com``) with the fix.
+    """
+    import warnings
+
+    if part.kind == "polygon":
+        from kernels.polygon import make_polygon as make
+    else:
+        from kernels.polyhedron import make_polyhedron as make
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            make(part.vertices, part.com)
+        except ValueError as exc:   # PartError or make_polyhedron's: bad input by contract
+            raise PartFileError(f"{part.path}: {' '.join(str(exc).split())}") from None

@@ -6,6 +6,7 @@ Usage::
         [--margin-deg 7] [--safety-factor 1.15] [--objective distance|pushes]
         [--solver closed_form|cvxpy] [--strategy search|paper] [--support-c LO HI]
         [--min-fence-mu MU] [--workspace XMIN XMAX YMIN YMAX]
+        [--max-reorients N] [--extra-steps N]
         [--json] [--plot FILE.png] [--psd FILE.png]
 
 Poses are ``x,y,theta`` in metres and radians (world frame; ``(x, y)`` is the
@@ -20,26 +21,30 @@ range in metres: reorient distances from the quasi-static model instead of
 Peshkin's bound), ``--min-fence-mu`` (slip-aware plans: every reorient push
 sticks at the fence for every ``c`` in that range; needs ``--support-c``) and
 ``--workspace XMIN XMAX YMIN YMAX`` (metres, world frame: every pose and the
-part swept by every push stay inside).
+part swept by every push stay inside), and the search's effort:
+``--max-reorients N`` (no plan has more reorient pushes, default 24) and
+``--extra-steps N`` (each reorientation run tries the fewest steps up to N more,
+default 3).  A figure's file type comes from its suffix (``.png``, ``.pdf``,
+``.svg``, ...), checked before any work.
 
 Output: the plan's summary table, or with ``--json`` the plan as JSON
 (:meth:`planning.pushing.plan.PushPlan.to_dict`) and nothing else on stdout.
 Messages go to stderr.  Exit status: 0 success, 1 no plan found
 (:class:`~planning.pushing.planner.PlanningError`), 2 bad input (one line
-``error: ...`` naming the field).
+``error: ...`` naming the field), 3 internal error (``NUDGE_DEBUG=1`` for the
+traceback).
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
-import os
 import sys
 import warnings
 from typing import Optional, Sequence
 
-from sweeps.terminal import (InputError, Parser, fail, join_negative_values, load_part_of_kind,
-                          report_warnings)
+from sweeps.terminal import (EFFORT_BOUNDS, InputError, Parser, check_figure_path, fail,
+                             join_negative_values, load_part_of_kind, report_warnings)
 from sweeps.terminal import parse_pose as _parse_pose
 
 EXIT_OK, EXIT_PLANNING, EXIT_INPUT = 0, 1, 2
@@ -88,6 +93,12 @@ def build_parser(prog: str = "nudge plan-push") -> argparse.ArgumentParser:
                    metavar=("XMIN", "XMAX", "YMIN", "YMAX"),
                    help="rectangle in metres (world frame) that every pose of the plan and the "
                         "part swept by every push stay inside")
+    p.add_argument("--max-reorients", type=_integer("--max-reorients"), default=24,
+                   metavar="N", help="the search's effort budget: no plan has more than N "
+                                     "reorient pushes (default 24)")
+    p.add_argument("--extra-steps", type=_integer("--extra-steps"), default=3, metavar="N",
+                   help="each reorientation run tries the fewest steps up to N more (default 3; "
+                        "uni-stable parts also 2, 3 and 4 times N more)")
     p.add_argument("--json", action="store_true", help="print the plan as JSON on stdout")
     p.add_argument("--plot", metavar="FILE.png", help="draw the plan (Akella-Mason Fig. 1)")
     p.add_argument("--psd", metavar="FILE.png",
@@ -111,6 +122,24 @@ def _number(flag: str):
     return parse
 
 
+def _integer(flag: str):
+    """argparse type: an integer in ``EFFORT_BOUNDS`` of the setting ``flag`` names,
+    else one error line naming ``flag``."""
+    lo, hi = EFFORT_BOUNDS[flag.lstrip("-").replace("-", "_")]
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"expected an integer {lo}..{hi}, got {text!r}")
+        return value
+
+    parse.__name__ = flag
+    return parse
+
+
 def _join_pose_args(argv: Sequence[str]) -> list[str]:
     """``--start -0.1,0,0`` -> ``--start=-0.1,0,0`` (argparse would take the value for an option)."""
     return join_negative_values(argv, ("--start", "--goal"))
@@ -121,7 +150,8 @@ def _flag_names(message: str) -> str:
     for field, flag in (("margin_deg", "--margin-deg"), ("safety_factor", "--safety-factor"),
                         ("start", "--start"), ("goal", "--goal"), ("support", "--support-c"),
                         ("min_fence_mu", "--min-fence-mu"), ("workspace", "--workspace"),
-                        ("strategy", "--strategy")):
+                        ("strategy", "--strategy"), ("max_reorients", "--max-reorients"),
+                        ("extra_steps", "--extra-steps")):
         if message.startswith(field + ":"):
             return flag + message[len(field):]
     return message
@@ -145,8 +175,8 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
             raise InputError("--min-fence-mu: slip-aware plans need --support-c LO HI too (whether "
                              "the fence contact sticks depends on the support's limit-surface ratio)")
         for flag, path in (("--plot", args.plot), ("--psd", args.psd)):
-            if path and not os.path.isdir(os.path.dirname(os.path.abspath(path))):
-                raise InputError(f"{flag}: the folder of {path!r} does not exist")
+            if path:
+                check_figure_path(path, flag)
     except InputError as exc:
         return fail(str(exc))
 
@@ -154,6 +184,13 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
         part = load_part_of_kind(args.part, "polygon", "nudge plan-tumble for polyhedra")
     except InputError as exc:
         return fail(str(exc))
+    from sweeps import plausible
+
+    shown = plausible.screen_cli(part, poses={"--start": args.start, "--goal": args.goal},
+                                 frictions={"--min-fence-mu": args.min_fence_mu},
+                                 limit_surface={"--support-c": args.support_c})
+    if shown is None:   # an implausible value (sweeps.plausible): refused before any work
+        return EXIT_INPUT
 
     # heavy imports (JAX) only after the cheap checks
     from kernels.polygon import PartError
@@ -161,6 +198,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        plausible.mute(shown)   # the warnings shown above, once
         try:
             support = None if args.support_c is None else {"c": list(args.support_c)}
             prepared = prepare_part(part.vertices, part.com, args.margin_deg, args.safety_factor,
@@ -171,7 +209,8 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
                                  margin_deg=args.margin_deg, safety_factor=args.safety_factor,
                                  objective=args.objective, solver=args.solver,
                                  strategy=args.strategy, support=support,
-                                 min_fence_mu=args.min_fence_mu, workspace=args.workspace)
+                                 min_fence_mu=args.min_fence_mu, workspace=args.workspace,
+                                 max_reorients=args.max_reorients, extra_steps=args.extra_steps)
         except PartError as exc:
             report_warnings(caught)
             return fail(f"{part.path}: {exc}")
@@ -181,7 +220,9 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
         except ValueError as exc:
             report_warnings(caught)
             return fail(_flag_names(str(exc)))
-        except ImportError as exc:  # cvxpy missing
+        except ImportError as exc:
+            if args.solver != "cvxpy":   # only the reference solver is an optional package
+                raise
             report_warnings(caught)
             return fail(f"--solver {args.solver}: {exc}")
     report_warnings(caught)
@@ -211,7 +252,7 @@ def _write_figures(args, part, plan, prepared) -> int:
                 push_plots.plot_plan(plan, path, name=part.name)
             else:
                 push_plots.plot_psd(prepared, path, name=part.name, plan=plan)
-        except (OSError, ValueError) as exc:
-            return fail(f"{flag}: cannot write {path} ({exc})")
+        except OSError as exc:
+            return fail(f"{flag}: cannot write {path} ({exc.strerror or exc})")
         sys.stderr.write(f"wrote {path}\n")
     return EXIT_OK

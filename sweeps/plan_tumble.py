@@ -19,13 +19,15 @@ heading); ``--tau-v`` the tolerance on the vertex coordinates (m) and
 generators (default: the planner's choice from eps).
 
 ``--development`` and ``--lattice`` alone (no ``--goal``) draw only the
-plane development (Fig. 3) and the reachable lattice (Fig. 2).
+plane development (Fig. 3) and the reachable lattice (Fig. 2).  A figure's
+file type comes from its suffix (``.png``, ``.pdf``, ``.svg``, ...), checked
+before any work.
 
 Output: the plan's summary, or with ``--json`` the plan as JSON
 (:meth:`planning.tumbling.plan.TumblePlan.to_dict`) and nothing else on stdout.
 Messages go to stderr.  Exit status: 0 solved, 1 not solvable (the plan is
 printed with its reason), 2 bad input (one line ``error: ...`` naming the
-field).
+field), 3 internal error (``NUDGE_DEBUG=1`` for the traceback).
 """
 from __future__ import annotations
 
@@ -37,8 +39,8 @@ import warnings
 from fractions import Fraction
 from typing import Optional, Sequence
 
-from sweeps.terminal import (InputError, Parser, fail, join_negative_values, load_part_of_kind,
-                          parse_pose, report_warnings)
+from sweeps.terminal import (InputError, Parser, check_figure_path, fail, join_negative_values,
+                             load_part_of_kind, parse_pose, report_warnings)
 
 EXIT_OK, EXIT_NOT_SOLVABLE, EXIT_INPUT = 0, 1, 2
 
@@ -157,6 +159,10 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
             radius = _number(args.lattice_radius, "--lattice-radius", positive=True)
         if args.plot and goal is None:
             raise InputError("--plot: needs --goal and --eps")
+        for flag, path in (("--plot", args.plot), ("--development", args.development),
+                           ("--lattice", args.lattice)):
+            if path:
+                check_figure_path(path, flag)
     except InputError as exc:
         return fail(str(exc))
 
@@ -164,14 +170,21 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
         part = load_part_of_kind(args.part, "polyhedron", "nudge plan-push for polygons")
     except InputError as exc:
         return fail(str(exc))
+    from sweeps import plausible
+
+    shown = plausible.screen_cli(part, poses={"--start": args.start, "--goal": args.goal},
+                                 lengths={"--eps": eps, "--tau-v": tau_v})
+    if shown is None:   # an implausible value (sweeps.plausible): refused before any work
+        return EXIT_INPUT
 
     # heavy imports (JAX) only after the cheap checks
     from kernels.polyhedron import make_polyhedron
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        plausible.mute(shown)   # the warnings shown above, once
         try:
-            poly = make_polyhedron(part.vertices, part.com)
+            poly = make_polyhedron(part.vertices, part.com, tau_v=tau_v)  # faces at tau_v
         except ValueError as exc:
             report_warnings(caught)
             return fail(f"{part.path}: {exc}")
@@ -197,7 +210,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
                 from planning.tumbling.planner import analyze_polyhedron
                 analysis = analyze_polyhedron(part.vertices, com=part.com, tau_v=tau_v,
                                               tau_g=tau_g, start_face=int(start[3]))
-        except (ValueError, TypeError, ZeroDivisionError, ArithmeticError) as exc:
+        except ValueError as exc:   # the planner's bad input (naming the field); a bug is exit 3
             report_warnings(caught)
             return fail(str(exc))
     report_warnings(caught)
@@ -238,8 +251,8 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
                         if goal is not None:
                             r = max(r, 1.15 * math.hypot(goal[0] - start[0], goal[1] - start[1]))
                     tumble_plots.plot_reachable(analysis, path, r, name=part.name)
-            except (OSError, ValueError) as exc:
-                return fail(f"{flag}: cannot write {path} ({exc})")
+            except OSError as exc:
+                return fail(f"{flag}: cannot write {path} ({exc.strerror or exc})")
             sys.stderr.write(f"wrote {path}\n")
     return code
 

@@ -15,7 +15,8 @@ from tqdm import tqdm
 
 
 class Progress:
-    """A bar over the samples of a run (``quiet``: nothing at all)."""
+    """A bar over the samples of a run (``quiet``: no bar; notes, which are
+    warnings, are printed all the same)."""
 
     def __init__(self, total: int, quiet: bool = False, desc: str = "samples"):
         tty = sys.stderr.isatty()
@@ -28,8 +29,10 @@ class Progress:
         self.t0 = time.perf_counter()
 
     def note(self, text: str) -> None:
-        """A line above the bar."""
-        if not self.quiet:
+        """A line above the bar (a warning: shown under ``quiet`` too)."""
+        if self.quiet:
+            print(text, file=sys.stderr)
+        else:
             self.bar.write(text, file=sys.stderr)
 
     def advance(self, n: int) -> None:

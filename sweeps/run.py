@@ -69,7 +69,6 @@ def build_parser(prog: str = "python -m sweeps.run") -> Parser:
 def main(argv: Optional[Sequence[str]] = None, prog: str = "python -m sweeps.run") -> int:
     """Run the command line; returns the exit status."""
     from sweeps.config import ConfigError
-    from sweeps.store import RunError
 
     args = build_parser(prog).parse_args(sys.argv[1:] if argv is None else argv)
     try:
@@ -78,19 +77,31 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "python -m sweeps.run
         for line in exc.lines:
             fail(line)
         return EXIT_INPUT
+    for line in design.warnings:   # implausible values (sweeps.plausible): shown even with --quiet
+        sys.stderr.write(f"warning: {line}\n")
     if args.dry_run:
         sys.stdout.write(describe_design(design, out, spec) + "\n")
         return EXIT_OK
+    from sweeps.executors import ExecutorError, check_scheduler
+    from sweeps.store import RunError
+    from sweeps.tasks import PlanInputError
+
     try:
+        if spec.kind == "dask" and spec.address:
+            check_scheduler(spec.address)   # seconds, before the run folder is made
         return execute(design, out, spec, quiet=args.quiet, report=not args.no_report)
-    except RunError as exc:
+    except (RunError, ExecutorError) as exc:
         return fail(str(exc))
+    except PlanInputError as exc:   # a setting the planner refused: bad input, found planning
+        return fail(f"{design.path}: {exc}")
 
 
 def _prepare(args):
     from sweeps.study import Executor, load_design
+    from sweeps.work import check_units
 
     design = load_design(args.config, args.overrides)
+    check_units(design)
     top = design.top
     spec = top.executor_spec
     if args.executor:
@@ -159,7 +170,7 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
         _say(quiet, f"resuming run {design.run_id}: {len(done)} chunk(s) already done, "
                     f"{len(blocks) + len(summaries)} to go")
     bar = Progress(total, quiet=quiet)
-    warned: set = set()
+    warned: set = set(design.warnings)   # shown before the run
     findings: dict = {}
     try:
         with StopFlag(resume) as flag, make_executor(spec) as ex:

@@ -11,7 +11,8 @@ carry ``deg``)::
       sample: {n: 6, annulus: [0.05, 0.15], heading: [-180deg, 180deg]}
     planner: {margin_deg: 7, safety_factor: 1.15}   # + objective, strategy (search | paper),
                                         # support_c [lo, hi] m, min_fence_mu, workspace
-                                        # [xmin, xmax, ymin, ymax] m; tumble_eps, tumble_tau_v, tau_g
+                                        # [xmin, xmax, ymin, ymax] m, max_reorients (24),
+                                        # extra_steps (3); tumble_eps, tumble_tau_v, tau_g
     tolerances: {tau_v: 2.0e-5}         # robustness.GeometryTolerance
     friction: {mu_f: [0.5, 0.8]}        # robustness.FrictionRange
     execution: {start_xy: 5.0e-4}       # robustness.ExecutionTolerance
@@ -22,7 +23,8 @@ carry ``deg``)::
     chunk_samples: 200                  # samples per unit of work (resume granularity)
     seed: 0
     executor: local                     # local | dask | {kind: dask, workers: 2, address: ...}
-    params:                             # the swept axes (sweeps.design)
+    params:                             # the swept axes (sweeps.design; at most
+                                        # 100,000 configurations, counted first)
       planner.margin_deg: [3, 7, 12]
       friction.mu_f: {linspace: [0.3, 0.9, 3]}
 """
@@ -44,6 +46,7 @@ from sweeps import catalog
 from sweeps.config import (Angle, ConfigError, Evaluation, PartInline, Strict, Task, explicit_tasks,
                            parse_angle, parse_pose, validate)
 from sweeps.design import expand, parse_overrides, set_path
+from sweeps.plausible import check_design, wrap
 from sweeps.yamlio import YamlError, dump_yaml, read_yaml
 
 KIND_OF_PART = {"polygon": "push", "polyhedron": "tumble"}
@@ -171,6 +174,7 @@ class Design:
                 lines = [f"params: configuration {i} ({where}): {ln}" for ln in exc.lines]
                 raise ConfigError(lines[0], lines) from None
         self._parts: dict = {}
+        self.warnings: list = []   # plausibility warnings (sweeps.plausible), by load_design
 
     @property
     def top(self) -> Study:
@@ -214,19 +218,28 @@ RANGE_FIELDS = ("friction.mu_f", "friction.mu_s", "friction.c")
 
 
 def load_part_ref(ref, base: pathlib.Path):
-    """A part given as a bundled name, a path (relative to ``base``) or inline."""
-    from sweeps.partfile import PartFileError, load_part, parse_part
+    """A part given as a bundled name, a path (relative to ``base``) or inline,
+    its geometry checked (:func:`sweeps.partfile.check_geometry`): a degenerate
+    part is a config error (``part.vertices: ...`` inline), before any work."""
+    from sweeps.partfile import PartFileError, check_geometry, load_part, parse_part
 
+    inline = base / "<inline part>"
     try:
         if isinstance(ref, str):
             try:
                 path = catalog.find_part(ref, base)
             except FileNotFoundError as exc:
                 raise ConfigError(f"part: {ref!r}: {exc}") from None
-            return load_part(path)
-        return parse_part(ref.model_dump(exclude_none=True), base / "<inline part>")
+            part = load_part(path)
+        else:
+            part = parse_part(ref.model_dump(exclude_none=True), inline)
+        check_geometry(part)
+        return part
     except PartFileError as exc:
-        raise ConfigError(f"part: {exc}") from None
+        msg = str(exc)
+        if not isinstance(ref, str) and msg.startswith(f"{inline}: "):
+            raise ConfigError(f"part.{msg[len(str(inline)) + 2:]}") from None
+        raise ConfigError(f"part: {msg}") from None
 
 
 def sample_tasks(s: GoalSampling, part, seed: int) -> list[tuple[str, tuple, tuple]]:
@@ -262,7 +275,7 @@ def sample_tasks(s: GoalSampling, part, seed: int) -> list[tuple[str, tuple, tup
         else:
             (x0, x1), (y0, y1) = s.box
             x, y = x0 + rng.random() * (x1 - x0), y0 + rng.random() * (y1 - y0)
-        th = h0 + rng.random() * (h1 - h0)
+        th = wrap(h0 + rng.random() * (h1 - h0))    # stored in (-pi, pi]
         goal = (x, y, th) if faces is None else (x, y, th, int(faces[rng.integers(len(faces))]))
         out.append((f"goal{i:03d}", start, goal))
     return out
@@ -273,7 +286,9 @@ def sample_tasks(s: GoalSampling, part, seed: int) -> list[tuple[str, tuple, tup
 # --------------------------------------------------------------------------
 def load_design(ref, overrides=()) -> Design:
     """Read a study (a path, or a bundled study's name), apply ``--set``
-    overrides, validate every configuration, resolve parts and tasks.
+    overrides, validate every configuration, resolve parts and tasks, and
+    check the values' plausibility (:mod:`sweeps.plausible`; its warning lines
+    in ``design.warnings``, for the caller to show).
 
     Raises:
       ConfigError: one line per mistake, naming the field path and the fix.
@@ -306,12 +321,19 @@ def load_design(ref, overrides=()) -> Design:
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc.lines[0]}", [f"{path}: {ln}" for ln in exc.lines]) from None
     for cid in range(len(design.configs)):
-        part = design.part(cid)
+        try:
+            part = design.part(cid)
+        except ConfigError as exc:
+            raise ConfigError(f"{path}: {exc}") from None
         want = KIND_OF_PART[part.kind]
         if design.configs[cid].kind != want:
             raise ConfigError(f"{path}: kind: the part {part.name!r} is a {part.kind}, so the study "
                               f"kind must be {want}")
         design.tasks(cid)
+    try:
+        design.warnings = check_design(design)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc.lines[0]}", [f"{path}: {ln}" for ln in exc.lines]) from None
     return design
 
 

@@ -19,6 +19,23 @@ class PlanInputError(ValueError):
     """The planner rejected its input (a bad part or setting): a config error, not 'no plan'."""
 
 
+#: The planners' argument names (a ValueError's first word) -> the config fields they come from.
+CONFIG_FIELDS = {"margin_deg": "planner.margin_deg", "safety_factor": "planner.safety_factor",
+                 "objective": "planner.objective", "strategy": "planner.strategy",
+                 "support": "planner.support_c", "min_fence_mu": "planner.min_fence_mu",
+                 "workspace": "planner.workspace", "max_reorients": "planner.max_reorients",
+                 "extra_steps": "planner.extra_steps", "eps": "planner.tumble_eps",
+                 "tau_v": "planner.tumble_tau_v", "tau_g": "planner.tau_g",
+                 "vertices": "part.vertices", "com": "part.com"}
+
+
+def _config_field(message: str) -> str:
+    """A planner's one-line message with its argument named as the config field."""
+    message = " ".join(str(message).split())
+    head, sep, rest = message.partition(":")
+    return f"{CONFIG_FIELDS[head]}:{rest}" if sep and head in CONFIG_FIELDS else message
+
+
 def tumble_eps(planner: Planner, eps: Eps) -> float:
     """The tumble planner's accuracy: ``planner.tumble_eps``, default half the
     tighter success tolerance (so that the plan leaves room for the errors)."""
@@ -63,7 +80,7 @@ def plan_task(part, start, goal, planner: Planner, eps: Eps, caught: Optional[li
         except PlanningError as exc:
             return None, " ".join(str(exc).split())
         except (PartError, ValueError) as exc:
-            raise PlanInputError(" ".join(str(exc).split())) from None
+            raise PlanInputError(_config_field(exc)) from None
         finally:
             if caught is not None:
                 caught.extend(got)

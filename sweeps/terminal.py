@@ -18,6 +18,12 @@ from typing import Callable, Iterable, Sequence
 
 EXIT_INPUT, EXIT_INTERNAL = 2, 3
 
+#: The push search's effort settings (``planning.plan_pose``'s ``max_reorients`` and
+#: ``extra_steps``) that the command line and configs accept: ``(low, high)``.  The
+#: planner has no upper bound; these keep its candidate table finite (a plan has at most
+#: ``max_reorients`` reorient pushes, so more extra steps change nothing).
+EFFORT_BOUNDS = {"max_reorients": (1, 10_000), "extra_steps": (0, 100)}
+
 NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 ANGLE = re.compile(rf"^\s*({NUMBER})\s*(deg|rad)?\s*$")
 FACE = re.compile(r"^[Ff]?(\d+)$")
@@ -99,6 +105,25 @@ def join_negative_values(argv: Sequence[str], flags: Iterable[str]) -> list[str]
         out.append(tok)
         i += 1
     return out
+
+
+def check_figure_path(path: str, flag: str) -> None:
+    """Refuse a figure's file before any work: its folder must exist and its
+    suffix name a file type matplotlib writes (``.png``, ``.pdf``, ``.svg``, ...).
+
+    Raises:
+      InputError: the message names ``flag`` and the fix.
+    """
+    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+        raise InputError(f"{flag}: the folder of {path!r} does not exist")
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    types = FigureCanvasBase.get_supported_filetypes()
+    suffix = os.path.splitext(path)[1].lower()
+    if suffix[1:] not in types:
+        got = f"the suffix {suffix!r}" if suffix else "no suffix"
+        raise InputError(f"{flag}: {path!r} has {got}, not a figure file type; give a file name "
+                         "ending in .png, .pdf or .svg")
 
 
 def fail(message: str, code: int = EXIT_INPUT) -> int:

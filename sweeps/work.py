@@ -78,14 +78,26 @@ class Loaded:
     def plan(self, config_id: int, task_index: int):
         """``(plan or None, reason, warnings)`` of a task under a configuration
         (cached by the planner's inputs: configurations that differ only in their
-        tolerances or friction share the plan)."""
+        tolerances or friction share the plan).
+
+        Raises:
+          PlanInputError: the planner refused a setting; the message names the
+            configuration, the task and the field.
+        """
+        from sweeps.tasks import PlanInputError
+
         cfg = self.design.configs[config_id]
         name, start, goal = self.design.tasks(config_id)[task_index]
         part = self.design.part(config_id)
         key = json.dumps([part.vertices.tolist(), None if part.com is None else part.com.tolist(),
                           start, goal, cfg.planner.model_dump(), cfg.eps.model_dump()],
                          sort_keys=True)
-        return _plan_cached(key, part, start, goal, cfg.planner, cfg.eps)
+        try:
+            return _plan_cached(key, part, start, goal, cfg.planner, cfg.eps)
+        except PlanInputError as exc:
+            point = self.design.points[config_id]
+            where = f" ({', '.join(f'{p}={v!r}' for p, v in point.items())})" if point else ""
+            raise PlanInputError(f"configuration {config_id}{where}, task {name}: {exc}") from None
 
     def columns(self, config_id: int) -> dict:
         """The swept columns' values of a configuration."""
@@ -147,6 +159,38 @@ def _column_value(v, typ):
     if typ == tables.STR:
         return v if isinstance(v, str) else json.dumps(v)
     return v
+
+
+#: The most units of work (sample blocks and summaries) a study may have; each is a file.
+MAX_UNITS = 1_000_000
+
+
+def count_units(design) -> int:
+    """The number of units of work of a study (each configuration's tasks times
+    its sample blocks of ``chunk_samples``, plus one summary per task), counted
+    from the configs without listing or sampling them."""
+    total = 0
+    for cfg in design.configs:
+        n_tasks = len(cfg.tasks) if isinstance(cfg.tasks, list) else cfg.tasks.sample.n
+        size = cfg.chunk_samples or cfg.samples
+        total += n_tasks * (-(-cfg.samples // size) + 1)
+    return total
+
+
+def check_units(design) -> None:
+    """Refuse a study of more than :data:`MAX_UNITS` units of work (one line).
+
+    Raises:
+      ConfigError: naming ``chunk_samples`` and the fix.
+    """
+    from sweeps.config import ConfigError
+
+    n = count_units(design)
+    if n > MAX_UNITS:
+        raise ConfigError(f"{design.path}: chunk_samples: the study has {n:,} units of work "
+                          f"(sample chunks of chunk_samples samples per configuration and task, "
+                          f"and a summary each), more than the limit of {MAX_UNITS:,}; raise "
+                          "chunk_samples, or sweep fewer configurations or tasks")
 
 
 def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:

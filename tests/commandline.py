@@ -27,3 +27,34 @@ def nudge(*args, timeout=600, cwd=ROOT, env=None, **kw):
     e.update(env or {})
     return subprocess.run([nudge_executable(), *map(str, args)], cwd=cwd, capture_output=True,
                           text=True, timeout=timeout, env=e, **kw)
+
+
+def call(main, *args, debug=False):
+    """``main(ARGS)`` in this process, as the console script runs it
+    (:func:`sweeps.terminal.run_main`: an unexpected exception is one ``error:``
+    line and exit status 3, re-raised with ``debug``, i.e. ``NUDGE_DEBUG=1``).
+
+    Returns:
+      ``(exit status, stdout, stderr)``.
+    """
+    import contextlib
+    import io
+
+    from sweeps.terminal import run_main
+
+    out, err = io.StringIO(), io.StringIO()
+    old = os.environ.pop("NUDGE_DEBUG", None)
+    if debug:
+        os.environ["NUDGE_DEBUG"] = "1"
+    code = 0
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                run_main(lambda: main([str(a) for a in args]))
+            except SystemExit as exc:
+                code = 0 if exc.code is None else exc.code
+    finally:
+        os.environ.pop("NUDGE_DEBUG", None)
+        if old is not None:
+            os.environ["NUDGE_DEBUG"] = old
+    return code, out.getvalue(), err.getvalue()

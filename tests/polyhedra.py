@@ -1,11 +1,15 @@
 """Polyhedra for the tumbling tests (metres): the bundled examples, boxes, seeded
 random hulls, and the hard families -- non-triangular faces (prisms, frustums,
 antiprism-like bands), nearly coplanar faces, slivers -- with a hypothesis
-strategy over all of them; and a brute-force enumeration of tumble words."""
+strategy over all of them; a brute-force enumeration of tumble words; and two
+independent checks of a tumble plan (:func:`check_plan`, the JAX kernel on the
+plan's part; :func:`roll_on_vertices`, the bare points rolled in 3-D)."""
 import math
 import pathlib
+import warnings
 
 import numpy as np
+import pytest
 import yaml
 from hypothesis import strategies as st
 
@@ -121,3 +125,116 @@ def polyhedra(draw, families=FAMILIES):
     """Hypothesis strategy: ``(family, vertices)`` over the hard families."""
     family = draw(st.sampled_from(families))
     return family, family_member(family, draw(st.integers(0, 2**31 - 1)))
+
+
+def check_plan(plan, V, com=None):
+    """Independent verification of a :class:`~planning.tumbling.plan.TumblePlan`
+    on the part ``(V, com)`` with its faces at the plan's tolerance: edges,
+    kernel replay, error (tolerances relative to the part's size); a solved
+    plan ends on the goal face within eps.  Returns the replayed error."""
+    import jax.numpy as jnp
+
+    from kernels.errors import PartWarning
+    from kernels.polyhedron import make_polyhedron
+    from kernels.tumble import make_config, replay
+    from planning.tumbling.plan import config_error, reaches
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PartWarning)
+        P = make_polyhedron(V, com, tau_v=plan.tau_v)
+    hv = P.vertices[list(P.hull_vertices)]
+    tol = 1e-9 * float(np.max(np.linalg.norm(hv[:, None] - hv[None], axis=-1)))
+    f = plan.start[3]
+    for t in plan.tumbles:
+        assert t.face in P.neighbors(f)
+        assert t.edge == P.shared_edge(f, t.face)
+        f = t.face
+    n = len(plan.tumbles)
+    size = 256
+    while size < n:  # pad with no-ops to a few fixed lengths: one compilation each
+        size *= 16
+    faces = np.full(size, -1, dtype=np.int32)
+    faces[:n] = [t.face for t in plan.tumbles]
+    s = plan.start
+    final, ok = replay(P.geometry(jnp.float64), make_config(*s, dtype=jnp.float64), jnp.asarray(faces))
+    assert bool(ok)
+    cfg = (float(final.xy[0]), float(final.xy[1]), float(final.theta), int(final.face))
+    assert config_error(cfg, plan.predicted_final) < tol
+    err = config_error(cfg, plan.goal)
+    assert err == pytest.approx(plan.error, abs=tol)
+    if plan.verdict == "solved":
+        assert err <= plan.eps and reaches(cfg, plan.goal, plan.eps)
+    return err
+
+
+def _rotation(axis, angle):
+    """Rodrigues: the rotation by ``angle`` (rad) about the unit vector ``axis``."""
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * (K @ K)
+
+
+def roll_on_vertices(plan, V, com=None, touch=1e-7):
+    """Roll the bare points ``V`` through ``plan``'s tumbles in 3-D, knowing no
+    faces: before each tumble the body settles, rigidly, onto the floor
+    ``z = 0`` along the tumble's edge (both its vertices down, then turned
+    about the edge until the next point on the support's side touches: a part
+    whose face is split by a crease rocks onto the piece that holds the edge);
+    then it turns about the edge, away from its support, until the next point
+    touches.  The start and the goal are read with the face frames of the
+    plan's part (the definition of a configuration; a frame off the floor by
+    a crease is read projected).  Returns ``(error, touching)``: the paper's
+    distance of the reached configuration of the goal face from the goal, and
+    the sorted indices of the points within ``touch`` x the part's size of the
+    floor at the end."""
+    from kernels.errors import PartWarning
+    from kernels.polyhedron import make_polyhedron
+    from planning.tumbling.plan import config_error
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PartWarning)
+        P = make_polyhedron(V, com, tau_v=plan.tau_v)
+    v = P.vertices
+    hull = list(P.hull_vertices)
+    size = float(np.max(np.linalg.norm(v[hull][:, None] - v[hull][None], axis=-1)))
+    low = 16 * plan.tau_v + 1e-9 * size  # the support: the points this near the floor
+    up = np.array([0.0, 0.0, 1.0])
+    c, s_ = math.cos(plan.start[2]), math.sin(plan.start[2])
+    Rw = np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]]) @ P.face_rotations[plan.start[3]]
+    tw = np.array([plan.start[0], plan.start[1], 0.0]) - Rw @ P.face_origins[plan.start[3]]
+
+    def turn(Q, pivot):
+        return Q @ Rw, Q @ (tw - pivot) + pivot
+
+    def polar(q, u, n):  # angle of each point about the floor line u, up from direction n
+        rn, rz = q @ n, q[:, 2]
+        return np.where(np.hypot(rn, rz) > 1e-9 * size, np.arctan2(rz, rn), np.inf)
+
+    for t in plan.tumbles:
+        a, b = t.edge
+        others = [i for i in hull if i not in (a, b)]
+        X = v @ Rw.T + tw
+        n_in = np.mean(X[others][X[others][:, 2] <= X[:, 2].min() + low], axis=0) - X[a]
+        tw = tw - X[a][2] * up                                   # settle: a down,
+        X = v @ Rw.T + tw
+        e = X[b] - X[a]
+        e_flat = np.r_[e[:2], 0.0] * (np.linalg.norm(e) / np.linalg.norm(e[:2]))
+        ax = np.cross(e, e_flat)
+        if np.linalg.norm(ax) > 0:                               # b down,
+            Rw, tw = turn(_rotation(ax / np.linalg.norm(ax),
+                                    math.atan2(np.linalg.norm(ax), e @ e_flat)), X[a])
+        X = v @ Rw.T + tw
+        u = (X[b] - X[a]) / np.linalg.norm(X[b] - X[a])
+        n = np.cross(up, u)
+        n = n if n @ n_in > 0 else -n                            # in the floor, towards the support
+        Rw, tw = turn(_rotation(np.cross(up, n), float(np.min(polar(X[others] - X[a], u, n)))),
+                      X[a])                                      # the support touches; then roll
+        X = v @ Rw.T + tw
+        ang = polar(X[others] - X[a], u, -n)
+        Rw, tw = turn(_rotation(np.cross(up, -n), float(np.min(ang[ang > 1e-12]))), X[a])
+    G = plan.goal[3]
+    M = Rw @ P.face_rotations[G].T   # the goal face's frame in the world
+    o = Rw @ P.face_origins[G] + tw
+    reached = (float(o[0]), float(o[1]), math.atan2(M[1, 0], M[0, 0]), G)
+    z = (v[hull] @ Rw.T + tw)[:, 2]
+    touching = sorted(int(hull[i]) for i in np.flatnonzero(np.abs(z) <= touch * size))
+    return config_error(reached, plan.goal), touching

@@ -8,6 +8,7 @@ import sys
 import pandas as pd
 import pytest
 
+from robustness import tables
 from robustness.certificates import VERDICTS
 from sweeps import certify
 from sweeps.parquet import read_metadata
@@ -186,9 +187,14 @@ def test_auto_samples_grow_until_decided(tmp_path):
     assert r.returncode in (0, 1), r.stderr
     c = pd.read_parquet(out / "certificates").iloc[0]
     s = pd.read_parquet(out / "samples")
-    # auto starts at the fewest samples that could certify (29 for 0.9 at 95%) and doubles
-    assert c["n_samples"] in (29, 58, 116, 200) and len(s) == c["n_samples"]
+    # auto is sequential: 4 looks fixed in advance, from the fewest samples that could certify
+    # at the per-look 1 - 0.05/4 (42 for 0.9), doubling, to the cap; Bonferroni over the looks
+    assert list(c["look_counts"]) == [42, 84, 168, 200] and c["n_looks"] == 4
+    assert c["procedure"] == "sequential_bonferroni" and c["look_confidence"] == 1 - 0.05 / 4
+    assert c["n_samples"] == c["look_counts"][c["look"] - 1] and len(s) == c["n_samples"]
     assert s["sample_id"].tolist() == list(range(len(s)))
+    assert "sequential: Bonferroni over 4 looks at n = 42, 84, 168, 200" in c["claim"]
+    assert "98.75% confidence, 95% over all looks" in c["claim"] and "Bonferroni" in r.stdout
     if c["verdict"] != "certified":
         assert c["n_samples"] == 200 or c["reason"] == "below_requirement"
 
@@ -231,5 +237,16 @@ tasks:
     assert c.loc["roll_two", "plan_steps"] > 0 and c.loc["roll_two", "kind"] == "tumble"
     s = pd.read_parquet(out / "summary").set_index("task")
     assert s.loc["off_lattice", "n"] == 0 and s.loc["off_lattice", "dominant_failure_mode"] == "no_plan"
+    # column types never depend on the data: the no-plan task's file reads back with the
+    # planned task's dtypes, column for column; counts are 0 (not null) without samples
+    files = {f.name: pd.read_parquet(f) for f in _files(out, "summary")}
+    planned, empty = files["part-t0000.parquet"], files["part-t0001.parquet"]
+    assert empty["task"].iloc[0] == "off_lattice"
+    assert dict(empty.dtypes) == dict(planned.dtypes)
+    ints = [f.name for f in tables.SUMMARY_SCHEMA if f.type == "int64"]
+    assert len(ints) >= 16 and all(str(s[c].dtype) == "int64" for c in ints), s.dtypes[ints]
+    assert s.loc["off_lattice", "n_none"] == 0 and s.loc["off_lattice", "n_in_bound_model"] == 0
+    assert s.loc["off_lattice", "worst_sample_id"] == -1
+    assert s.loc["roll_two", "n_none"] == s.loc["roll_two", "n_success"] == 8
     p = pd.read_parquet(out / "plans").set_index("task")
     assert not p.loc["off_lattice", "planned"] and "not_solvable" in p.loc["off_lattice", "reason"]

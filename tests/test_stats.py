@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from scipy.stats import binomtest
+from scipy.stats import binom, binomtest
 
 from robustness import stats
 
@@ -69,3 +69,42 @@ def test_quantiles_never_hide_a_diverged_sample():
     q = stats.quantiles(np.arange(101.0))
     assert q["q50"] == 50.0 and q["q90"] == 90.0 and q["q99"] == 99.0 and q["max"] == 100.0
     assert all(math.isnan(v) for v in stats.quantiles([]).values())
+
+
+@pytest.mark.parametrize("conf", (0.9, 0.95, 0.995))
+@pytest.mark.parametrize("p", (0.5, 0.9, 0.99))
+def test_thresholds_are_the_decisions_of_the_bounds(p, conf):
+    for n in (0, 1, 2, 7, 29, 120):
+        c, f = stats.certify_threshold(n, p, conf), stats.below_threshold(n, p, conf)
+        for k in range(n + 1):
+            assert (stats.one_sided_lower(k, n, conf) >= p) == (k >= c), (n, k)
+            assert (stats.one_sided_upper(k, n, conf) < p) == (k <= f), (n, k)
+        assert -1 <= f < c <= n + 1
+
+
+def test_sequential_rates_match_enumeration():
+    # every one of the 2^10 success sequences of a three-look schedule, weighted exactly
+    import itertools
+
+    counts, p_req, conf, p_true = (3, 6, 10), 0.6, 0.8, 0.55
+    cert = below = 0.0
+    c = [stats.certify_threshold(n, p_req, conf) for n in counts]
+    f = [stats.below_threshold(n, p_req, conf) for n in counts]
+    for seq in itertools.product((0, 1), repeat=counts[-1]):
+        w = p_true ** sum(seq) * (1 - p_true) ** (len(seq) - sum(seq))
+        for n, ci, fi in zip(counts, c, f):
+            k = sum(seq[:n])
+            if k >= ci:
+                cert += w
+                break
+            if k <= fi:
+                below += w
+                break
+    got = stats.sequential_rates(counts, p_req, conf, p_true)
+    assert got == pytest.approx((cert, below), abs=1e-12)
+    assert 0 < cert < 1 and 0 < below < 1
+    # one look is the plain binomial tail
+    one, _ = stats.sequential_rates((40,), 0.8, 0.95, 0.8)
+    assert one == pytest.approx(binom.sf(stats.certify_threshold(40, 0.8, 0.95) - 1, 40, 0.8))
+    with pytest.raises(ValueError, match="increasing"):
+        stats.sequential_rates((5, 5), 0.8, 0.95, 0.8)

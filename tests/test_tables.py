@@ -92,8 +92,9 @@ def test_run_folder_layout_reads_as_one_frame_with_right_dtypes(tmp_path):
     store = RunStore.open(tmp_path / "run", {"run_id": "r1", "config": CONFIG, "seed": 7})
     schema = with_design(SUMMARY_SCHEMA, swept)
     for cid in (0, 2, 10):   # folder names sort in numeric order
-        rows = [{"run_id": "r1", "planner_margin_deg": 3.0 + cid, "task": "a", "kind": "push",
-                 "model": "exact", "dtype": "float64", "n": 4, "n_success": 4,
+        ints = {f.name: 0 for f in schema if f.type == pa.int64()}
+        rows = [{**ints, "run_id": "r1", "planner_margin_deg": 3.0 + cid, "task": "a",
+                 "kind": "push", "model": "exact", "dtype": "float64", "n": 4, "n_success": 4,
                  "bound_violated": None if cid else True}]
         store.write("summary", cid, "t0000", tables.frame(rows, schema), schema)
     df = pd.read_parquet(tmp_path / "run" / "summary")
@@ -103,6 +104,29 @@ def test_run_folder_layout_reads_as_one_frame_with_right_dtypes(tmp_path):
     assert df["bound_violated"].isna().tolist() == [False, True, True]
     # the run folder holds no Parquet file of its own (pd.read_parquet(run) would mix tables)
     assert not list((tmp_path / "run").glob("*.parquet"))
+
+
+def test_integer_columns_never_read_back_as_float(tmp_path):
+    # a task without samples (no plan) has every summary field, counts 0: its file reads
+    # back with the dtypes of the schema, like any other task's
+    from robustness.summary import empty_summary
+
+    row = {"run_id": "r1", **empty_summary("a", "tumble", "exact", "float64", 1e-3, 1e-2, 0.95)}
+    assert set(row) == set(SUMMARY_SCHEMA.names)
+    assert row["n_none"] == row["n_in_bound_model"] == 0 and row["worst_sample_id"] == -1
+    path = write_table(tables.frame([row], SUMMARY_SCHEMA), tmp_path / "s.parquet",
+                       SUMMARY_SCHEMA, CONFIG, 0)
+    back = pd.read_parquet(path)
+    for f in SUMMARY_SCHEMA:
+        if f.type == pa.int64():
+            assert back[f.name].dtype == np.int64, f.name
+    assert np.isnan(back["ci_low"].iloc[0]) and back["dominant_failure_mode"].iloc[0] == "no_plan"
+    # a missing integer is refused, naming the column, not stored as a float NaN
+    for schema in tables.TABLES.values():
+        assert not [f.name for f in schema if f.type == pa.int64() and f.nullable]
+    with pytest.raises(ValueError, match="'n_none'.*not null"):
+        write_table(tables.frame([{**row, "n_none": None}], SUMMARY_SCHEMA),
+                    tmp_path / "t.parquet", SUMMARY_SCHEMA, CONFIG, 0)
 
 
 def test_schema_drift_is_an_error(tmp_path):

@@ -23,49 +23,17 @@ import pytest  # noqa: E402
 from hypothesis import given, settings  # noqa: E402
 
 from kernels.polyhedron import make_polyhedron  # noqa: E402
-from kernels.tumble import make_config, replay  # noqa: E402
 from kernels.errors import PartWarning  # noqa: E402
 from planning.tumbling.effort import DEFAULT_EFFORT  # noqa: E402
-from planning.tumbling.plan import Tumble, TumblePlan, config_error, reaches  # noqa: E402
+from planning.tumbling.plan import Tumble, TumblePlan, reaches  # noqa: E402
 from planning.tumbling.planner import analyze_polyhedron, clear_cache, plan_tumble  # noqa: E402
 
-from tests.polyhedra import box, example, noisy, polyhedra, random_polyhedron
+from tests.polyhedra import box, check_plan, example, noisy, polyhedra, random_polyhedron
 
 pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 A_CUBE = 0.1
 
 
-
-
-def check_plan(plan: TumblePlan, V, com=None):
-    """Independent verification: edges, kernel replay, error (tolerances
-    relative to the part's size); a solved plan ends on the goal face."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PartWarning)
-        P = make_polyhedron(V, com)
-    hv = P.vertices[list(P.hull_vertices)]
-    tol = 1e-9 * float(np.max(np.linalg.norm(hv[:, None] - hv[None], axis=-1)))
-    f = plan.start[3]
-    for t in plan.tumbles:
-        assert t.face in P.neighbors(f)
-        assert t.edge == P.shared_edge(f, t.face)
-        f = t.face
-    n = len(plan.tumbles)
-    size = 256
-    while size < n:  # pad with no-ops to a few fixed lengths: one compilation each
-        size *= 16
-    faces = np.full(size, -1, dtype=np.int32)
-    faces[:n] = [t.face for t in plan.tumbles]
-    s = plan.start
-    final, ok = replay(P.geometry(jnp.float64), make_config(*s, dtype=jnp.float64), jnp.asarray(faces))
-    assert bool(ok)
-    cfg = (float(final.xy[0]), float(final.xy[1]), float(final.theta), int(final.face))
-    assert config_error(cfg, plan.predicted_final) < tol
-    err = config_error(cfg, plan.goal)
-    assert err == pytest.approx(plan.error, abs=tol)
-    if plan.verdict == "solved":
-        assert err <= plan.eps and reaches(cfg, plan.goal, plan.eps)
-    return err
 
 
 def reachable_goal(A, rng, length=30):

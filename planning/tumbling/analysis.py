@@ -200,7 +200,7 @@ def build_analysis(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[float
     :func:`planning.tumbling.planner.analyze_polyhedron` for the arguments).
     ``polyhedron``: an already validated part for ``(vertices, com)`` (skips
     rebuilding it)."""
-    P = polyhedron if polyhedron is not None else make_polyhedron(vertices, com)
+    P = polyhedron if polyhedron is not None else make_polyhedron(vertices, com, tau_v=tau_v)
     F = int(start_face)
     geom = P.geometry(jnp.float64)
     table = TumbleTable.from_polyhedron(P, geom)

@@ -29,7 +29,8 @@ from planning.tumbling.motions import Motion
 from planning.tumbling.walks import Walks
 from planning.tumbling.words import concat, inverse, purge
 
-__all__ = ["CoreIndex", "N_CORES", "PAIR_CHUNK", "PAIR_OPS", "PAIR_CAP", "ETA_MAX"]
+__all__ = ["CoreIndex", "N_CORES", "PAIR_CHUNK", "PAIR_OPS", "PAIR_CAP", "ETA_MAX",
+           "RANK_DECIMALS"]
 
 TWO_PI = 2.0 * math.pi
 #: Cores returned per goal.
@@ -41,6 +42,17 @@ PAIR_OPS = 8
 PAIR_CAP = 1 << 21
 #: Dense matching: heading window half-width cap (rad).
 ETA_MAX = 0.999 * math.pi
+
+
+#: Core estimates (tumbles) are ranked at this many decimals, then by walk
+#: index: estimates equal but for rounding (a near-tame part's noise) tie, and
+#: ties are broken the same way whatever the noise.
+RANK_DECIMALS = 6
+
+
+def _rank(core: tuple) -> tuple:
+    """Sort key of an ``(estimate, a, b)`` core triple (see ``RANK_DECIMALS``)."""
+    return (round(core[0], RANK_DECIMALS), core[1], core[2])
 
 
 class CoreIndex:
@@ -104,7 +116,7 @@ class CoreIndex:
             for r in range(len(bidx)):
                 for c in range(kk):
                     out.append((float(est[r, c]), int(aidx[ii[r, c]]), int(bidx[r])))
-        out.sort()
+        out.sort(key=_rank)
         return out[:n_cores]
 
     def dense(self, B: Walks, M: Motion, eta: float, n_cores: int = N_CORES, effort=None) -> list:
@@ -144,7 +156,7 @@ class CoreIndex:
                 if effort is not None:
                     effort.charge(int(cnt[sl].sum()) // PAIR_OPS, "cores")
                 out.extend(self._dense_pairs(B, M, bidx[sl], lo[sl], cnt[sl], fidx_ext, n_cores))
-        out.sort()
+        out.sort(key=_rank)
         return out[:n_cores]
 
     def _dense_pairs(self, B, M, bidx, lo, cnt, fidx_ext, n_cores) -> list:

@@ -77,9 +77,11 @@ class LoopTolerances:
     def near_tame(cls, scale: float, gen_err: float, step: float, spacing: float) -> "LoopTolerances":
         """Tolerances for a part whose class holds at its tolerance: positions to
         ``4 gen_err`` (the paper's generator error), kept below 1e-3 of the
-        lattice ``spacing``; a loop is a translation when its heading is within
-        ``step / 4`` of zero (``step`` the rotation grid, rad)."""
-        pos = min(max(1e-9 * scale, 4.0 * gen_err), 1e-3 * spacing)
+        lattice ``spacing`` but never below the rounding level ``1e-9 scale``
+        (a lattice at the tolerance can be as fine as 1e-31 m); a loop is a
+        translation when its heading is within ``step / 4`` of zero (``step``
+        the rotation grid, rad)."""
+        pos = max(1e-9 * scale, min(4.0 * gen_err, 1e-3 * spacing))
         return cls(pos=pos, zero=pos, sign=1e-12 * scale, quantum=max(1e-7 * scale, pos),
                    angle=0.25 * step)
 

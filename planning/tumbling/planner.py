@@ -22,7 +22,10 @@ exactly and at the part's tolerance (:mod:`planning.tumbling.analysis`).
    shorter than the short plan or needed as a fallback) is replayed from
    ``start`` with the JAX kernel :func:`kernels.tumble.replay` in float64;
    the shortest one on the goal face within ``eps`` is returned, else the
-   most accurate one.
+   most accurate one.  With ``tau_v > 0`` the part's faces are those at its
+   tolerance (noise below it splits and renumbers no face); where they differ
+   from its hull as given, a plan must also land within ``eps`` replayed on
+   that hull (:mod:`planning.tumbling.given_hull`).
 
 ``plan.bounds`` holds the paper's bounds (keys of
 :data:`planning.tumbling.plan.BOUND_KEYS`) plus ``orientation_residual`` (rad)
@@ -36,19 +39,23 @@ from __future__ import annotations
 
 import math
 import numbers
+import warnings
 from collections import OrderedDict
 from typing import Optional
 
 import jax.numpy as jnp
 import numpy as np
 
+from kernels.errors import PartWarning
+from kernels.facets import merge_distance
 from kernels.planar import wrap_angle_np
-from kernels.polyhedron import make_polyhedron
+from kernels.polyhedron import DEFAULT_MERGE_TOL, make_polyhedron
 from kernels.precision import float64
 from kernels.tumble import make_config, replay
 from planning.tumbling.analysis import TumbleAnalysis, build_analysis
 from planning.tumbling.effort import (DEFAULT_EFFORT, DEFAULT_TIME_LIMIT_S, VECTOR_OPS,
                                       BudgetExhausted, Effort)
+from planning.tumbling.given_hull import GivenHull
 from planning.tumbling.motions import Motion, compose, inverse_motion
 from planning.tumbling.paper import paper_plan
 from planning.tumbling.plan import Tumble, TumblePlan, config_error
@@ -90,12 +97,13 @@ def _lru_get(store: OrderedDict, key, build):
     return val
 
 
-def _polyhedron(vertices, com):
+def _polyhedron(vertices, com, tau_v: float):
+    """The part with its faces at the tolerance ``tau_v`` (m; cached)."""
     try:
-        key = _part_key(vertices, com)
+        key = (_part_key(vertices, com), tau_v)
     except (TypeError, ValueError):
-        return make_polyhedron(vertices, com)  # raises the kernel's message
-    return _lru_get(_parts, key, lambda: make_polyhedron(vertices, com))
+        return make_polyhedron(vertices, com, tau_v=tau_v)  # raises the kernel's message
+    return _lru_get(_parts, key, lambda: make_polyhedron(vertices, com, tau_v=tau_v))
 
 
 def _check_tol(x, name: str, allow_none: bool):
@@ -133,7 +141,10 @@ def analyze_polyhedron(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[f
       vertices: (m, 3) body-frame points (metres), any order (hull taken).
       com: optional centre of mass (default: volume centroid).
       tau_v: vertex tolerance (m, >= 0): the precision to which the part is
-        known.  > 0 sets the defect-angle representation tolerance
+        known.  > 0 takes the part's faces at that tolerance (nearly
+        coplanar triangles within it are one face,
+        :func:`kernels.polyhedron.make_polyhedron`), sets the defect-angle
+        representation tolerance
         ``Delta_beta = 2 (l - 1) tau_v / d_min`` and decides the reachable
         class at that tolerance (``reachable_class``; the class of the
         coordinates as given is ``reachable_class_exact``).
@@ -148,7 +159,7 @@ def analyze_polyhedron(vertices, com=None, tau_v: float = 0.0, tau_g: Optional[f
     """
     tau_v = _check_tol(tau_v, "tau_v", False)
     tau_g = _check_tol(tau_g, "tau_g", True)
-    P = _polyhedron(vertices, com)
+    P = _polyhedron(vertices, com, tau_v)
     if isinstance(start_face, bool) or not isinstance(start_face, numbers.Integral):
         raise ValueError(f"start_face: must be a face number (int), got {start_face!r}")
     if not 0 <= int(start_face) < P.n_faces:
@@ -181,6 +192,10 @@ def replay_faces(A: TumbleAnalysis, start, faces) -> tuple[tuple, bool]:
     """Replay landing faces from configuration ``start`` with the JAX kernel
     (float64, padded to a few fixed lengths so that compilations are shared);
     returns ``((x, y, theta, face), ok)``."""
+    return _replay(_geom(A), start, faces)
+
+
+def _replay(geom, start, faces) -> tuple[tuple, bool]:
     n = len(faces)
     size = next((b for b in REPLAY_BUCKETS if b >= n), None)
     if size is None:
@@ -188,7 +203,7 @@ def replay_faces(A: TumbleAnalysis, start, faces) -> tuple[tuple, bool]:
     seq = np.full(size, -1, dtype=np.int32)
     seq[:n] = np.asarray(faces, dtype=np.int32)
     cfg = make_config(start[0], start[1], start[2], start[3], dtype=jnp.float64)
-    final, ok = replay(_geom(A), cfg, jnp.asarray(seq))
+    final, ok = replay(geom, cfg, jnp.asarray(seq))
     xy = np.asarray(final.xy)
     return (float(xy[0]), float(xy[1]), float(final.theta), int(final.face)), bool(ok)
 
@@ -231,7 +246,7 @@ def _inputs(vertices, com, goal, start, eps, tau_v, tau_g, effort, time_limit):
     start = (0.0, 0.0, 0.0, 0) if start is None else start
     goal_c = _config(goal, "goal", None)
     start_c = _config(start, "start", None)
-    P = _polyhedron(vertices, com)
+    P = _polyhedron(vertices, com, tau_v)
     return (float(eps), tau_v, tau_g, _config(start_c, "start", P.n_faces),
             _config(goal_c, "goal", P.n_faces), P)
 
@@ -267,21 +282,68 @@ def _short_candidates(A, M: Motion, G: int, eps: float, paper, effort: Effort):
     return words, exhausted
 
 
-def _replay_candidates(A, start_c, goal_c, eps, cands, paper, effort: Effort) -> list:
-    """``(kind, word, final, err)`` for every candidate replayed by the kernel
-    (the paper's word only when shorter than the best short plan or needed)."""
-    checked = []
-    for kind, word in cands:
+def _given_hull(A, vertices, com):
+    """``(GivenHull, float64 geometry of the hull as given)`` when the part's
+    faces at its tolerance differ from its hull as given (cached), else None."""
+    if "given" not in A.cache:
+        A.cache["given"] = None
+        if A.tau_v > 0:
+            try:
+                with warnings.catch_warnings():  # its nearly coplanar faces are merged at tau_v
+                    warnings.simplefilter("ignore", PartWarning)
+                    P0 = _polyhedron(vertices, com, 0.0)
+            except ValueError:  # only the part at its tolerance is a polyhedron
+                P0 = None
+            if P0 is not None and P0.faces != A.polyhedron.faces:
+                dist = merge_distance(P0.vertices, DEFAULT_MERGE_TOL, A.tau_v)
+                A.cache["given"] = (GivenHull(A.polyhedron, P0, dist), P0.geometry(jnp.float64))
+    return A.cache["given"]
+
+
+def _given_error(A, given, start_c, goal_c, word, effort: Effort) -> float:
+    """The paper's error of ``word`` replayed on the hull as given
+    (:mod:`planning.tumbling.given_hull`: rocks over the creases of the faces
+    merged at tau_v included); inf when it cannot be replayed there."""
+    gh, geom0 = given
+    effort.add(3 * len(word) // VECTOR_OPS + len(word) // 8 + 1)
+    mapped = gh.word(start_c[3], word)
+    if mapped is None:
+        return math.inf
+    piece, word0 = mapped
+    final0, ok = _replay(geom0, gh.to_given(start_c, piece), word0)
+    if not ok:
+        return math.inf
+    return config_error(gh.from_given(final0, gh.owner[final0[3]]), goal_c)
+
+
+def _replay_candidates(A, start_c, goal_c, eps, cands, paper, effort: Effort,
+                       given=None) -> list:
+    """``(kind, word, final, err, err_given)`` for every candidate replayed by
+    the kernel (the paper's word only when shorter than the best short plan or
+    needed): ``err`` on the part as planned, ``err_given`` on its hull as
+    given when its faces at tau_v differ (``given``, :func:`_given_hull`) and
+    ``err`` is within eps, else None."""
+    def check(kind, word):
         effort.add(len(word) // VECTOR_OPS + 1)  # replays are never cut short
         final, ok = replay_faces(A, start_c, word)
-        checked.append((kind, word, final, config_error(final, goal_c) if ok else math.inf))
-    ok_lens = [len(w) for _, w, f, e in checked if e <= eps and f[3] == goal_c[3]]
+        err = config_error(final, goal_c) if ok else math.inf
+        e0 = None
+        if given is not None and err <= eps and final[3] == goal_c[3]:
+            e0 = _given_error(A, given, start_c, goal_c, word, effort)
+        return (kind, word, final, err, e0)
+
+    checked = [check(kind, word) for kind, word in cands]
+    ok_lens = [len(c[1]) for c in checked if _lands(c, goal_c, eps)]
     shortest_ok = min(ok_lens, default=None)
     if paper.word is not None and (shortest_ok is None or len(paper.word) < shortest_ok):
-        effort.add(len(paper.word) // VECTOR_OPS + 1)
-        final, ok = replay_faces(A, start_c, paper.word)
-        checked.append(("paper", paper.word, final, config_error(final, goal_c) if ok else math.inf))
+        checked.append(check("paper", paper.word))
     return checked
+
+
+def _lands(c, goal_c, eps) -> bool:
+    """Whether a checked candidate lands the goal face within eps (on the hull
+    as given too, when that was replayed)."""
+    return c[3] <= eps and c[2][3] == goal_c[3] and (c[4] is None or c[4] <= eps)
 
 
 @float64
@@ -295,7 +357,8 @@ def plan_tumble(vertices, goal, start=None, com=None, eps: float = 1e-3, tau_v: 
       vertices, com: the part (body frame, metres).
       goal: ``(x, y, theta, face)``; start: the same, default ``(0, 0, 0, 0)``.
         Metres and radians, world frame; faces numbered as in
-        :func:`kernels.polyhedron.make_polyhedron`.
+        :func:`kernels.polyhedron.make_polyhedron` at the tolerance ``tau_v``
+        (``make_polyhedron(vertices, com, tau_v=tau_v)``).
       eps: required accuracy in the paper's metric (> 0; metres and radians).
       tau_v: vertex tolerance (m, >= 0; see :func:`analyze_polyhedron`);
         tau_g: generator tolerance (>= 0 or None).
@@ -323,23 +386,27 @@ def plan_tumble(vertices, goal, start=None, com=None, eps: float = 1e-3, tau_v: 
     if shorten:
         words, why = _short_candidates(A, M, G, eps, paper, budget)
         exhausted = exhausted or why
+    given = _given_hull(A, vertices, com)
     checked = _replay_candidates(A, start_c, goal_c, eps, [("short", w) for w in words], paper,
-                                 budget)
+                                 budget, given)
     if checked:
-        good = [c for c in checked if c[3] <= eps and c[2][3] == G]
+        good = [c for c in checked if _lands(c, goal_c, eps)]
         pick = (min(good, key=lambda c: len(c[1])) if good else
-                min(checked, key=lambda c: (round(c[3] / A.size, 9), len(c[1]))))
-        kind, word, final, err = pick
+                min(checked, key=lambda c: (round(max(c[3], c[4] or 0.0) / A.size, 9),
+                                            len(c[1]))))
+        kind, word, final, err, err_given = pick
     else:
-        kind, word = "none", ()
+        kind, word, err_given = "none", (), None
         final, _ = replay_faces(A, start_c, ())
         err = config_error(final, goal_c)
 
     verd, reason = verdict(A, paper, G, eps, err, int(final[3]), kind, len(word), shorten,
-                           exhausted, budget)
+                           exhausted, budget, err_given=err_given)
     bounds = dict(paper.bounds)
     bounds["orientation_residual"] = float(paper.orientation_residual)
     bounds["position_residual"] = float(paper.position_residual)
+    if err_given is not None:
+        bounds["error_as_given"] = float(err_given)
     tumbles = []
     prev = start_c[3]
     for g in word:

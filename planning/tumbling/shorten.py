@@ -43,7 +43,7 @@ import numpy as np
 
 from kernels.planar import wrap_angle_np
 from planning.lattice import closest_lattice_point
-from planning.tumbling.cores import CoreIndex
+from planning.tumbling.cores import N_CORES, CoreIndex
 from planning.tumbling.effort import VECTOR_OPS, BudgetExhausted, Effort
 from planning.tumbling.loops import LoopFinder, LoopTolerances
 from planning.tumbling.motions import Motion
@@ -60,8 +60,15 @@ __all__ = ["ShortPlanner", "ShortResult", "tame_model_usable", "FWD_BUDGET", "BW
 #: Walks enumerated from the start face / from each goal face.
 FWD_BUDGET = 20_000
 BWD_BUDGET = 10_000
-#: Candidate plans assembled and evaluated per goal.
+#: Candidate plans assembled and evaluated per goal; beyond them, those
+#: whose estimate ties the last one's, while at most TIE_EVAL_CAP tumbles long
+#: (cores tied in the estimate differ in what cancels at their junction with
+#: the translation loops, which the estimate does not see).
 N_EVALUATED = 8
+TIE_EVAL_CAP = 4096
+#: Core candidates (walk pairs) examined per distinct core word kept: many walk
+#: pairs purge to the same core, and N_CORES distinct ones are kept.
+CORE_POOL = 16
 
 
 @dataclass
@@ -262,10 +269,18 @@ class ShortPlanner:
             step = float(A.smallest_rotation) * math.pi
             aL = float(A.table.word_motion(F, A.transit_paths[G]).angle)
             h = aL + round((M.angle - aL) / step) * step
-            cores = self.cores.exact_heading(B, M, h, effort=effort)
+            cores = self.cores.exact_heading(B, M, h, n_cores=CORE_POOL * N_CORES, effort=effort)
         else:
-            cores = self.cores.dense(B, M, 0.5 * eps, effort=effort)
-        words = [purge(concat(self.fwd.word(ia), inverse(B.word(ib), G)), F) for _, ia, ib in cores]
+            cores = self.cores.dense(B, M, 0.5 * eps, n_cores=CORE_POOL * N_CORES, effort=effort)
+        words, seen = [], set()
+        for _, ia, ib in cores:  # the first N_CORES distinct core words, best first
+            effort.charge(int(self.fwd.depth[ia] + B.depth[ib]), "cores")
+            w = purge(concat(self.fwd.word(ia), inverse(B.word(ib), G)), F)
+            if w not in seen:
+                seen.add(w)
+                words.append(w)
+                if len(words) == N_CORES:
+                    break
         if paper_core is not None:
             words.append(paper_core)
         if self.regime == "dense":  # cheap cores of any heading, fixed by rotation loops
@@ -327,7 +342,11 @@ class ShortPlanner:
             scored = self._score_cores(self._core_words(M, G, eps, paper_core, effort), M, eps,
                                        effort)
             results = sorted(self._translations(scored, M, eps, effort), key=lambda r: r[0])
-            for _, coef, cw, t in results[:N_EVALUATED]:
+            n_eval = min(N_EVALUATED, len(results))
+            while n_eval < len(results) and results[n_eval][0] == results[n_eval - 1][0] and \
+                    self.predicted_length(results[n_eval][1], results[n_eval][2]) <= TIE_EVAL_CAP:
+                n_eval += 1
+            for _, coef, cw, t in results[:n_eval]:
                 word = self._assemble(coef, cw, effort)
                 if word is None:  # too long for the budget: keep what fits as a fallback
                     exhausted = exhausted or (f"assembling a plan of "

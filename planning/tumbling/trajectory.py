@@ -17,13 +17,15 @@ from kernels.precision import float64
 __all__ = ["plan_trajectory", "sample_reached_positions", "quiet_polyhedron"]
 
 
-def quiet_polyhedron(vertices, com=None) -> Polyhedron:
+def quiet_polyhedron(vertices, com=None, tau_v: float = 0.0) -> Polyhedron:
     """:func:`kernels.polyhedron.make_polyhedron` with its :class:`PartWarning`
-    silenced (for a part the caller has already been warned about)."""
+    silenced (for a part the caller has already been warned about); ``tau_v``
+    (m): its faces at that tolerance, as the planner takes them."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PartWarning)
         return make_polyhedron(np.asarray(vertices, dtype=float),
-                               None if com is None else np.asarray(com, dtype=float))
+                               None if com is None else np.asarray(com, dtype=float),
+                               tau_v=float(tau_v))
 
 
 @float64
@@ -32,15 +34,16 @@ def plan_trajectory(plan):
 
     ``plan`` is a :class:`~planning.tumbling.plan.TumblePlan` (or anything
     with ``vertices``, ``com``, ``start`` and ``tumbles`` whose items have a
-    ``face``).  Returns ``(poly, configs, ok)``: the part, an (L+1, 4) float
-    array of ``(x, y, theta, face)`` from the start through every tumble, and
-    whether every tumble was valid.
+    ``face``; its ``tau_v``, if any, takes the faces at that tolerance).
+    Returns ``(poly, configs, ok)``: the part, an (L+1, 4) float array of
+    ``(x, y, theta, face)`` from the start through every tumble, and whether
+    every tumble was valid.
     """
     import jax.numpy as jnp
 
     from kernels.tumble import make_config, replay_trajectory
 
-    poly = quiet_polyhedron(plan.vertices, plan.com)
+    poly = quiet_polyhedron(plan.vertices, plan.com, getattr(plan, "tau_v", 0.0))
     geom = poly.geometry()
     start = tuple(plan.start)
     seq = [int(t.face) for t in plan.tumbles]

@@ -2,7 +2,9 @@
 
 * ``solved``: the returned plan, replayed by the exact kinematics on the part
   as given, ends **on the goal face** and within ``eps`` of the goal in the
-  paper's metric (a wrong face is never a solution, whatever ``eps``).  With
+  paper's metric (a wrong face is never a solution, whatever ``eps``); when
+  ``tau_v`` merged faces that are split on the hull as given, on both
+  (:mod:`planning.tumbling.given_hull`).  With
   ``tau_v > 0`` the paper's step-5 checks (eqs. 5, 6: a worst case over every
   part within ``tau_v``, far looser than the propagated error) are reported
   in the reason and in ``TumblePlan.step5_ok``; they are not required.
@@ -40,10 +42,12 @@ def _class_text(A) -> str:
     return f"{A.reachable_class} reachable set"
 
 
-def _solved_reason(A, paper, eps, err, kind, n, exhausted) -> str:
+def _solved_reason(A, paper, eps, err, kind, n, exhausted, err_given=None) -> str:
     src = {"short": "short plan", "paper": "paper's construction"}.get(kind, kind)
     out = (f"{src}: {n} tumbles (paper's construction: {fmt_count(paper.n_tumbles)}), error "
            f"{err:.3g} <= eps {eps:g} ({_class_text(A)})")
+    if err_given is not None:
+        out += f"; on its hull as given, whose faces tau_v merged, error {err_given:.3g} <= eps"
     if A.tau_v > 0:
         if paper.step5_ok:
             out += f"; step 5 checks passed (tau_v = {A.tau_v:g})"
@@ -77,15 +81,23 @@ def _proved(A, paper, G: int, eps: float) -> list:
 
 
 def verdict(A, paper, G: int, eps: float, err: float, final_face: int, kind: str, n: int,
-            shorten: bool, exhausted, effort) -> tuple[str, str]:
+            shorten: bool, exhausted, effort, err_given=None) -> tuple[str, str]:
     """``(verdict, reason)`` for the best plan (``kind``, ``n`` tumbles, error
     ``err`` in the paper's metric, ending on ``final_face``) of a goal on face
     ``G`` (see the module doc).  ``exhausted``: the stage where the effort
     budget ran out, or None; ``effort``: the call's
-    :class:`~planning.tumbling.effort.Effort`."""
-    if final_face == G and err <= eps:
-        return "solved", _solved_reason(A, paper, eps, err, kind, n, exhausted)
+    :class:`~planning.tumbling.effort.Effort`; ``err_given``: the error on the
+    hull as given when its faces differ from those at tau_v (else None)."""
+    given_miss = err_given is not None and err_given > eps
+    if final_face == G and err <= eps and not given_miss:
+        return "solved", _solved_reason(A, paper, eps, err, kind, n, exhausted, err_given)
     step5 = list(paper.step5_reasons) if A.tau_v > 0 and not paper.step5_ok else []
+    if final_face == G and err <= eps:  # lands at tau_v, misses on the hull as given
+        return "not_solvable", "; ".join([
+            f"the best plan ({n} tumbles) lands within eps on the part's faces at tau_v = "
+            f"{A.tau_v:g} m (error {err:.4g}) but not on its hull as given, whose faces "
+            f"tau_v merged (error {err_given:.4g} > eps {eps:g}); give a smaller tau_v or a "
+            "larger eps"] + step5)
     parts = _proved(A, paper, G, eps)
     if parts:
         return "not_solvable", "; ".join(parts + step5)

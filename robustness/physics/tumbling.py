@@ -90,7 +90,8 @@ def nominal_polyhedron(plan):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PartWarning)
-        return make_polyhedron(np.asarray(plan.vertices), np.asarray(plan.com))
+        return make_polyhedron(np.asarray(plan.vertices), np.asarray(plan.com),
+                               tau_v=plan.tau_v)  # the plan's faces
 
 
 @dataclasses.dataclass

@@ -238,8 +238,13 @@ def plot_psd(part_or_vertices, path, margin_deg: float = 7.0, com=None, title: O
     ends (capture ranges, from the exact replay); convergent orientations
     (stable edges flush) as double lines, divergent ones (centre of mass above
     the touching vertex) as single bold lines, unstable edges flush as dotted
-    lines.  Bottom panel, one row per stable edge: the maximum CW and CCW
-    reorient angles (light brackets) and the step angles after the margin
+    lines.  A marginal edge (the foot of the centre of mass at one of its
+    ends) is not stable: flush, the part balances on that end, an unstable
+    equilibrium, drawn as a red cross on the curve; the pushes that reach it
+    are coloured by where the part rolls on (an arbitrarily small perturbation
+    decides, :mod:`planning.pushing.stability`) and hatched (a centre of mass
+    a hair inside the edge would stop them on it).  Bottom panel, one row per
+    stable edge: the maximum CW and CCW reorient angles (light brackets) and the step angles after the margin
     (dark brackets; for a slip-aware plan at most the sticking limit).  With a
     ``plan``, its chosen reorient steps are marked on their edges' rows: an
     arrow from the orientation relative to the fence where each reorient push
@@ -279,6 +284,10 @@ def plot_psd(part_or_vertices, path, margin_deg: float = 7.0, com=None, title: O
         fc = color.get(e, "0.6")
         ax.axvspan(deg[a] - 0.5 * step, deg[b - 1] + 0.5 * step, color=fc, alpha=0.22, lw=0)
         bx.axvspan(deg[a] - 0.5 * step, deg[b - 1] + 0.5 * step, color=fc, alpha=0.10, lw=0)
+    for a, b, via in _runs(data.via_marginal.astype(int)):
+        if via:
+            ax.axvspan(deg[a] - 0.5 * step, deg[b - 1] + 0.5 * step, facecolor="none",
+                       edgecolor="0.35", hatch="//", lw=0, zorder=1)
     ax.plot(deg, data.radius * 1000.0, color="k", lw=1.3)
     rmin, rmax = float(data.radius.min()) * 1000, float(data.radius.max()) * 1000
     span = rmax - rmin
@@ -308,6 +317,16 @@ def plot_psd(part_or_vertices, path, margin_deg: float = 7.0, com=None, title: O
                 a_.axvline(xx, color="k", lw=2.2, zorder=3)
         ax.text(math.degrees(x), rmax + 0.04 * span, f"v{part.polygon.hull_index[k]}", ha="left",
                 va="bottom", fontsize=7, color="k")
+    for x, e, k in data.marginal:
+        xd = math.degrees(x)
+        r = float(np.max(-(math.sin(x) * part.body[:, 0] + math.cos(x) * part.body[:, 1]))) * 1000.0
+        for xx in _at_both_ends(xd):
+            ax.plot([xx], [r], marker="X", ms=9, color="tab:red", mec="white", mew=0.8, zorder=6,
+                    clip_on=False)
+        ax.text(xd + (1.5 if xd < 6 else -1.5 if xd > 354 else 0.0), r + 0.05 * span,
+                f"v{part.polygon.hull_index[k]} on {list(data.caller_edge(e))}",
+                ha="left" if xd < 6 else ("right" if xd > 354 else "center"), va="bottom",
+                fontsize=7, color="tab:red", zorder=6)
     ax.set_ylabel("centre of mass to fence [mm]")
     ax.set_xlim(0, 360)
 
@@ -343,6 +362,14 @@ def plot_psd(part_or_vertices, path, margin_deg: float = 7.0, com=None, title: O
                for e in stable]
     if np.any(data.final_edge < 0):
         handles.append(Patch(facecolor="0.6", alpha=0.35, label="ends on a vertex"))
+    if data.marginal:
+        pairs = ", ".join(str(list(data.caller_edge(e))) for _, e, _ in data.marginal)
+        handles.append(Line2D([], [], ls="none", marker="X", ms=8, color="tab:red",
+                              label=f"unstable equilibrium (marginal edge {pairs})"))
+    if data.via_marginal.any():
+        handles.append(Patch(facecolor="none", edgecolor="0.35", hatch="//",
+                             label="rolls over the marginal edge (a centre\nof mass a hair inside "
+                                   "it would stop there)"))
     if plan is not None:
         handles.append(Line2D([], [], color="k", lw=1.2, marker=">", markersize=5,
                               label=f"the plan's reorient steps ({plan.n_reorients})"))

@@ -1,0 +1,387 @@
+"""Plausibility rules for the numbers a user types: a value that is valid but
+can only be a slip of units (degrees written as radians, millimetres as metres,
+a percentage as a fraction) is answered with one line naming its field and the
+fix, before any work.  Used by studies (:func:`sweeps.study.load_design`),
+certify configs (:func:`sweeps.certify.load`) and the planner command lines.
+
+The part's **size** ``S`` is its largest extent, the largest distance between
+two of its vertices (m; :func:`kernels.facets.extent`, the size the kernels'
+own check :func:`kernels.errors.warn_implausible_size` uses).  The rules:
+
+============================================  =========================  ==========================
+field                                         warning (shown always)     error (exit 2, no work)
+============================================  =========================  ==========================
+a length tolerance or accuracy: tau_v,        > 10% of ``S``             >= ``S``
+tau_com, sigma_v, start_xy, distance_abs,
+tumble_slip_xy, pos_eps_m, tumble_eps,
+tumble_tau_v (``--eps``, ``--tau-v``)
+the limit-surface ratio ``c`` (friction.c,                               >= ``S`` (``c`` is at most
+planner.support_c, ``--support-c``)                                      the largest distance from
+                                                                         the centre of mass to the
+                                                                         support)
+an angle tolerance: start_theta,              > 20 deg (0.349 rad)       >= pi (no error or
+fence_angle, tumble_slip_theta,                                          accuracy exceeds a half
+theta_eps_rad                                                            turn: degrees)
+a pose angle given as a bare number                                      ``|theta| > 2 pi``
+(tasks' start / goal, ``--start``, ``--goal``)                           (degrees; ``720deg`` is
+                                                                         fine)
+tasks.sample.heading                                                     an end ``> 2 pi`` bare, or
+                                                                         wider than a full turn
+a friction coefficient (mu_f, mu_s,           > 3                        (< 0: the schema's error)
+min_fence_mu, ``--min-fence-mu``)
+execution.distance_rel (a fraction)           > 0.2                      >= 1
+the part's size                               outside 0.1 mm .. 5 m
+============================================  =========================  ==========================
+
+The thresholds: an error where the value cannot be meant (a tolerance as
+large as the part, an angle error of half a turn, a fraction of 1); a warning
+where it is large but possible: a tenth of the part is far beyond machining
+and placement errors (micrometres to a millimetre on a centimetre part) and
+20 deg beyond any fence or robot error, while degrees slipped in as radians
+(1, 2, 5) land above it.  Friction above 3 is a warning, not an error: no
+fence or support material pairing reaches it (rubber on dry rough surfaces is
+about 1 to 2), so it is a slip (a percentage, an angle) or a deliberate
+idealisation of a contact that never slips, legitimate in a model study.  A
+config's task angles are stored wrapped to (-pi, pi] (:func:`wrap`, in
+:func:`sweeps.config.parse_pose` and the sampled goals).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import sys
+import warnings
+from typing import Iterable, Optional, Sequence
+
+#: A length tolerance above this fraction of the part's size is a warning (at 1: an error).
+LENGTH_WARN = 0.1
+#: Angle tolerances (rad): a warning above, an error at or above.
+ANGLE_WARN, ANGLE_MAX = math.radians(20.0), math.pi
+#: A bare pose angle (rad) beyond this is degrees.
+POSE_ANGLE_MAX = 2.0 * math.pi
+#: Friction coefficients above this are a warning.
+FRICTION_MAX = 3.0
+#: execution.distance_rel (fraction): a warning above, an error at or above.
+DISTANCE_REL_WARN, DISTANCE_REL_MAX = 0.2, 1.0
+
+#: What each length field is (for the message), by its last name.
+LENGTHS = {"tau_v": "vertex tolerance", "tau_com": "centre-of-mass tolerance",
+           "sigma_v": "vertex standard deviation", "start_xy": "start position error",
+           "distance_abs": "push-distance error", "tumble_slip_xy": "slip per tumble",
+           "pos_eps_m": "position accuracy", "tumble_eps": "planner accuracy",
+           "tumble_tau_v": "planned vertex tolerance", "--eps": "accuracy",
+           "--tau-v": "vertex tolerance"}
+ANGLES = {"start_theta": "start orientation error", "fence_angle": "fence angle error",
+          "tumble_slip_theta": "rotational slip per tumble", "theta_eps_rad": "orientation accuracy"}
+
+
+@dataclasses.dataclass(frozen=True)
+class Finding:
+    """One implausible value: ``level`` ``"error"`` or ``"warning"``; ``line`` the
+    message (it starts with the field's dotted path or flag)."""
+
+    level: str
+    line: str
+
+
+def _error(line: str) -> list[Finding]:
+    return [Finding("error", line)]
+
+
+def _warning(line: str) -> list[Finding]:
+    return [Finding("warning", line)]
+
+
+def _num(v) -> str:
+    return f"{v:g}" if isinstance(v, (int, float)) and not isinstance(v, bool) else str(v)
+
+
+def _pair(r) -> str:
+    return f"[{_num(r[0])}, {_num(r[1])}]"
+
+
+# --------------------------------------------------------------------------
+# The rules, one value at a time
+# --------------------------------------------------------------------------
+def wrap(theta: float) -> float:
+    """An angle (rad) in (-pi, pi]: returned as it is when already inside (bit
+    for bit), else wrapped (:func:`kernels.planar.wrap_angle_np`)."""
+    if -math.pi < theta <= math.pi:
+        return theta
+    from kernels.planar import wrap_angle_np
+
+    return float(wrap_angle_np(theta))
+
+
+def part_size(vertices) -> float:
+    """The part's size (m): the largest distance between two of its vertices."""
+    import numpy as np
+
+    from kernels.facets import extent
+
+    return extent(np.asarray(vertices, dtype=np.float64))
+
+
+def size(s: float) -> list[Finding]:
+    """A part ``s`` metres across outside the sizes nudge expects: the kernels'
+    own warning (:func:`kernels.errors.warn_implausible_size`), word for word
+    (nothing for a part of no size, which the kernels refuse)."""
+    from kernels.errors import warn_implausible_size
+
+    if not s > 0:
+        return []
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        warn_implausible_size(s)
+    return [Finding("warning", " ".join(str(w.message).split())) for w in got]
+
+
+def length(field: str, v: Optional[float], s: float) -> list[Finding]:
+    """A length tolerance or accuracy ``v`` (m) against the part's size ``s`` (m)."""
+    if v is None or not v > 0 or not s > 0:
+        return []
+    what = LENGTHS.get(field.rsplit(".", 1)[-1], "tolerance")
+    if v >= s:
+        hint = (f"if you meant {v:g} mm, write {v / 1000:g}" if v / 1000 <= LENGTH_WARN * s
+                else f"give one below {LENGTH_WARN * s:.3g} (a tenth of the part)")
+        return _error(f"{field}: {v:g} m is not smaller than the part ({s:.3g} m across); a {what} "
+                      f"this large cannot be meant - lengths are metres; {hint}")
+    if v > LENGTH_WARN * s:
+        return _warning(f"{field}: {v:g} m is {100 * v / s:.0f}% of the part's size ({s:.3g} m "
+                        f"across), a large {what}; lengths are metres (check it is not in "
+                        f"millimetres)")
+    return []
+
+
+def support_ratio(field: str, c, s: float) -> list[Finding]:
+    """A range ``c`` ``[lo, hi]`` (m) of the limit-surface ratio ``m_max / f_max``:
+    at most the largest distance from the centre of mass to the support, so
+    never the part's size ``s`` (m)."""
+    if c is None or not s > 0 or not c[1] >= s:
+        return []
+    hint = (f"if you meant mm, write [{c[0] / 1000:g}, {c[1] / 1000:g}]" if 1 <= c[1] < 1000 * s
+            else "give a range below the part's size")
+    return _error(f"{field}: {_pair(c)} m reaches the part's size ({s:.3g} m across), and the "
+                  f"limit-surface ratio c = m_max / f_max is at most the distance from the centre "
+                  f"of mass to the farthest support point - lengths are metres; {hint}")
+
+
+def angle_tolerance(field: str, v: Optional[float]) -> list[Finding]:
+    """An angle tolerance or accuracy ``v`` (rad, a half-width)."""
+    if v is None or not v > 0:
+        return []
+    what = ANGLES.get(field.rsplit(".", 1)[-1], "angle tolerance")
+    if v >= ANGLE_MAX:
+        return _error(f"{field}: {v:g} rad is half a turn or more, which no {what} can be; it "
+                      f"looks like degrees - give radians ({v:g} deg = {math.radians(v):.3g} rad)")
+    if v > ANGLE_WARN:
+        return _warning(f"{field}: {v:g} rad ({math.degrees(v):.0f} deg) is a loose {what}; "
+                        f"angles are radians here ({v:g} deg would be {math.radians(v):.3g} rad)")
+    return []
+
+
+def pose_angle(field: str, raw) -> list[Finding]:
+    """A pose angle as written: a bare number (radians; a config value or a
+    command-line word) beyond a full turn is degrees; one with a ``deg`` or
+    ``rad`` suffix means what it says."""
+    from sweeps.terminal import ANGLE
+
+    if isinstance(raw, bool):
+        return []
+    if isinstance(raw, str):
+        m = ANGLE.match(raw)
+        if not m or m.group(2):
+            return []
+        x, text = float(m.group(1)), m.group(1)
+    elif isinstance(raw, (int, float)):
+        x, text = float(raw), _num(raw)
+    else:
+        return []
+    if abs(x) <= POSE_ANGLE_MAX:
+        return []
+    return _error(f"{field}: {text} looks like degrees (more than a full turn in radians); write "
+                  f"{text}deg, or radians within [-pi, pi]")
+
+
+def heading(field: str, raw: Sequence, lo: float, hi: float) -> list[Finding]:
+    """A goal-heading range as written (``raw``) and in radians (``lo``, ``hi``)."""
+    bare = [isinstance(r, (int, float)) and not isinstance(r, bool) for r in raw]
+    if any(b and abs(x) > POSE_ANGLE_MAX for b, x in zip(bare, (lo, hi))):
+        fixed = ", ".join(f"{_num(r)}deg" if b else str(r) for r, b in zip(raw, bare))
+        return _error(f"{field}: {_pair(raw)} looks like degrees; write [{fixed}] or radians "
+                      f"within [-pi, pi]")
+    if hi - lo > POSE_ANGLE_MAX * (1 + 1e-12):
+        return _error(f"{field}: {_pair(raw)} spans {hi - lo:.3g} rad, more than a full turn; give "
+                      f"a range within one turn (e.g. [-180deg, 180deg])")
+    return []
+
+
+def friction(field: str, mu) -> list[Finding]:
+    """A friction coefficient or range ``[lo, hi]`` (negative values are the
+    schema's errors)."""
+    if mu is None:
+        return []
+    top = max(mu) if isinstance(mu, (tuple, list)) else mu
+    if not top > FRICTION_MAX:
+        return []
+    shown = _pair(mu) if isinstance(mu, (tuple, list)) else _num(mu)
+    return _warning(f"{field}: {shown} exceeds {FRICTION_MAX:g}, more than any fence or support "
+                    f"material pairing (rubber on dry rough surfaces is about 1 to 2); give the "
+                    f"Coulomb coefficient (e.g. [0.3, 0.8]), or keep it only to idealise a contact "
+                    f"that never slips")
+
+
+def relative(field: str, v: Optional[float]) -> list[Finding]:
+    """A relative push-distance error ``v`` (a fraction of each push)."""
+    if v is None or not v > DISTANCE_REL_WARN:
+        return []
+    if v >= DISTANCE_REL_MAX:
+        return _error(f"{field}: {v:g} is a fraction of each push's distance (0.05 = 5%); 1 or more "
+                      f"lets the fence stop before it moves the part - give a fraction below 1")
+    return _warning(f"{field}: {v:g} is {100 * v:.0f}% of each push's distance; it is a fraction "
+                    f"(0.05 = 5%)")
+
+
+# --------------------------------------------------------------------------
+# A config (study configuration or certify config)
+# --------------------------------------------------------------------------
+def config_findings(cfg, part, s: Optional[float] = None) -> list[Finding]:
+    """Every rule over a validated config (:class:`sweeps.config.Evaluation`
+    with ``tasks``) and its part (a :class:`~sweeps.partfile.PartFile`; ``s`` its
+    size, m, when known)."""
+    s = part_size(part.vertices) if s is None else s
+    t, x, e, p, f = cfg.tolerances, cfg.execution, cfg.eps, cfg.planner, cfg.friction
+    out = size(s)
+    for field, v in (("tolerances.tau_v", t.tau_v), ("tolerances.tau_com", t.tau_com),
+                     ("tolerances.sigma_v", t.sigma_v), ("execution.start_xy", x.start_xy),
+                     ("execution.distance_abs", x.distance_abs),
+                     ("execution.tumble_slip_xy", x.tumble_slip_xy),
+                     ("eps.pos_eps_m", e.pos_eps_m), ("planner.tumble_eps", p.tumble_eps),
+                     ("planner.tumble_tau_v", p.tumble_tau_v)):
+        out += length(field, v, s)
+    out += support_ratio("friction.c", f.c, s) + support_ratio("planner.support_c", p.support_c, s)
+    for field, v in (("execution.start_theta", x.start_theta),
+                     ("execution.fence_angle", x.fence_angle),
+                     ("execution.tumble_slip_theta", x.tumble_slip_theta),
+                     ("eps.theta_eps_rad", e.theta_eps_rad)):
+        out += angle_tolerance(field, v)
+    out += relative("execution.distance_rel", x.distance_rel)
+    out += friction("friction.mu_f", f.mu_f) + friction("friction.mu_s", f.mu_s)
+    out += friction("planner.min_fence_mu", p.min_fence_mu)
+    tasks = cfg.tasks
+    if isinstance(tasks, list):
+        for i, task in enumerate(tasks):
+            for key in ("start", "goal"):
+                pose = getattr(task, key)
+                if isinstance(pose, list) and len(pose) >= 3:
+                    out += pose_angle(f"tasks[{i}].{key}[2]", pose[2])
+    else:
+        from sweeps.config import parse_angle
+
+        sm = tasks.sample
+        if isinstance(sm.start, list) and len(sm.start) >= 3:
+            out += pose_angle("tasks.sample.start[2]", sm.start[2])
+        lo = parse_angle(sm.heading[0], "tasks.sample.heading[0]")
+        hi = parse_angle(sm.heading[1], "tasks.sample.heading[1]")
+        out += heading("tasks.sample.heading", sm.heading, lo, hi)
+    return out
+
+
+def vet(findings: Iterable[Finding]) -> list[str]:
+    """The warning lines of ``findings``; raises :class:`~sweeps.config.ConfigError`
+    with one line per error when there is one."""
+    from sweeps.config import ConfigError
+
+    findings = list(findings)
+    errors = list(dict.fromkeys(f.line for f in findings if f.level == "error"))
+    if errors:
+        raise ConfigError(errors[0], errors)
+    return list(dict.fromkeys(f.line for f in findings if f.level == "warning"))
+
+
+def check_design(design) -> list[str]:
+    """Every configuration of a study (:class:`sweeps.study.Design`): its
+    warning lines; raises :class:`~sweeps.config.ConfigError` on an error.  A
+    line that not every configuration has names the first configuration with it
+    (``params: configuration 3 (tolerances.tau_v=0.5): ...``)."""
+    per, sizes = [], {}
+    for cid, cfg in enumerate(design.configs):
+        part = design.part(cid)
+        key = id(part)
+        if key not in sizes:
+            sizes[key] = part_size(part.vertices)
+        per.append(config_findings(cfg, part, sizes[key]))
+    common = set.intersection(*({(f.level, f.line) for f in fs} for fs in per)) if per else set()
+    out, seen = [], set()
+    for cid, fs in enumerate(per):
+        for f in fs:
+            if (f.level, f.line) in seen:
+                continue
+            seen.add((f.level, f.line))
+            line = f.line
+            if (f.level, f.line) not in common:
+                where = ", ".join(f"{p}={v!r}" for p, v in design.points[cid].items())
+                line = f"params: configuration {cid} ({where}): {line}"
+            out.append(Finding(f.level, line))
+    return vet(out)
+
+
+def screen_config(cfg, part) -> None:
+    """A certify config and its part: raises :class:`~sweeps.config.ConfigError`
+    on an error, else writes each warning line on stderr (whatever ``--quiet``)."""
+    emit(vet(config_findings(cfg, part)))
+
+
+def emit(lines: Iterable[str]) -> None:
+    """Write ``warning: <line>`` on stderr for each line."""
+    for line in lines:
+        sys.stderr.write(f"warning: {line}\n")
+
+
+# --------------------------------------------------------------------------
+# The planner command lines
+# --------------------------------------------------------------------------
+def cli_findings(part, poses: Optional[dict] = None, lengths: Optional[dict] = None,
+                 frictions: Optional[dict] = None, limit_surface: Optional[dict] = None) -> list:
+    """The rules over a planner command line: the part (its size), ``poses``
+    ``{flag: text}`` (``x,y,theta[,face]`` as typed, or None), ``lengths``
+    ``{flag: metres}``, ``frictions`` ``{flag: coefficient}`` and
+    ``limit_surface`` ``{flag: (lo, hi)}`` (None where not given)."""
+    s = part_size(part.vertices)
+    out = size(s)
+    for flag, text in (poses or {}).items():
+        words = str(text).split(",") if text is not None else []
+        if len(words) >= 3:
+            out += pose_angle(flag, words[2].strip())
+    for flag, v in (lengths or {}).items():
+        out += length(flag, v, s)
+    for flag, v in (frictions or {}).items():
+        out += friction(flag, v)
+    for flag, c in (limit_surface or {}).items():
+        out += support_ratio(flag, c, s)
+    return out
+
+
+def screen_cli(part, **given) -> Optional[list[str]]:
+    """:func:`cli_findings` on stderr before any work: each warning as
+    ``warning: ...`` and each error as ``error: ...`` (the warnings only when
+    there is no error).  Returns the warning lines shown (for :func:`mute`), or
+    None when there was an error (the command exits with status 2)."""
+    from sweeps.terminal import fail
+
+    try:
+        shown = vet(cli_findings(part, **given))
+    except ValueError as exc:   # ConfigError: one line per mistake
+        for line in exc.lines:
+            fail(line)
+        return None
+    emit(shown)
+    return shown
+
+
+def mute(lines: Sequence[str]) -> None:
+    """Inside a ``warnings.catch_warnings()`` block: ignore the warnings whose
+    text was already shown before the work (:func:`screen_cli`)."""
+    for line in lines:
+        warnings.filterwarnings("ignore", message=re.escape(line))
