@@ -328,6 +328,16 @@ def _agree(batch, singles, name):
 
 
 @pytest.mark.parametrize("name", ["uni", "biplus", "nice"])
+def test_search_no_longer_than_paper_on_fixed_parts(name):
+    """The search's plan is never longer than the paper strategy's (its
+    candidates compete in the search; ties within COST_TIE go to the lower row):
+    on main the nice part lost on 13 of 160 pairs (up to 6.9 %), the biplus one on 1."""
+    for b, (s, p) in enumerate(zip(_single_plans(name, "distance"), _single_plans(name, "distance", "paper"))):
+        assert s.total_distance <= p.total_distance * (1.0 + sq.COST_TIE), (name, b, s.total_distance,
+                                                                             p.total_distance)
+
+
+@pytest.mark.parametrize("name", ["uni", "biplus", "nice"])
 def test_pushes_objective_is_fewer_pushes_longer_distance(name):
     pts, com = _fixed_parts()[name]
     starts, goals = _agree_pairs(name)

@@ -160,18 +160,27 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
     table rows' indices in the whole candidate table (ties go to the lowest).
     The tiers of :mod:`planning.pushing.sequences` are the caller's business.
 
+    The candidates are reordered (``rows`` keeps each one's row for ties) so
+    that the *simple* ones (one run of equal steps on one edge) come first: their
+    sequences take the short closed form, the others (two-edge splits, the
+    paper's angle-eating runs, rule ``LAST``) the general one.
+
     Long (its nested functions are each short): they close over the host
     tables and the static flags (``simple``, ``has_pre``, ``has_post``,
     ``crossings``) that decide what jit traces, so they live in one scope.
     """
+    rows = np.arange(len(table["trans"])) if rows is None else np.asarray(rows)
+    is_simple = (np.asarray(table["split"]) == 0.0) & (np.asarray(table["rule"]) == sq.EQUAL)
+    order = np.concatenate([np.flatnonzero(is_simple), np.flatnonzero(~is_simple)])
+    n_simple = int(is_simple.sum())
+    table = {k: np.asarray(v)[order] for k, v in table.items()}
     host = _host_table(part, table)
     ns = len(part.stable)
     sidx = {e: i for i, e in enumerate(part.stable)}
     host["spre"] = np.array([sidx.get(int(e), 0) for e in host["pre_e"]])
     host["spost"] = np.array([sidx.get(int(e), 0) for e in host["post_e"]])
-    host["row"] = np.arange(len(host["trans"])) if rows is None else np.asarray(rows)
+    host["row"] = rows[order]
     has_pre, has_post = bool(np.any(host["pre_cnt"] > 0)), bool(np.any(host["post_cnt"] > 0))
-    simple = not (np.any(host["split"] != 0.0) or np.any(host["rule"] != sq.EQUAL))
     span = np.max(TWO_PI * (1 + host["turns"]) + host["pre_ang"] + host["post_ang"])
     crossings = max(1, int(math.ceil(span / TWO_PI - 1e-9)))
     cand = {k: jnp.asarray(v) for k, v in host.items()}
@@ -183,8 +192,9 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
     longest = part.longest_plan
     big = jnp.iinfo(jnp.int32).max
 
-    def shift_of(theta0, thetag, T, c):
-        """Sequence, reorient distances and ``T''`` of one candidate."""
+    def shift_of(theta0, thetag, T, c, simple: bool):
+        """Sequence, reorient distances and ``T''`` of one candidate (``simple``:
+        static, the candidate is one run of equal steps on one edge)."""
         trans = c["trans"] == 1
         sgn = jnp.where(c["sense"] == pg.CCW, 1.0, -1.0)
         delta = mod_2pi(sgn * (thetag - theta0))
@@ -200,7 +210,8 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
         r = jnp.where(trans, 0, n + p + q)
         split = c["split"] != 0.0
         valid = jnp.where(trans, jnp.abs(wrap_angle(thetag - theta0)) <= SAME_ORIENTATION,
-                          (c["step"] > 0) & (r <= R) & (~split | (n >= 2)) & (~lastr | (rest > 0.0)))
+                          (c["step"] > 0) & (r <= R) & (~split | (n >= 2)) & (~lastr | (rest > 0.0))
+                          & ((c["twin"] == 0) | (n != 1)))
         eat = c["rule"] == sq.EAT
         nf = n.astype(total.dtype)
         j = jnp.where(split, jnp.clip(jnp.round(c["split"] * nf).astype(jnp.int32), 1, n - 1), n)
@@ -211,7 +222,7 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
         theta_fin = theta0 + sgn * base
         needA = _need(c["gA"], c["b2A"], a_main)
         QA = _q(c["vA"], s_main, needA, c["omA"])
-        if simple:   # one run of n equal steps on one edge (static: no splits, no angle-eating)
+        if simple:   # one run of n equal steps on one edge (no split, no angle-eating, no LAST)
             theta_me = jnp.where(q > 0, theta_m0 + sgn * total, theta_fin) if has_post else theta_fin
             jA, nB, last_on_b = n - 1, jnp.zeros_like(n), jnp.zeros_like(trans)
             needB, needL, a_last = needA, needA, a_main
@@ -247,6 +258,17 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
                     j=j, jA=jA, a_main=a_main, s_main=s_main, theta_m0=theta_m0, theta_me=theta_me,
                     theta_fin=theta_fin, needA=needA, needB=needB, needL=needL, a_last=a_last,
                     last_on_b=last_on_b)
+
+    def shifts(theta0, thetag, T):
+        """:func:`shift_of` of every candidate: the simple ones, then the others."""
+        parts = []
+        for lo, hi, simple in ((0, n_simple, True), (n_simple, C, False)):
+            if hi > lo:
+                sub = jax.tree_util.tree_map(lambda x: x[lo:hi], cand)
+                parts.append(jax.vmap(functools.partial(shift_of, simple=simple),
+                                      in_axes=(None, None, None, 0))(theta0, thetag, T, sub))
+        return parts[0] if len(parts) == 1 else jax.tree_util.tree_map(
+            lambda *x: jnp.concatenate(x), *parts)
 
     def solve(theta0, g, c):
         """The candidate's LP (closed form, reduced columns)."""
@@ -308,14 +330,14 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
 
     def full(start, goal):
         theta0, thetag, T = angles(start, goal)
-        info = jax.vmap(shift_of, in_axes=(None, None, None, 0))(theta0, thetag, T, cand)
+        info = shifts(theta0, thetag, T)
         lp = jax.vmap(solve, in_axes=(None, 0, 0))(theta0, info, cand)
         i, _ = pick(lp, cand["row"])
         return finish(theta0, info, lp, cand, i, jnp.asarray(True))
 
     def fast(start, goal, K):
         theta0, thetag, T = angles(start, goal)
-        info = jax.vmap(shift_of, in_axes=(None, None, None, 0))(theta0, thetag, T, cand)
+        info = shifts(theta0, thetag, T)
         idx = _smallest(info["bound"], min(K + 1, C))
         neg = -info["bound"][idx]
         sub_info = jax.tree_util.tree_map(lambda x: x[idx[:K]], info)

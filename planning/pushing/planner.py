@@ -237,16 +237,7 @@ def plan_one(part: PushPart, settings: Settings, start, goal, solver: str = "clo
         wsp.check_inside(part, settings.workspace, goal, "goal")
     table = sq.candidate_table(part, settings.strategy, settings.extra_steps)
     cands = candidates(part, table, settings, start, goal)
-    solve = pose_lp.solve_closed_form if solver == "closed_form" else pose_lp.solve_cvxpy
-    scale = part.size
-    results = [None] * len(cands)
-    for i, cand in enumerate(cands):
-        if cand is None:
-            continue
-        sol = solve(cand.angles, np.ones(len(cand.angles), bool), cand.merged, cand.target,
-                    settings.objective, scale=scale)
-        if sol.feasible:
-            results[i] = _result(cand, sol.weights, scale)
+    results = solve_candidates(part, settings, cands, table, solver)
     longest = [r[0] for r in results if r is not None and r[0] > part.longest_plan]
     results = [None if r is None or r[0] > part.longest_plan else r for r in results]
     boxes = []
@@ -263,15 +254,55 @@ def plan_one(part: PushPart, settings: Settings, start, goal, solver: str = "clo
     return assemble(part, settings, start, goal, cands[best], table, w)
 
 
+# Lower bounds of a candidate's cost: its reorient distances plus |T''|, and its
+# optimum without a workspace; BOUND_SLACK (relative) covers the LPs' rounding.
+BOUND_SLACK = 1e-7
+EXHAUSTIVE_LP = False    # tests: solve every candidate's LP (the bound must not change the plan)
+
+
+def solve_candidates(part: PushPart, settings: Settings, cands: list, table: dict,
+                     solver: str = "closed_form") -> list:
+    """Every candidate's LP optimum as ``(cost, pushes, weights)`` (None: not
+    applicable or infeasible).  For the ``distance`` objective without a
+    workspace the LPs are solved in the order of a lower bound of the cost
+    (tier, then the reorient distances plus ``|T''|``: each LP column is a unit
+    vector), and a candidate whose bound exceeds the best cost found in its
+    tier beyond the tie tolerance ``COST_TIE`` (and ``BOUND_SLACK`` for the
+    LP's rounding), or whose tier is above a tier with a plan, is left None:
+    it cannot be chosen (:func:`choose`), so the plan is the one solving every
+    LP gives (the batched planner's fast path uses the same bound)."""
+    solve = pose_lp.solve_closed_form if solver == "closed_form" else pose_lp.solve_cvxpy
+    scale = part.size
+    results = [None] * len(cands)
+    prune = settings.objective == "distance" and settings.workspace is None and not EXHAUSTIVE_LP
+    live = [i for i, c in enumerate(cands) if c is not None]
+    bound = {i: float(cands[i].need.sum() + math.hypot(*cands[i].target)) for i in live}
+    if prune:
+        live.sort(key=lambda i: (int(table["tier"][i]), bound[i], i))
+    best = None      # (tier, cost) of the best plan found so far
+    for i in live:
+        tier = int(table["tier"][i])
+        if prune and best is not None and (tier > best[0] or bound[i] * (1.0 - BOUND_SLACK)
+                                           > best[1] * (1.0 + sq.COST_TIE)):
+            if tier > best[0]:
+                break
+            continue
+        cand = cands[i]
+        sol = solve(cand.angles, np.ones(len(cand.angles), bool), cand.merged, cand.target,
+                    settings.objective, scale=scale)
+        if sol.feasible:
+            results[i] = _result(cand, sol.weights, scale)
+            if results[i][0] <= part.longest_plan and (best is None or results[i][0] < best[1]):
+                best = (tier, results[i][0])
+    return results
+
+
 def _result(cand: Candidate, w, scale: float) -> tuple:
     """``(cost, pushes, weights)`` of a candidate's LP weights ``w`` (m)."""
     npush = len(cand.steps) + int(np.sum((w > pose_lp.DROP * scale) & ~cand.merged))
     return float(cand.need.sum() + float(w.sum())), npush, w
 
 
-# A candidate's optimum inside the workspace is no better than its optimum
-# without one; BOUND_SLACK (relative) covers the constrained LP's rounding.
-BOUND_SLACK = 1e-7
 EXHAUSTIVE_FIT = False   # tests: fit every candidate (the bound must not change the plan)
 
 
@@ -326,8 +357,34 @@ def choose(table: dict, results: list, objective: str) -> Optional[int]:
     return min(i for i in feas if results[i][0] <= low * (1.0 + sq.COST_TIE))
 
 
-def _where(part: PushPart, start, goal) -> str:
-    return f"no feasible pose plan for this {part.class_name} part from {start.tolist()} to {goal.tolist()}"
+#: The longest message a PlanningError of the push planner carries (characters, one line).
+MESSAGE_LIMIT = 300
+
+
+def option(name: str) -> str:
+    """A planner option as every user types it: its keyword, the ``nudge
+    plan-push`` flag and the study/certify config key, e.g. ``max_reorients
+    (--max-reorients, planner.max_reorients)``."""
+    return f"{name} (--{name.replace('_', '-')}, planner.{name})"
+
+
+def listed(items, k: int = 3) -> str:
+    """The first ``k`` of ``items`` joined by ``; ``, then ``and N more``."""
+    items = [str(x) for x in items]
+    more = f"; and {len(items) - k} more" if len(items) > k else ""
+    return "; ".join(items[:k]) + more
+
+
+def _pose(p) -> str:
+    return "(" + ", ".join(f"{float(x):.4g}" for x in p) + ")"
+
+
+def _message(part: PushPart, start, goal, why: str) -> str:
+    """``no pose plan for this <class> part from <start> to <goal><why>``; the
+    poses are left out where the line would exceed ``MESSAGE_LIMIT``."""
+    head = f"no pose plan for this {part.class_name} part"
+    line = f"{head} from {_pose(start)} to {_pose(goal)}{why}"
+    return line if len(line) <= MESSAGE_LIMIT else head + why
 
 
 def _workspace_error(part: PushPart, settings: Settings, start, goal, boxes) -> WorkspaceError:
@@ -335,54 +392,51 @@ def _workspace_error(part: PushPart, settings: Settings, start, goal, boxes) -> 
     found (the given one scaled about its centre; :func:`workspace.smallest_workspace`)."""
     scale, box = wsp.smallest_workspace(boxes, settings.workspace)
     found = (f"the smallest workspace found (this one scaled about its centre, by {scale:.4g}) is "
-             f"(xmin, xmax, ymin, ymax) = ({box[0]:.6g}, {box[1]:.6g}, {box[2]:.6g}, {box[3]:.6g}) m "
-             f"({box[1] - box[0]:.4g} x {box[3] - box[2]:.4g} m)" if math.isfinite(scale)
+             f"{_pose(box)} m" if math.isfinite(scale)
              else "no larger workspace about its centre was found either")
-    return WorkspaceError(f"{_where(part, start, goal)} inside the workspace {list(settings.workspace)}: no "
-                          f"candidate fits; {found}", scale, box if math.isfinite(scale) else None)
+    why = f" inside the workspace {_pose(settings.workspace)} m: no candidate fits; {found}"
+    return WorkspaceError(_message(part, start, goal, why), scale, box if math.isfinite(scale) else None)
 
 
 def _too_long_message(part: PushPart, settings: Settings, start, goal, shortest: float) -> str:
-    return (f"{_where(part, start, goal)}: the shortest candidate pushes {shortest:.4g} m in all, "
-            f"{shortest / part.size:.3g} times the part's size (its push directions nearly cancel), "
-            f"more than float64 can replay to 1e-9 of the part's size ({part.longest_plan:.4g} m)"
-            + ("; strategy='search' tries more reorientation sequences" if settings.strategy == "paper"
-               else "; try another margin_deg"))
+    return _message(part, start, goal, (
+        f": the shortest candidate pushes {shortest:.4g} m in all, {shortest / part.size:.3g} part sizes "
+        f"(its push directions nearly cancel), more than float64 can replay ({part.longest_plan:.4g} m); "
+        + ("strategy='search' (--strategy search, planner.strategy: search) tries more sequences"
+           if settings.strategy == "paper" else f"try another {option('margin_deg')}")))
 
 
 def _no_plan_message(part: PushPart, settings: Settings, start, goal, cands, table) -> str:
-    where = _where(part, start, goal)
+    """Why no candidate gave a plan, in one line of at most ``MESSAGE_LIMIT``
+    characters that names the options to change as the user types them."""
     if (all(c is None for c in cands) and part.min_fence_mu is not None
             and not np.any(part.step[list(part.stable)] > 0.0)):
-        return (f"{where}: only translation plans exist (the goal orientation must be the start's): no "
-                f"reorient push of this part sticks at fence friction {part.min_fence_mu:g} for every c in "
-                f"{list(part.support_c)} m; give a higher min_fence_mu (the fence's real friction) or a "
-                f"narrower support c range, or drop min_fence_mu")
-    if all(c is None for c in cands):
-        steps = {f"{e}{'+' if s else '-'}": round(math.degrees(part.step[e, s]), 4)
-                 for e in part.stable for s in (0, 1)}
-        return (f"{where}: every candidate needs more than max_reorients={settings.max_reorients} "
-                f"reorient pushes, or none is allowed (step angles in degrees per stable edge and "
-                f"sense, - CW + CCW: {steps}{_slip_note(part)}); raise max_reorients")
-    over = _over_budget(table, cands, start, goal)
-    budget = (f"; {over} candidate(s) need more than max_reorients={settings.max_reorients} reorient "
-              f"pushes and were not tried: raise max_reorients" if over else "")
-    return (f"{where}: no candidate's push directions positively span the required translation"
-            f"{budget}{_slip_note(part)}")
-
-
-def _over_budget(table: dict, cands: list, start, goal) -> int:
-    """How many candidates were set aside only for the ``max_reorients`` budget."""
+        lo, hi = part.support_c
+        return _message(part, start, goal, (
+            f": only translation plans exist, as no reorient push sticks at min_fence_mu="
+            f"{part.min_fence_mu:g} for all c in [{lo:.4g}, {hi:.4g}] m; give a higher "
+            f"{option('min_fence_mu')} or narrower c (--support-c, planner.support_c)"))
     theta0, thetag = _orientations(start, goal)
-    return sum(1 for row, c in enumerate(cands) if c is None and not table["trans"][row]
-               and sq.expand(table, row, theta0, thetag, 1 << 30) is not None)
+    over = [n for n in (sq.reorient_pushes(table, row, theta0, thetag)       # set aside for the budget
+                        for row, c in enumerate(cands) if c is None) if n is not None]
+    budget = f"max_reorients={settings.max_reorients}"
+    if all(c is None for c in cands):
+        if not over:
+            return _message(part, start, goal, f": no reorient push is allowed{_slip_note(part)}")
+        biggest = math.degrees(max(float(part.step[e, s]) for e in part.stable for s in (0, 1)))
+        return _message(part, start, goal, (
+            f": every candidate needs more than {budget} reorient pushes (step angles up to "
+            f"{biggest:.3g} deg{_slip_note(part)}); raise {option('max_reorients')} to {min(over)} or more"))
+    tried = (f"; {len(over)} candidates needing {min(over)} to {max(over)} reorient pushes, over {budget}, "
+             f"were not tried: raise {option('max_reorients')}" if over else "")
+    return _message(part, start, goal, f": no candidate positively spans the required translation"
+                                       f"{_slip_note(part)}{tried}")
 
 
 def _slip_note(part: PushPart) -> str:
     if part.min_fence_mu is None:
         return ""
-    return (f"; slip-aware: only reorient pushes that stick at fence friction {part.min_fence_mu:g} "
-            f"for c in {list(part.support_c)} m are allowed")
+    return f"; only pushes sticking at min_fence_mu={part.min_fence_mu:g} allowed"
 
 
 def assemble(part: PushPart, settings: Settings, start, goal, cand: Candidate, table: dict,
@@ -413,8 +467,7 @@ def assemble(part: PushPart, settings: Settings, start, goal, cand: Candidate, t
     dists = np.array([it[2] for it in items])
     poses, err, problems = verify(part, start, goal, dirs, dists, [it[3] for it in items])
     if problems:
-        raise PlanningError("the exact replay of the plan does not reach the goal: "
-                            + "; ".join(problems))
+        raise PlanningError("the exact replay of the plan does not reach the goal: " + listed(problems))
     pushes = tuple(
         Push(kind=k, direction=(float(d[0]), float(d[1])), distance=dist,
              edge=part.polygon.edge_vertices(e), contact_vertex=None if pv is None else hull[pv],

@@ -44,8 +44,8 @@ on the same edge by the smaller of its two step angles, then the main run.
   opposite sense (cheapest: the smallest ``gain / sin(beta2)``, the distance
   per radian of small steps), split into the fewest steps.
 
-Not searched: unequal steps within a run (beyond the two-edge split and the
-last step of its own), more
+Not searched: unequal steps within a run (beyond the two-edge split, the
+last step of its own and the paper's angle-eating runs), more
 than two edges per run, more than one excursion per plan or one extra turn,
 excursions and turns for nice-stable parts (their translations span the plane
 at every orientation, so nearly every candidate is feasible without them), and
@@ -53,12 +53,22 @@ reorient pushes that roll over unstable edges (the paper's maximum reorient
 angle stops at the nearest edge).  No plan has more than ``max_reorients``
 reorient pushes (the effort budget): a candidate that would is skipped.
 
-Completeness: the paper's candidates follow the search's as fallback tiers
-(tier 1: angle-eating, tier 2: the singularity handlers), tried only for a
-start/goal pair that no search candidate serves, so the search plans
-wherever the paper's planner does.  (Without them, a biplus-stable part
-asked for a tiny rotation in place found no plan: the search's excursions
-use the cheapest edge, the paper's singularity handler the main run's own.)
+The paper's candidates are among the search's and compete on cost (tier
+0), so the search plans wherever the paper's planner does and its plan is
+never longer (for ``pushes``: never more pushes) than the paper's.  The one
+exception is exact too: a nice-stable part's singularity handlers stay a
+fallback (tier 1), as in the paper's strategy, which never reaches them
+there: its stable edges' push directions span the plane, so every
+angle-eating candidate is feasible within the budget, and a handler needs
+more reorient pushes than its own angle-eating run (short of plans too long
+to replay, ``PushPart.longest_plan``); they would slow the batched planner
+down for nothing.  (Without the paper's candidates a biplus-stable part asked
+for a tiny rotation in place found no plan, the search's excursions using the
+cheapest edge, the paper's singularity handler the main run's own; and as a
+mere fallback they lost on cost: on random triangles one plan in 40 was 0.2 %
+to 15 % longer than the paper's, whose full steps plus a remainder, or whose
+edge pruned by ``RATE_PRUNE``, were shorter.)  An angle-eating run of one
+step that an equal-steps candidate makes too is skipped (``twin``).
 
 Both planners (:func:`planning.pushing.planner.plan_pose`, numpy, and
 :func:`planning.pushing.batch.plan_pose_batch`, JAX) read the same table, in
@@ -98,7 +108,7 @@ TRANSLATION, CLS_CW, CLS_CCW, CLS_SING_CW, CLS_SING_CCW = range(5)
 EQUAL, EAT, LAST = 0, 1, 2
 
 FIELDS = ("cls", "trans", "tier", "sense", "turns", "rule", "a", "b", "sa", "sb", "extra",
-          "split", "pre_e", "pre_ang", "pre_cnt", "post_e", "post_ang", "post_cnt", "step", "last")
+          "split", "pre_e", "pre_ang", "pre_cnt", "post_e", "post_ang", "post_cnt", "step", "last", "twin")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -129,7 +139,7 @@ def _rate(part: PushPart, e: int, sense: int) -> float:
 def _row(**kw) -> dict:
     base = dict(cls=0, trans=0, tier=0, sense=0, turns=0, rule=EQUAL, a=0, b=0, sa=0, sb=0, extra=0,
                 split=0.0, pre_e=-1, pre_ang=0.0, pre_cnt=0, post_e=-1, post_ang=0.0, post_cnt=0,
-                step=1.0, last=0.0)
+                step=1.0, last=0.0, twin=0)
     base.update(kw)
     return base
 
@@ -143,29 +153,43 @@ def _excursion(part: PushPart, e: int, sense: int, frac: float):
 def candidate_table(part: PushPart, strategy: str = "search", extra_steps: int = 3) -> dict:
     """The candidate templates of ``part`` (module docstring), as a dict of
     equal-length numpy arrays (fields ``FIELDS``); row 0 is the translation
-    plan.  Rows of ``tier`` 1 are tried only when no row of tier 0 is feasible."""
+    plan.  Rows of ``tier`` 1 (the paper's singularity handlers with
+    ``strategy="paper"``) are tried only when no row of tier 0 is feasible."""
     rows = [_row(trans=1)]
     stable = list(part.stable)
     usable = {(e, s): part.step[e, s] > 0.0 for e in stable for s in (pg.CW, pg.CCW)}
     sidx = {e: i for i, e in enumerate(stable)}
     if strategy == "paper":
-        return _as_arrays(rows + _paper_rows(part, stable, usable, sidx, tier=0))
+        return _as_arrays(rows + _paper_rows(part, stable, usable, sidx, handler_tier=1))
     rows += _search_rows(part, stable, usable, sidx, extra_steps)
-    # the paper's candidates as fallback tiers: the search is complete wherever the paper is
-    return _as_arrays(rows + _paper_rows(part, stable, usable, sidx, tier=1))
+    # the paper's candidates compete on cost (module docstring: its handlers stay a fallback
+    # for nice-stable parts, where the paper's strategy never reaches them)
+    handlers = 1 if part.object_class == pg.NICE_STABLE else 0
+    return _as_arrays(rows + _mark_twins(rows, _paper_rows(part, stable, usable, sidx, handlers)))
 
 
-def _paper_rows(part: PushPart, stable, usable, sidx, tier: int) -> list:
+def _mark_twins(rows: list, paper: list) -> list:
+    """The paper's angle-eating rows whose one-step run is an equal-steps row of
+    ``rows`` (same edge and sense, no excursion, turn or extra step) get
+    ``twin=1``: :func:`expand` skips them when their run has one step (the same
+    sequence; the tie would go to the lower row anyway)."""
+    single = {(r["sense"], r["a"]) for r in rows if not r["trans"] and r["rule"] == EQUAL and r["extra"] == 0
+              and r["split"] == 0.0 and r["turns"] == 0 and r["pre_cnt"] == 0 and r["post_cnt"] == 0}
+    return [{**r, "twin": int(r["pre_cnt"] == 0 and (r["sense"], r["a"]) in single)} for r in paper]
+
+
+def _paper_rows(part: PushPart, stable, usable, sidx, handler_tier: int) -> list:
     """Akella & Mason's candidates: angle-eating on every stable edge and sense
-    (tier ``tier``), then the singularity handlers (tier ``tier + 1``)."""
+    (tier 0), then the singularity handlers (tier ``handler_tier``: 1 for the
+    paper's strategy, which tries them only where no angle-eating one is feasible)."""
     rows = []
     for sing in (0, 1):
         for e in stable:
             for sense in (pg.CW, pg.CCW):
                 if not usable[e, sense]:
                     continue
-                kw = dict(cls=(CLS_SING_CW if sing else CLS_CW) + sense, tier=tier + sing, sense=sense,
-                          rule=EAT, a=e, b=e, sa=sidx[e], sb=sidx[e], step=part.step[e, sense])
+                kw = dict(cls=(CLS_SING_CW if sing else CLS_CW) + sense, tier=handler_tier * sing,
+                          sense=sense, rule=EAT, a=e, b=e, sa=sidx[e], sb=sidx[e], step=part.step[e, sense])
                 if sing:
                     pre = float(min(part.step[e, 0], part.step[e, 1]))
                     if pre <= 0.0:
@@ -256,6 +280,37 @@ def split_count(n: int, frac: float) -> int:
     return min(max(int(round(frac * n)), 1), n - 1)
 
 
+def _main_run(c: dict, theta0: float, thetag: float) -> Optional[tuple[int, float, float, float]]:
+    """``(n, total, rest, delta)`` of candidate ``c`` (one table row as a dict):
+    the main run's steps, the angle it turns with the excursions (rad), what its
+    equal steps share under rule ``LAST`` and ``Delta``; None where the row does
+    not apply whatever the budget (:func:`expand`)."""
+    if c["trans"] or c["step"] <= 0.0:
+        return None
+    delta = rotation_of(int(c["sense"]), theta0, thetag)
+    total = delta + 2 * math.pi * int(c["turns"]) + float(c["pre_ang"]) + float(c["post_ang"])
+    rest = total
+    if c["rule"] == LAST:
+        rest = total - float(c["last"])
+        if not rest > 0.0:
+            return None
+        n = main_count(rest, float(c["step"]), int(c["extra"])) + 1
+    else:
+        n = main_count(total, float(c["step"]), int(c["extra"]))
+    if (c["twin"] and n == 1) or (c["rule"] == EQUAL and c["split"] != 0.0 and n < 2):
+        return None
+    return n, total, rest, delta
+
+
+def reorient_pushes(table: dict, row: int, theta0: float, thetag: float) -> Optional[int]:
+    """How many reorient pushes candidate ``row`` makes from ``theta0`` to
+    ``thetag`` (rad) whatever the budget; None where it does not apply
+    otherwise (a translation row among them)."""
+    c = {k: v[row] for k, v in table.items()}
+    run = _main_run(c, theta0, thetag)
+    return None if run is None else run[0] + int(c["pre_cnt"]) + int(c["post_cnt"])
+
+
 def expand(table: dict, row: int, theta0: float, thetag: float,
            max_reorients: int) -> Optional[tuple[list, np.ndarray]]:
     """The reorient steps and orientations of candidate ``row`` for a start
@@ -265,26 +320,16 @@ def expand(table: dict, row: int, theta0: float, thetag: float,
     orientations (rad; ``thetas[0] = theta0``, the last one ``theta0 + sgn Delta``
     exactly), or None when the candidate does not apply (a translation plan for
     different orientations, a two-edge split of one step, a last step of its
-    own that turns the whole run, or more than ``max_reorients`` reorient pushes).
+    own that turns the whole run, an angle-eating run of one step that is an
+    equal-steps row's (``twin``), or more than ``max_reorients`` reorient pushes).
     """
     c = {k: v[row] for k, v in table.items()}
-    if c["trans"]:
+    run = _main_run(c, theta0, thetag)
+    if run is None or run[0] + int(c["pre_cnt"]) + int(c["post_cnt"]) > max_reorients:
         return None
+    n, total, rest, delta = run
     sense = int(c["sense"])
     sgn = 1.0 if sense == pg.CCW else -1.0
-    delta = rotation_of(sense, theta0, thetag)
-    total = delta + 2 * math.pi * int(c["turns"]) + float(c["pre_ang"]) + float(c["post_ang"])
-    if c["step"] <= 0.0:
-        return None
-    if c["rule"] == LAST:
-        rest = total - float(c["last"])
-        if not rest > 0.0:
-            return None
-        n = main_count(rest, float(c["step"]), int(c["extra"])) + 1
-    else:
-        n = main_count(total, float(c["step"]), int(c["extra"]))
-    if n + int(c["pre_cnt"]) + int(c["post_cnt"]) > max_reorients:
-        return None
     opp = 1 - sense
     steps = []
     if c["pre_cnt"]:
@@ -295,8 +340,6 @@ def expand(table: dict, row: int, theta0: float, thetag: float,
     elif c["rule"] == LAST:
         steps += [Step(int(c["a"]), sense, rest / (n - 1))] * (n - 1) + [Step(int(c["a"]), sense, float(c["last"]))]
     else:
-        if c["split"] != 0.0 and n < 2:
-            return None
         j = split_count(n, float(c["split"]))
         alpha = total / n
         steps += [Step(int(c["a"]), sense, alpha)] * j + [Step(int(c["b"]), sense, alpha)] * (n - j)

@@ -302,9 +302,10 @@ def check_inside(part, ws, pose, field: str) -> None:
     """Raise ValueError (naming ``workspace``) if the part at ``pose`` is not inside."""
     ext = pose_box(part, pose)
     if outside(ext, ws, part.pos_tol(*pose[:2])):
-        raise ValueError(f"workspace: the part at the {field} pose {list(map(float, pose))} spans "
+        raise ValueError(f"workspace: the part at the {field} pose {_numbers(pose)} spans "
                          f"x [{ext[0]:.6g}, {ext[1]:.6g}], y [{ext[2]:.6g}, {ext[3]:.6g}] m, not inside "
-                         f"the workspace {list(ws)}; give a workspace that holds the {field} pose")
+                         f"the workspace {_numbers(ws)}; give a workspace (--workspace, planner.workspace) "
+                         f"that holds the {field} pose")
 
 
 def fit(part, cand, w, ws, start, boxes):
@@ -341,7 +342,9 @@ def check_swept(part, ws, start, goal, items, poses) -> None:
     for i, b in enumerate(boxes):
         if outside(b, ws, tol):
             raise PlanningError(f"push {i} sweeps the part over x [{b[0]:.6g}, {b[1]:.6g}], y "
-                                f"[{b[2]:.6g}, {b[3]:.6g}] m, outside the workspace {list(ws)}")
+                                f"[{b[2]:.6g}, {b[3]:.6g}] m, outside the workspace {_numbers(ws)}")
 
 
-
+def _numbers(values) -> str:
+    """``[a, b, ...]`` with 6 significant digits (messages)."""
+    return "[" + ", ".join(f"{float(x):.6g}" for x in values) + "]"
