@@ -12,7 +12,7 @@ from hypothesis import assume, event, given, settings, strategies as st
 
 from planning.pushing import planner as pp
 from tests import strategies as S
-from tests.test_pose_planner import _plan, _plan_or_budget, check_plan
+from tests.test_pose_planner import _plan, check_plan
 
 pytestmark = pytest.mark.float64
 
@@ -60,7 +60,12 @@ def test_search_no_longer_than_paper(kind, data):
     parts, relation = CLASSES[kind]
     pts, com = data.draw(parts, label="part")
     start, goal, _ = data.draw(S.start_goal(relation), label="start_goal")
-    paper = _plan_or_budget(pts, com, start, goal, strategy="paper")
+    try:
+        paper = _plan(pts, start, goal, com=com, strategy="paper")
+    except pp.PlanningError as exc:
+        # the paper's strategy may need more reorients than the budget (it says so): no comparison
+        assert "max_reorients" in str(exc), str(exc)
+        paper = None
     assume(paper is not None)
     search = _plan(pts, start, goal, com=com)
     event(f"search shorter: {search.total_distance < paper.total_distance * (1.0 - TIE)}")
