@@ -100,6 +100,11 @@ class FrictionParams:
       support_points: (S, 2) support points, body frame (relative to the
         centre of mass), m; zeros when ``c`` was drawn directly (or not kept).
       support_weights: (S,) their weights (sum 1).
+      family: () int32 code of the sample's support family
+        (:data:`kernels.support.CODES`; per sample under ``support: any``).
+      corner_lift: (h,) how far each hull corner of the nominal part
+        protrudes below its face (order only: a rank of flatness errors) for
+        the rigid family; zeros otherwise.
     """
 
     mu_f: Any
@@ -107,6 +112,8 @@ class FrictionParams:
     c: Any
     support_points: Any
     support_weights: Any
+    family: Any = None
+    corner_lift: Any = None
 
 
 @jax.tree_util.register_dataclass
@@ -205,7 +212,7 @@ def _structure(sampler: "Sampler") -> tuple:
             e.distribution, e.start_xy == 0.0 and e.start_theta == 0.0, e.start_xy == 0.0,
             e.start_theta == 0.0, e.fence_angle == 0.0, e.distance_rel == 0.0,
             e.distance_abs == 0.0, e.tumble_slip_xy == 0.0 and e.tumble_slip_theta == 0.0,
-            e.tumble_slip_xy == 0.0, e.tumble_slip_theta == 0.0)
+            e.tumble_slip_xy == 0.0, e.tumble_slip_theta == 0.0, f.support)
 
 
 def _values(sampler: "Sampler") -> dict:
@@ -243,21 +250,63 @@ def _range_from_u(u, n: int, lo, hi, const: bool, dtype):
     return lo + u * (hi - lo), 0
 
 
+def _family_c(key, body, n: int, family: str, c_tripod, dtype):
+    """``(c, a_c, code, a_code, lift, a_lift)`` of a named family on the nominal
+    ``body`` (:mod:`kernels.support`): rigid corners with lifts drawn uniform
+    (their order picks the triangle), the uniform pad and the rim (one ``c``,
+    unbatched), and under ``any`` a component per sample, in equal parts, whose
+    tripod has ``c`` uniform in ``[TRIPOD_MIN_FRACTION, 1] x tripod_fit``."""
+    from kernels import support as ks
+    from kernels.quasistatic import limit_surface_ratio
+
+    h = body.shape[0]
+    u = jax.random.uniform(key, (n, 2 + h), dtype)
+    lift = u[:, 2:]
+
+    def fixed(name):
+        pts = ks.family_points(name, body)
+        return limit_surface_ratio(pts, ks.equilibrium_weights(pts)).astype(dtype)
+
+    def rigid():
+        w = jax.vmap(ks.corner_weights, in_axes=(None, 0))(body, lift)
+        return jax.vmap(limit_surface_ratio, in_axes=(None, 0))(body, w).astype(dtype)
+
+    zeros = jnp.zeros((h,), dtype)
+    if family == "rigid":
+        return rigid(), 0, jnp.int32(ks.CODES["rigid"]), None, lift, 0
+    if family in ("uniform", "ring"):
+        return fixed(family), None, jnp.int32(ks.CODES[family]), None, zeros, None
+    # any: rigid, uniform, ring, tripod in equal parts
+    comp = jnp.minimum((u[:, 0] * len(ks.ANY_COMPONENTS)).astype(jnp.int32),
+                       len(ks.ANY_COMPONENTS) - 1)
+    fit = ks.tripod_fit(body)
+    c_tri = fit * (ks.TRIPOD_MIN_FRACTION + (1.0 - ks.TRIPOD_MIN_FRACTION) * u[:, 1])
+    cs = jnp.stack([rigid(), jnp.broadcast_to(fixed("uniform"), (n,)),
+                    jnp.broadcast_to(fixed("ring"), (n,)), c_tri.astype(dtype)], axis=1)
+    c = jnp.take_along_axis(cs, comp[:, None], axis=1)[:, 0]
+    codes = jnp.asarray([ks.CODES[f] for f in ks.ANY_COMPONENTS], jnp.int32)[comp]
+    return c, 0, codes, 0, lift, 0
+
+
 def _sample_friction(key, body, n: int, st: tuple, val: dict, has_body: bool,
                      dtype=jnp.float64, keep_support: bool = True):
+    from kernels import support as ks
+
     S, k, c_given, mu_f_const, mu_s_const, c_const = st[5:11]
+    family = st[21]
     u = jax.random.uniform(key, (n, 3 + S * (3 + k)), dtype)
     mu_f, a_f = _range_from_u(u[:, 0], n, val["mu_f_lo"], val["mu_f_hi"], mu_f_const, dtype)
     mu_s, a_s = _range_from_u(u[:, 1], n, val["mu_s_lo"], val["mu_s_hi"], mu_s_const, dtype)
-    if c_given:
-        c, a_c = _range_from_u(u[:, 2], n, val["c_lo"], val["c_hi"], c_const, dtype)
-        pts, a_p = jnp.zeros((S, 2), dtype), None
-        w, a_w = jnp.full((S,), 1.0 / S, dtype), None
-    elif not has_body or n == 0:
+    h = body.shape[0]
+    code, a_code = jnp.int32(ks.CODES.get(family, ks.CODES["rigid"])), None
+    lift, a_lift = jnp.zeros((h,), dtype), None
+    pts, a_p = jnp.zeros((S, 2), dtype), None
+    w, a_w = jnp.full((S,), 1.0 / S, dtype), None
+    if not has_body or n == 0:
         c, a_c = jnp.asarray(jnp.nan, dtype), None
-        pts, a_p = jnp.zeros((S, 2), dtype), None
-        w, a_w = jnp.full((S,), 1.0 / S, dtype), None
-    else:
+    elif c_given:               # the tripod family: c drawn directly
+        c, a_c = _range_from_u(u[:, 2], n, val["c_lo"], val["c_hi"], c_const, dtype)
+    elif family == "points":
         from kernels.quasistatic import limit_surface_ratio
 
         pts, w = support_from_u(u[:, 3:], body, S, k, dtype)
@@ -268,8 +317,11 @@ def _sample_friction(key, body, n: int, st: tuple, val: dict, has_body: bool,
         if not keep_support:   # only c is wanted: the points are not materialised
             pts, a_p = jnp.zeros((S, 2), dtype), None
             w, a_w = jnp.full((S,), 1.0 / S, dtype), None
-    return (FrictionParams(mu_f, mu_s, c, pts, w),
-            FrictionParams(a_f, a_s, a_c, a_p, a_w))
+    else:                       # a named family (its own uniforms: the points' draws unchanged)
+        c, a_c, code, a_code, lift, a_lift = _family_c(jax.random.fold_in(key, 7), body, n,
+                                                       family, None, dtype)
+    return (FrictionParams(mu_f, mu_s, c, pts, w, code, lift),
+            FrictionParams(a_f, a_s, a_c, a_p, a_w, a_code, a_lift))
 
 
 def _sample_execution(key, n: int, st: tuple, val: dict, n_pushes: int = 0,
@@ -446,6 +498,16 @@ def slice_batch(params, in_axes, start: int, stop: int):
 # --------------------------------------------------------------------------
 # Flat columns
 # --------------------------------------------------------------------------
+def support_names(family, n: int, has_support) -> np.ndarray:
+    """(n,) support family names of the samples (``None`` where there is no
+    support: a tumbled polyhedron)."""
+    from kernels.support import FAMILIES
+
+    code = np.broadcast_to(np.asarray(family, np.int64), (n,))
+    names = np.asarray(FAMILIES, dtype=object)[code]
+    return np.where(np.broadcast_to(has_support, (n,)), names, None)
+
+
 def parameter_columns(params: PerturbationParams, in_axes: PerturbationParams, n: int, *,
                       n_vertices: int, dim: int, n_pushes: int = 0, n_tumbles: int = 0,
                       max_pushes: Optional[int] = None, max_tumbles: Optional[int] = None,
@@ -453,7 +515,8 @@ def parameter_columns(params: PerturbationParams, in_axes: PerturbationParams, n
     """Flatten sampled parameters to named columns (numpy float64, length n).
 
     Column names carry units (see ``results/README.md``): ``dv{i}_{x,y,z}_m``,
-    ``dcom_{x,y,z}_m``, ``mu_f``, ``mu_s``, ``c_m``, ``start_dx_m``,
+    ``dcom_{x,y,z}_m``, ``mu_f``, ``mu_s``, ``c_m``, ``support`` (the sample's
+    support family), ``start_dx_m``,
     ``start_dy_m``, ``start_dtheta_rad``, ``fence_angle_err_rad_p{k}``,
     ``push_dist_rel_err_p{k}``, ``push_dist_abs_err_m_p{k}``,
     ``slip_dx_m_t{k}`` / ``slip_dy_m_t{k}`` / ``slip_dtheta_rad_t{k}``
@@ -476,6 +539,7 @@ def parameter_columns(params: PerturbationParams, in_axes: PerturbationParams, n
     cols["mu_f"] = np.asarray(f.mu_f, dtype=np.float64)
     cols["mu_s"] = np.asarray(f.mu_s, dtype=np.float64)
     cols["c_m"] = np.asarray(f.c, dtype=np.float64)
+    cols["support"] = support_names(f.family, n, np.isfinite(cols["c_m"]))
     so = np.asarray(e.start_offset, dtype=np.float64)
     cols["start_dx_m"], cols["start_dy_m"], cols["start_dtheta_rad"] = so[:, 0], so[:, 1], so[:, 2]
     P = n_pushes if max_pushes is None else max_pushes

@@ -62,7 +62,7 @@ SAMPLES_KEY_FIELDS = [
 #: scalars, then per-vertex / per-push draws as lists.
 SAMPLED_FIELDS = [
     pa.field("dcom_x_m", F64), pa.field("dcom_y_m", F64), pa.field("dcom_z_m", F64),
-    pa.field("mu_f", F64), pa.field("mu_s", F64), pa.field("c_m", F64),
+    pa.field("mu_f", F64), pa.field("mu_s", F64), pa.field("c_m", F64), pa.field("support", STR),
     pa.field("start_dx_m", F64), pa.field("start_dy_m", F64), pa.field("start_dtheta_rad", F64),
     pa.field("slip_sum_dx_m", F64), pa.field("slip_sum_dy_m", F64),
     pa.field("slip_sum_dtheta_rad", F64),

@@ -15,6 +15,9 @@ import math
 from typing import Literal, Optional
 
 DISTRIBUTIONS = ("uniform", "gaussian")
+#: support families of a pushed part (:mod:`kernels.support`); ``any`` mixes the
+#: first four; ``points`` is the sampled Dirichlet distribution (model only)
+SUPPORTS = ("any", "rigid", "uniform", "ring", "tripod", "points")
 COM_SHAPES = ("disc", "box")
 
 
@@ -78,18 +81,29 @@ class GeometryTolerance:
 
 @dataclasses.dataclass(frozen=True)
 class FrictionRange:
-    """Friction ranges (the cell).
+    """Friction ranges (the cell) and the part's support.
 
     Attributes:
       mu_f: ``(low, high)`` fence-part Coulomb coefficient, uniform.
       mu_s: ``(low, high)`` support coefficient, uniform (recorded only; it
         cancels out of quasi-static kinematics).
-      support_points: number of support points of the sampled pressure
-        distribution (>= 1).
+      support: the support family (:mod:`kernels.support`): ``"any"`` (the
+        default when ``c`` is not given: a mixture, in equal parts, of rigid
+        corner support, a uniform pad, a rim and a tripod with ``c`` from a
+        tenth of the largest tripod that fits inside the outline to all of
+        it: the range of supports a part whose support nobody measured may
+        have), ``"rigid"`` (the part rests on three of its corners, which three
+        drawn from its flatness errors), ``"uniform"``, ``"ring"``,
+        ``"tripod"`` (three feet at the sampled ``c``: needs ``c``; the
+        default when ``c`` is given), ``"points"`` (the sampled Dirichlet
+        distribution below; the quasi-static model only: its loads cannot be
+        realised by feet).
+      support_points: number of support points of the ``points`` family's
+        pressure distribution (>= 1).
       weight_concentration: integer Dirichlet concentration of their weights
         (1: uniform on the simplex; large: nearly equal weights), 1..64.
-      c: optional ``(low, high)`` range (m) to draw ``c`` directly, uniform,
-        instead of from a pressure distribution.
+      c: optional ``(low, high)`` range (m) of the ``tripod`` family's
+        limit-surface ratio, uniform.
     """
 
     mu_f: tuple[float, float] = (0.5, 0.5)
@@ -97,6 +111,7 @@ class FrictionRange:
     support_points: int = 16
     weight_concentration: int = 1
     c: Optional[tuple[float, float]] = None
+    support: Optional[str] = None
 
     def __post_init__(self):
         _range(self, "mu_f")
@@ -111,6 +126,19 @@ class FrictionRange:
         wc = self.weight_concentration
         if not (isinstance(wc, int) and not isinstance(wc, bool) and 1 <= wc <= 64):
             raise ValueError(f"weight_concentration: expected an integer in 1..64, got {wc!r}")
+        if self.support is None:
+            object.__setattr__(self, "support", "tripod" if self.c is not None else "any")
+        if self.support not in SUPPORTS:
+            raise ValueError(f"support: expected one of {', '.join(SUPPORTS)}, got {self.support!r}")
+        if self.support == "tripod" and self.c is None:
+            raise ValueError("support: 'tripod' needs its limit-surface ratio range: add c: [lo, hi] (m)")
+        if self.c is not None and self.support != "tripod":
+            raise ValueError(f"c: a limit-surface ratio range is the tripod family's; drop c or set "
+                             f"support: tripod (got support: {self.support})")
+        if self.support != "points" and (sp != 16 or wc != 1):
+            raise ValueError(f"support_points: support_points and weight_concentration describe the "
+                             f"'points' family only; set support: points or drop them (got support: "
+                             f"{self.support})")
 
 
 @dataclasses.dataclass(frozen=True)

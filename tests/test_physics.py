@@ -197,8 +197,10 @@ def test_bad_input_is_named(reorient_plan, cube_plan):
         rollout_tumble_plan(dataclasses.replace(cube_plan, tumbles=()), *params, 1)
     with pytest.raises(ValueError, match="timestep"):
         PhysicsSettings(timestep=0.0)
-    with pytest.raises(ValueError, match="support"):
-        PhysicsSettings(support="uniform")
+    with pytest.raises(ValueError, match="foot_radius"):
+        PhysicsSettings(foot_radius=0.002)
+    with pytest.raises(ValueError, match="noslip_iterations: 0"):
+        rollout_push_plan(reorient_plan, *params, 1, backend="mjx")
 
 
 # --------------------------------------------------------------------------
@@ -215,30 +217,6 @@ def test_mass_properties_of_a_box_and_a_cube():
     m, inertia = geo.polyhedron_mass_properties(V, np.zeros(3), 500.0)
     assert m == pytest.approx(0.5)
     np.testing.assert_allclose(inertia, [m * 0.1 ** 2 / 6] * 3 + [0, 0, 0], atol=1e-12)
-
-
-def test_support_realisations_keep_c_and_centre_the_friction():
-    rng = np.random.default_rng(2)
-    body = np.array([[-0.02, -0.01], [0.02, -0.01], [0.02, 0.01], [-0.02, 0.01]])
-    pts = rng.uniform(-1, 1, (16, 2)) * [0.019, 0.009]
-    w = rng.dirichlet(np.ones(16))
-    c = float(w @ np.linalg.norm(pts, axis=1))
-    q, ok = geo.centred_weights(pts, w, c)
-    assert ok and np.all(q >= 0) and q.sum() == pytest.approx(1.0)
-    np.testing.assert_allclose(q @ pts, 0.0, atol=1e-8)
-    assert q @ np.linalg.norm(pts, axis=1) == pytest.approx(c, rel=1e-6)
-    tp, tw = geo.tripod_feet(c, body)
-    np.testing.assert_allclose(np.linalg.norm(tp, axis=1), c)
-    np.testing.assert_allclose(tw @ tp, 0.0, atol=1e-15)
-    for cc in (0.002, 0.015, 0.021):
-        fp, fw = geo.feet_for_c(cc, body)
-        assert geo.realised_c(fp, fw) == pytest.approx(min(cc, geo.RING_SCALE
-                                                           * np.max(np.linalg.norm(body, axis=1))))
-    # friction coefficients from uneven loads realise the weights as capacities
-    loads = np.array([0.05, 0.02, 0.09])
-    mu, cap, ok = geo.foot_friction(tw, loads, 0.5)
-    assert ok
-    np.testing.assert_allclose(cap, 0.5 * loads.sum() * tw)
 
 
 def test_schedule_controls_are_linear_targets_with_their_velocity():

@@ -5,57 +5,20 @@ needs: the solid (a polygon extruded to a prism, or the polyhedron's hull),
 its mass and inertia about its centre of mass, and for a pushed part the
 *feet* that realise the sampled support friction distribution.
 
-Support friction (pushed parts)
--------------------------------
-The quasi-static model needs only ``c = sum w_i |p_i| / sum w_i`` of the
-sampled support points ``p_i`` (body frame, relative to the centre of mass)
-and weights ``w_i`` (:func:`kernels.quasistatic.limit_surface_ratio`): the
-limit surface of support friction whose capacity at ``p_i`` is proportional
-to ``w_i``.  The part in MuJoCo rests on small spherical feet at those
-points, relative to its (perturbed) centre of mass; after the part has
-settled, each foot's contact friction coefficient is set to
-``mu_i = mu_s w_i W / N_i`` from the normal load ``N_i`` that MuJoCo itself
-put on it (``W = sum N_j``, the weight), so that the friction capacity
-``mu_i N_i = mu_s W w_i`` is the sampled distribution exactly, whatever the
-statically indeterminate load sharing is (:func:`foot_friction`).  The part's
-exact limit surface is then that of the sampled points, of which the
-quasi-static model's ellipsoid with the same ``c`` is the usual approximation.
-When ``c`` was drawn directly (``FrictionRange.c``) there are no points; a
-distribution with that ``c`` is made up (:func:`feet_for_c`).
-
-By default (``PhysicsSettings.support = "tripod"``) the part stands on three
-feet, an equilateral triangle of circumradius ``c`` about the centre of mass
-(:func:`tripod_feet`): statically determinate, so the loads are ``W / 3``
-whatever the contact compliance, with the sampled ``c`` and the friction
-centroid on the centre of mass, the two things the quasi-static model knows
-of the support.  Many feet are statically indeterminate, and in MuJoCo that
-showed: on the 40 x 20 mm rectangle with 16 sampled feet, 27-45 % of the foot
-contacts carried no load during a push (the part rocked on its soft
-contacts), the fence's sticking contact pressed the part down with up to 50 %
-of its weight, and a translating flush edge walked 0.004-0.008 mm per 10 cm
-against 0.0004 mm on three feet; reorient pushes slipped 1-7 mm where the
-quasi-static model sticks.  What three feet do not share with the model is
-the limit surface's shape: the exact limit surface of three points is
-pointier than the ellipsoid with the same ``c``, so a sticking pivot needs a
-larger tangential force (computed for the rectangle's corner pivot, c = 12 mm:
-0.108 against the ellipsoid's 0.095 at 7 degrees from the divergent
-orientation, 0.50 against 0.42 at 30, 0.73-0.82 against 0.64 at 45), and
-the part slips earlier than the model says; a uniform pressure over the
-rectangle comes within 0.02 of the ellipsoid.  ``support = "centred"`` or
-``"sampled"`` stand the part on the sampled points instead:
-
-The sampler does not put the weights' centroid ``sum w_i p_i`` under the
-centre of mass (its docstring says so), but a part resting on a support has
-its pressure centroid there (statics), and with one friction coefficient its
-friction centroid too; the quasi-static model's limit surface is centred on
-the centre of mass.  A friction centroid a few millimetres off (the draws of
-16 points with Dirichlet(1) weights on the 40 x 20 mm rectangle were 0.2 to
-9.5 mm off) reverses the rotation of a reorient push that starts within the
-plan's 7 degree margin of the divergent orientation, which no planar model of
-a part with its centre of mass at the centroid of support predicts.  So with
-``"centred"`` the weights are moved to the nearest ones (least squares) that keep
-``c`` and put the centroid on the centre of mass (:func:`centred_weights`);
-``PhysicsSettings.support = "sampled"`` realises the draws as they are.
+Support (pushed parts)
+----------------------
+The part stands on the support its sample's family says
+(:mod:`kernels.support`, the definition the quasi-static sampler draws from):
+``rigid`` on its own underside, the prism mesh with corner ``i`` lowered
+``PhysicsSettings.flatness * lift_i`` (MuJoCo's mesh-plane contact, at most 4
+points, picks the corners it rests on); ``uniform``, ``ring`` and ``tripod``
+on small spherical feet at the family's points of the PERTURBED part, all
+inside its outline.  Every contact has the one support coefficient ``mu_s``:
+the loads, hence the friction distribution, are what MuJoCo's statics make
+of them (nothing is tuned per foot).  :func:`support_of` gives a sample's
+feet and the loads its family predicts; the rollout measures the loads
+MuJoCo puts on the contacts after settling and reports the limit-surface
+ratio they realise (``c_physical``) beside the sampled one.
 
 Units: metres, kilograms; inertia in kg m^2 about the centre of mass, in the
 part's body frame (``[ixx, iyy, izz, ixy, ixz, iyz]``, MuJoCo's
@@ -65,35 +28,38 @@ from __future__ import annotations
 
 import numpy as np
 
-#: a foot whose load is below this fraction of the mean carries no friction
-MIN_LOAD_FRACTION = 1e-3
-#: no foot gets a friction coefficient above this multiple of mu_s
-MAX_FOOT_MU_FACTOR = 25.0
-#: ring feet of a made-up distribution sit at this fraction of the vertex radii
-RING_SCALE = 0.9
-#: orientations tried when fitting the three equivalent feet inside the part
-TRIPOD_TRIALS = 72
 
 
-def tripod_feet(c: float, body: np.ndarray):
-    """Three feet realising the limit-surface ratio ``c`` (m): an equilateral
-    triangle of circumradius ``c`` centred on the centre of mass (the
-    origin), turned so that its feet lie as deep inside the CCW polygon
-    ``body`` as possible (a foot may still fall outside a slender part: it is
-    only a support point).  With one friction coefficient the loads are
-    ``W / 3`` each by statics, so ``sum w |p| = c`` with the friction centroid
-    on the centre of mass.  Returns ``(points (3, 2), weights (3,))``."""
-    body = np.asarray(body, np.float64)
-    e = np.roll(body, -1, axis=0) - body
-    normal = np.stack([e[:, 1], -e[:, 0]], -1) / np.linalg.norm(e, axis=1, keepdims=True)
-    best, best_pts = -np.inf, None
-    for rot in np.linspace(0.0, 2 * np.pi / 3, TRIPOD_TRIALS, endpoint=False):
-        a = rot + np.arange(3) * 2 * np.pi / 3
-        pts = c * np.stack([np.cos(a), np.sin(a)], -1)
-        depth = np.min(np.einsum("ei,pei->pe", normal, body[None] - pts[:, None, :]))
-        if depth > best:
-            best, best_pts = depth, pts
-    return best_pts, np.full(3, 1.0 / 3.0)
+def support_of(code: int, body: np.ndarray, c: float, lift: np.ndarray):
+    """A sample's support on its (perturbed) part.
+
+    Args:
+      code: the family's code (:data:`kernels.support.CODES`).
+      body: (h, 2) hull, CCW, relative to the centre of mass, m.
+      c: the sampled limit-surface ratio (the tripod's circumradius), m.
+      lift: (h,) the corners' flatness ranks (rigid).
+
+    Returns:
+      ``(feet (F, 2), weights)``: the feet (none for ``rigid``) and the loads
+      (fractions of the weight) the family predicts, on the feet or, for
+      ``rigid``, on the corners (h,).
+    """
+    import jax
+    import jax.numpy as jnp
+
+    from kernels import support as ks
+
+    family = ks.FAMILIES[int(code)]
+    with jax.enable_x64(True):
+        b = jnp.asarray(body, jnp.float64)
+        if family == "rigid":
+            return np.zeros((0, 2)), np.asarray(ks.corner_weights(b, jnp.asarray(lift)))
+        if family == "points":
+            raise ValueError("support: the 'points' family's sampled loads cannot be realised by "
+                             "feet in MuJoCo (statics sets the loads); use any, rigid, uniform, "
+                             "ring or tripod with model: mujoco")
+        pts = ks.family_points(family, b, c)
+        return np.asarray(pts), np.asarray(ks.equilibrium_weights(pts))
 
 
 def polygon_moments(body: np.ndarray):
@@ -144,85 +110,10 @@ def polyhedron_mass_properties(points: np.ndarray, com: np.ndarray, density: flo
     return float(mass), np.array([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]])
 
 
-def feet_for_c(c: float, body: np.ndarray):
-    """A support distribution inside the part with limit-surface ratio ``c``
-    (m) when ``c`` was drawn directly: a foot under the centre of mass and a
-    ring at ``RING_SCALE`` times the hull vertices (body frame, m).  Weights:
-    ``1 - lam`` at the centre and ``lam / n`` on the ring, or, for a ``c``
-    larger than the ring's mean radius, the ring with weight moved to its
-    farthest foot.  Returns ``(points (n + 1, 2), weights (n + 1,))``; the
-    ``c`` they realise is ``min(c, RING_SCALE * max |v|)``."""
-    body = np.asarray(body, np.float64)
-    ring = RING_SCALE * body
-    r = np.linalg.norm(ring, axis=1)
-    n = len(ring)
-    w = np.zeros(n + 1)
-    if c <= r.mean():
-        lam = c / r.mean()
-        w[0], w[1:] = 1.0 - lam, lam / n
-    else:
-        far = int(np.argmax(r))
-        mu = min(1.0, (c - r.mean()) / max(r[far] - r.mean(), 1e-300))
-        w[1:] = (1.0 - mu) / n
-        w[1 + far] += mu
-    return np.vstack([np.zeros((1, 2)), ring]), w
-
-
-def centred_weights(points: np.ndarray, weights: np.ndarray, c: float):
-    """The weights nearest to ``weights`` (least squares, non-negative, sum 1)
-    whose centroid is the origin (the centre of mass) and whose
-    limit-surface ratio is ``c``: ``sum q p = 0``, ``sum q |p| = c``.
-
-    Solved as a non-negative least-squares problem with the constraints
-    weighted 1e8 (coordinates scaled by the largest radius).
-
-    Returns:
-      ``(q (S,), ok)``: ``ok`` when the constraints hold to 1e-6 of the
-      radius (a centre of mass outside the points' hull, or a ``c`` out of
-      reach, leaves them unmet).
-    """
-    from scipy.optimize import nnls
-
-    p = np.asarray(points, np.float64)
-    w = np.asarray(weights, np.float64)
-    r = np.linalg.norm(p, axis=1)
-    a = max(float(r.max()), 1e-12)
-    A = np.vstack([np.ones(len(p)), p[:, 0] / a, p[:, 1] / a, r / a])
-    b = np.array([1.0, 0.0, 0.0, c / a])
-    k = 1e4
-    q, _ = nnls(np.vstack([np.eye(len(p)), k * A]), np.concatenate([w, k * b]), maxiter=50 * len(p))
-    ok = bool(np.max(np.abs(A @ q - b)) <= 1e-6)
-    return q / max(q.sum(), 1e-300), ok
-
-
-def foot_friction(weights: np.ndarray, loads: np.ndarray, mu_s: float):
-    """Per-foot friction coefficients realising the sampled distribution.
-
-    Args:
-      weights: (S,) sampled weights (sum 1).
-      loads: (S,) normal loads MuJoCo put on the feet at rest, N.
-      mu_s: the sampled support coefficient.
-
-    Returns:
-      ``(mu (S,), capacity (S,), ok)``: ``mu_i = mu_s w_i W / N_i``, capped at
-      ``MAX_FOOT_MU_FACTOR mu_s``; a foot with (almost) no load gets 0; the
-      capacity ``mu_i N_i`` actually realised (N); ``ok`` is False when a cap
-      or an unloaded foot changed the distribution.
-    """
-    w = np.asarray(weights, np.float64)
-    N = np.maximum(np.asarray(loads, np.float64), 0.0)
-    W = N.sum()
-    loaded = N > MIN_LOAD_FRACTION * W / max(len(N), 1)
-    mu = np.where(loaded, mu_s * w * W / np.where(loaded, N, 1.0), 0.0)
-    cap = MAX_FOOT_MU_FACTOR * mu_s
-    ok = bool(W > 0) and bool(np.all(loaded | (w <= 1e-12))) and bool(np.all(mu <= cap))
-    mu = np.minimum(mu, cap)
-    return mu, mu * N, ok
-
-
 def realised_c(points: np.ndarray, capacity: np.ndarray) -> float:
-    """Limit-surface ratio (m) of friction capacities at ``points`` (body
-    frame, relative to the centre of mass)."""
+    """Limit-surface ratio (m) of friction capacities (or normal loads, with
+    one coefficient) at ``points`` (body frame, relative to the centre of
+    mass)."""
     cap = np.asarray(capacity, np.float64)
     tot = cap.sum()
     if not tot > 0:

@@ -18,6 +18,7 @@ from typing import Optional
 import numpy as np
 
 from kernels.planar import wrap_angle_np
+from kernels.support import FAMILIES
 from robustness.physics import geometry as geo
 from robustness.physics import scene
 from robustness.physics.monitor import Recorder, flush_edge, planar_pose, yaw_quat
@@ -25,6 +26,9 @@ from robustness.physics.pushing import FenceStrokes, PushTracker, nominal_polygo
 from robustness.physics.runner import check_batch, make_engine, resolve_backend, run_schedule
 from robustness.physics.settings import STROKES, PhysicsSettings
 
+#: the centre of mass may lie this far (m) outside the support contacts' hull and
+#: still stand on them (a rigid rectangle's rests on a diagonal: on the hull's edge)
+SUPPORT_OK_TOL = 1e-5
 #: failure modes of a physics row, in the order they are assigned
 PUSH_FAILURE_MODES = ("none", "hull_changed", "left_workspace", "toppled", "fence_strike",
                       "incomplete_reorientation", "wrong_edge", "slip", "position", "orientation")
@@ -44,8 +48,10 @@ def _models(parts, idx, s, impratio):
     models = []
     for i in idx:
         mass, inertia = geo.prism_mass_properties(parts.body[i], s.part_thickness, s.part_density)
-        models.append(scene.push_model(parts.body[i], parts.feet[i], mass, inertia,
-                                       float(parts.mu_f[i]), float(parts.mu_s[i]), s, impratio))
+        drop = s.flatness * parts.lift[i] if parts.n_feet[i] == 0 else np.zeros(parts.lift.shape[1])
+        models.append(scene.push_model(parts.body[i], parts.feet[i], int(parts.n_feet[i]), drop,
+                                       mass, inertia, float(parts.mu_f[i]), float(parts.mu_s[i]),
+                                       s, impratio))
     return models
 
 
@@ -53,7 +59,8 @@ def _initial_state(parts, idx, layout, schedule, s) -> np.ndarray:
     st = np.zeros((len(idx), layout.nstate))
     pq, tq = layout.part_qpos, layout.tool_qpos
     st[:, pq:pq + 2] = parts.start[idx, :2]
-    st[:, pq + 2] = s.foot_radius
+    rests = np.where(parts.n_feet[idx] > 0, s.foot_radius, s.flatness * parts.lift[idx].max(axis=1))
+    st[:, pq + 2] = rests
     st[:, pq + 3:pq + 7] = yaw_quat(parts.start[idx, 2])
     st[:, tq:tq + 4] = np.broadcast_to(schedule.phases[0].start, (len(idx), 4))
     return st
@@ -61,7 +68,7 @@ def _initial_state(parts, idx, layout, schedule, s) -> np.ndarray:
 
 def _simulate(plan, poly, parts, idx, s, backend, workspace, stroke):
     """Run the valid samples; returns the per-sample pieces for them."""
-    models = _models(parts, idx, s, s.mjx_impratio if backend == "mjx" else s.impratio)
+    models = _models(parts, idx, s, s.impratio)
     lay = scene.layout(models[0])
     strokes = FenceStrokes(plan, poly, parts, idx, s, stroke == "contact")
     sched = strokes.schedule
@@ -81,14 +88,12 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace, stroke):
         return state
 
     def after_settle(state, i_phase):
-        loads = np.abs(rec.sensors[settle][:, list(lay.foot_force)])
-        mus = []
-        for j, i in enumerate(idx):
-            mu, cap, ok = geo.foot_friction(parts.weights[i], loads[j], float(parts.mu_s[i]))
-            mus.append(mu)
-            out["c_physical"][j] = geo.realised_c(parts.feet[i], cap)
-            out["support_ok"][j] = ok and geo.com_inside_feet(parts.feet[i])
-        engine.set_pair_friction(lay.foot_pairs, np.stack(mus))
+        """The loads MuJoCo put on the support: the limit-surface ratio they
+        realise, and whether the centre of mass stands inside the loaded contacts."""
+        for j, m in enumerate(models):
+            pts, loads = scene.support_loads(m, state[j])
+            out["c_physical"][j] = geo.realised_c(pts, loads)
+            out["support_ok"][j] = geo.com_inside_feet(pts, margin=-SUPPORT_OK_TOL)
         return next_push(state, i_phase)
 
     hooks = {p: next_push for p in before if stroke == "contact"}
@@ -148,12 +153,13 @@ def rollout_push_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
       ``complete`` (n, P), ``planned_edges`` (P,); ``slip`` (m, summed),
       ``slip_per_push`` (n, P), ``contact`` (n, P) the fence touched the
       part during push k; ``max_tilt``, ``final_tilt`` (rad); flags
-      ``tipped``, ``toppled``, ``fence_strike``, ``left_workspace``,
-      ``hull_changed``, ``simulated``, ``support_ok`` (the feet realise the
-      sampled distribution and the centre of mass stands inside them);
-      ``c`` sampled and ``c_physical`` realised limit-surface ratios (m),
-      ``support_shift`` (m) the sampled weights' centroid off the centre of
-      mass and ``support_centred`` whether the weights were centred;
+      ``tipped``, ``toppled``, ``fence_strike`` (the fence touched the part
+      while coming down or moving lifted), ``left_workspace``,
+      ``hull_changed``, ``simulated``, ``support_ok`` (the centre of mass
+      stands inside the loaded support contacts after settling);
+      ``support`` the family's name, ``c`` the sampled limit-surface ratio,
+      ``c_support`` the one the family's loads give on the perturbed part and
+      ``c_physical`` the one MuJoCo's loads realise after settling (m);
       ``err_x``, ``err_y``, ``err_pos`` (m), ``err_theta`` (rad) against the
       goal, ``success``, ``failure_mode`` (one of ``PUSH_FAILURE_MODES``);
       and ``backend`` (str), ``steps`` (physics steps per sample),
@@ -161,7 +167,7 @@ def rollout_push_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
       / -1 / False.
     """
     s = settings or PhysicsSettings()
-    backend = resolve_backend(backend)
+    backend = resolve_backend(backend, s)
     check_batch(params, in_axes, n)
     if not plan.pushes:
         raise ValueError("plan: has no pushes; nothing to roll out")
@@ -169,7 +175,7 @@ def rollout_push_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
         raise ValueError(f"stroke: expected one of {STROKES}, got {stroke!r}")
     t0 = time.perf_counter()
     poly, planned = nominal_polygon(plan)
-    parts = push_parts(plan, poly, params, in_axes, n, s.support)
+    parts = push_parts(plan, poly, params, in_axes, n)
     ws = tuple(workspace) if workspace is not None else _workspace(plan, poly, s)
     idx = np.flatnonzero(parts.valid)
     P = len(plan.pushes)
@@ -205,8 +211,8 @@ def _classify(res, plan, planned, parts, pe, te, slip_fraction, s) -> None:
     res["hull_changed"] = ~parts.valid
     res["simulated"] = sim
     res["c"] = np.asarray(parts.c, np.float64)
-    res["support_shift"] = parts.shift
-    res["support_centred"] = parts.centred
+    res["c_support"] = parts.c_support
+    res["support"] = np.asarray(FAMILIES, dtype=object)[parts.family]
     goal = np.asarray(plan.goal, np.float64)
     res["err_x"], res["err_y"] = res["x"] - goal[0], res["y"] - goal[1]
     res["err_pos"] = np.hypot(res["err_x"], res["err_y"])

@@ -8,7 +8,7 @@ push (the plan's start, or the previous push's ``pose_after``) of the
 nominal part.  From it, the planned contact line ``h = min_j <p_j, d>`` of
 the nominal hull along the planned direction ``d``, and the fence is centred
 on the centre of mass's line along ``d``.  The fence (its pushing face) is
-lowered ``push_offset`` (30 mm, the paper's) before that line, moved along
+lowered ``push_offset`` (10 mm) before that line, moved along
 the sample's direction (``d`` rotated by the sampled fence angle error; the
 fence's face stays normal to its motion) at ``approach_speed`` and, for the
 last ``slow_zone`` before the planned contact and the sampled push distance
@@ -47,12 +47,13 @@ class PushParts:
       body: (n, h, 2) perturbed hull in the nominal order, relative to the
         perturbed centre of mass, m.
       dcom: (n, 2) centre-of-mass offset, part frame, m.
-      feet, weights: (n, S, 2) support points relative to the perturbed
-        centre of mass (body frame, m) and their weights.
-      c: (n,) sampled limit-surface ratio, m; mu_f, mu_s: (n,).
-      shift: (n,) distance of the sampled weights' centroid from the centre
-        of mass, m; centred: (n,) the weights used are centred (False where
-        centring failed and the draws are used as they are).
+      family: (n,) support family codes (:data:`kernels.support.CODES`).
+      feet: (n, F, 2) support feet relative to the perturbed centre of mass
+        (body frame, m), ``n_feet`` (n,) of them used (0 for ``rigid``).
+      lift: (n, h) the corners' flatness ranks (rigid; zeros otherwise).
+      c: (n,) sampled limit-surface ratio, m; ``c_support`` (n,) the one the
+        family's loads give on the perturbed part (what the scene should
+        realise); mu_f, mu_s: (n,).
       start: (n, 3) start pose of the perturbed centre of mass (world, m, rad).
       fence_angle: (n, P) rad; distance: (n, P) sampled push distances, m.
     """
@@ -60,16 +61,17 @@ class PushParts:
     valid: np.ndarray
     body: np.ndarray
     dcom: np.ndarray
+    family: np.ndarray
     feet: np.ndarray
-    weights: np.ndarray
+    n_feet: np.ndarray
+    lift: np.ndarray
     c: np.ndarray
+    c_support: np.ndarray
     mu_f: np.ndarray
     mu_s: np.ndarray
     start: np.ndarray
     fence_angle: np.ndarray
     distance: np.ndarray
-    shift: np.ndarray
-    centred: np.ndarray
 
 
 _hull_changed = jax.jit(jax.vmap(polygon_hull_changed, in_axes=(0, 0, None)))
@@ -84,10 +86,10 @@ def nominal_polygon(plan):
     return poly, [poly.caller_edge_to_hull(p.edge) for p in plan.pushes]
 
 
-def push_parts(plan, poly, params, in_axes, n: int, support: str = "tripod") -> PushParts:
+def push_parts(plan, poly, params, in_axes, n: int) -> PushParts:
     """Per-sample parts of ``n`` drawn perturbations (the semantics of
-    :func:`robustness.replay.run_push`); ``support`` as
-    :class:`~robustness.physics.settings.PhysicsSettings`."""
+    :func:`robustness.replay.run_push`), each with the support of its
+    family (:func:`robustness.physics.geometry.support_of`)."""
     p = jax.tree_util.tree_map(lambda x: np.asarray(x, np.float64), broadcast(params, in_axes, n))
     g, f, e = p.geometry, p.friction, p.execution
     V = np.asarray(plan.vertices, np.float64)[None] + g.vertex_offset
@@ -96,23 +98,20 @@ def push_parts(plan, poly, params, in_axes, n: int, support: str = "tripod") -> 
     with jax.enable_x64(True):
         changed = np.asarray(_hull_changed(jnp.asarray(V), jnp.asarray(com), jnp.asarray(hi)))
     body = V[:, hi] - com[:, None, :]
-    pts, w = f.support_points, f.support_weights
-    shift = np.linalg.norm(np.einsum("ns,nsi->ni", w, pts), axis=1)
-    if support == "tripod":
-        made = [geo.tripod_feet(float(c), b) for c, b in zip(f.c, body)]
-        pts = np.stack([m[0] for m in made])
-        w = np.stack([m[1] for m in made])
-    elif not np.any(pts):          # c drawn directly: a made-up distribution with that c
-        made = [geo.feet_for_c(float(c), b) for c, b in zip(f.c, body)]
-        pts = np.stack([m[0] for m in made])
-        w = np.stack([m[1] for m in made])
-    centred = np.full(n, support == "tripod")
-    if support == "centred":
-        w = w.copy()
-        for i in range(n):
-            q, ok = geo.centred_weights(pts[i], w[i], float(f.c[i]))
-            if ok:
-                w[i], centred[i] = q, True
+    h = body.shape[1]
+    family = np.broadcast_to(np.asarray(f.family, np.int64), (n,)).copy()
+    lift = np.broadcast_to(np.asarray(f.corner_lift, np.float64), (n, h)).copy()
+    c = np.broadcast_to(np.asarray(f.c, np.float64), (n,)).copy()
+    made = [geo.support_of(int(k), b, float(ci), li) for k, b, ci, li in zip(family, body, c, lift)]
+    F = max([len(m[0]) for m in made] + [0])
+    feet = np.zeros((n, F, 2))
+    n_feet = np.zeros(n, np.int64)
+    c_support = np.zeros(n)
+    for i, (pts, w) in enumerate(made):
+        n_feet[i] = len(pts)
+        feet[i, :len(pts)] = pts
+        at = pts if len(pts) else body[i]
+        c_support[i] = float(w @ np.linalg.norm(at, axis=1))
     th0 = plan.start[2] + e.start_offset[:, 2]
     c0, s0 = np.cos(th0), np.sin(th0)
     dc = g.com_offset
@@ -122,9 +121,9 @@ def push_parts(plan, poly, params, in_axes, n: int, support: str = "tripod") -> 
     dist0 = np.array([q.distance for q in plan.pushes], np.float64).reshape(1, P)
     dist = np.maximum(dist0 * (1.0 + e.distance_rel.reshape(n, P))
                       + e.distance_abs.reshape(n, P), 0.0)
-    return PushParts(valid=~changed, body=body, dcom=dc, feet=pts, weights=w, c=f.c, mu_f=f.mu_f,
-                     mu_s=f.mu_s, start=start, fence_angle=e.fence_angle.reshape(n, P),
-                     distance=dist, shift=shift, centred=centred)
+    return PushParts(valid=~changed, body=body, dcom=dc, family=family, feet=feet, n_feet=n_feet,
+                     lift=lift, c=c, c_support=c_support, mu_f=f.mu_f, mu_s=f.mu_s, start=start,
+                     fence_angle=e.fence_angle.reshape(n, P), distance=dist)
 
 
 def fence_heights(s):
@@ -157,7 +156,7 @@ class FenceStrokes:
     perturbed part, set by :meth:`retarget` at the hook before the push.
 
     Hooks (host actions, see :mod:`robustness.physics.runner`) follow the
-    ``settle`` phase (the feet's friction) and, for contact strokes
+    ``settle`` phase (the support's loads are measured) and, for contact strokes
     (``contact=True``), every ``lift`` phase (the coming push's stroke).
 
     Attributes:

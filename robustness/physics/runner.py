@@ -31,11 +31,22 @@ def default_backend() -> str:
     return "c"
 
 
-def resolve_backend(backend: str) -> str:
-    """Validate ``backend`` (one of ``BACKENDS``) and resolve ``"auto"``."""
+def resolve_backend(backend: str, settings=None) -> str:
+    """Validate ``backend`` (one of ``BACKENDS``) against the contact model of
+    ``settings`` and resolve ``"auto"``: MJX only on an accelerator and only for
+    the soft contact model (``noslip_iterations == 0``; MJX has no noslip
+    solver), so that the contact model never changes with the hardware."""
     if backend not in BACKENDS:
         raise ValueError(f"backend: expected one of {BACKENDS}, got {backend!r}")
-    return default_backend() if backend == "auto" else backend
+    noslip = settings is not None and settings.noslip_iterations > 0
+    if backend == "mjx" and noslip:
+        raise ValueError(f"backend: MJX has no noslip solver, and the cell's contact model uses "
+                         f"it (noslip_iterations {settings.noslip_iterations}); set "
+                         f"physics.cell.noslip_iterations: 0 and impratio: 30 (the soft model, "
+                         f"run by both engines) or backend: c")
+    if backend == "auto":
+        return "c" if noslip else default_backend()
+    return backend
 
 
 def make_engine(backend: str, models, settings):

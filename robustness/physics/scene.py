@@ -5,10 +5,10 @@ model with the same structure, so that ``mujoco.rollout`` can run them
 together and MJX can batch their differing fields):
 
 * :func:`push_model`: the support plane; the part, a convex mesh (the polygon
-  extruded to a prism) standing on spherical *feet* at the sampled support
-  points (:mod:`robustness.physics.geometry`), with its mass and inertia
-  about its centre of mass; and the fence, a box on a tool body driven
-  through joints.
+  extruded to a prism) resting on its own underside (rigid support) or on
+  spherical *feet* at its support family's points
+  (:mod:`robustness.physics.geometry`), with its mass and inertia about its
+  centre of mass; and the fence, a box on a tool body driven through joints.
 * :func:`tumble_model`: the lower plate (the support plane), the part (the
   polyhedron's hull) and the upper plate, a large box on the same tool.
 
@@ -23,9 +23,8 @@ tool's origin is the centre of its box.
 Contacts come only from explicit pairs (every geom has contype = conaffinity
 = 0), so that each pair has its own coefficient (MuJoCo would otherwise take
 the larger of two geoms' frictions): tool-part ``mu_f``; foot-support (one
-pair per foot, set from the loads after settling) and part-support
-``mu_s``.  condim 3 (no torsional or rolling friction: the feet are points of
-the sampled distribution), elliptic cones, Newton solver, implicitfast
+pair per foot) and part-support ``mu_s``.  condim 3 (no torsional or rolling
+friction: the contacts are points), elliptic cones, Newton solver, implicitfast
 integrator, noslip iterations, multiccd on (see
 :class:`~robustness.physics.settings.PhysicsSettings` for the numbers).
 
@@ -42,8 +41,7 @@ per 10 cm under MuJoCo's elliptic cones and noslip, and a vertically
 floating fence let the part and the fence rise together (1 mm of walk).
 
 Sensors: ``tool_contact`` (contact sensor, ``found``: how many tool-part
-contacts) and for pushed parts ``foot{i}`` (contact force of foot i on the
-support, contact frame, normal first).
+contacts).  The support's loads are read on the host (:func:`support_loads`).
 """
 from __future__ import annotations
 
@@ -56,7 +54,7 @@ import numpy as np
 from robustness.physics.settings import PhysicsSettings
 
 TOOL_JOINTS = ("tool_x", "tool_y", "tool_z", "tool_yaw")
-FOUND, FORCE = 1, 2          # contact sensor data bits ("found", "force")
+FOUND = 1                    # contact sensor data bit ("found")
 PLANE_HALF = 10.0            # visual half-size of the support plane (collision is infinite)
 PLATE_HALF_THICKNESS = 0.005  # m, the upper plate of the tumble cell
 
@@ -74,8 +72,6 @@ class Layout:
         (position x, y, z then quaternion w, x, y, z); tool_qpos: offset of
         the tool's 4 joints; part_qvel: offset of the part's 6 velocities.
       tool_contact: sensordata offset of the tool-part contact count.
-      foot_force: sensordata offsets of the feet's contact forces (normal
-        first); empty for a tumble scene.
       foot_pairs: pair ids of the foot-support pairs; tool_pair: the
         tool-part pair id.
     """
@@ -87,7 +83,6 @@ class Layout:
     tool_qpos: int
     part_qvel: int
     tool_contact: int
-    foot_force: tuple
     foot_pairs: tuple
     tool_pair: int
 
@@ -174,29 +169,36 @@ def _compile(spec) -> mujoco.MjModel:
     return m
 
 
-def push_model(body: np.ndarray, feet: np.ndarray, mass: float, fullinertia, mu_f: float,
-               mu_s: float, s: PhysicsSettings, impratio: float) -> mujoco.MjModel:
+def push_model(body: np.ndarray, feet: np.ndarray, n_feet: int, drop: np.ndarray, mass: float,
+               fullinertia, mu_f: float, mu_s: float, s: PhysicsSettings,
+               impratio: float) -> mujoco.MjModel:
     """The push cell for one sampled part.
 
     Args:
-      body: (n, 2) hull vertices, CCW, body frame (origin at the centre of
-        mass), m; the prism spans z in [0, part_thickness] of the body frame.
-      feet: (S, 2) foot positions, body frame, m (sphere centres at z = 0,
-        so the body origin rests at z = foot_radius).
+      body: (h, 2) hull vertices, CCW, body frame (origin at the centre of
+        mass), m; the prism spans z in [0, part_thickness] of the body frame,
+        its bottom corner i lowered to ``-drop[i]`` (flatness errors of a part
+        on rigid support; zeros otherwise).
+      feet: (F, 2) foot positions, body frame, m: the first ``n_feet`` are
+        spheres at z = 0 (the part stands on them, ``foot_radius`` above the
+        support); the others are parked inside the part (every model of a
+        batch has the same F, so that they run together) and never touch.
       mass, fullinertia: about the centre of mass at (0, 0, thickness / 2).
-      mu_f, mu_s: fence and support coefficients (feet start at mu_s).
-      s: settings; impratio: the engine's (C or MJX value).
+      mu_f, mu_s: fence and support coefficients (every support contact
+        has ``mu_s``).
+      s: settings; impratio: the engine's.
     """
     spec = mujoco.MjSpec()
     _options(spec, s, impratio)
     _plane(spec)
     h = s.part_thickness
     b = np.asarray(body, np.float64)
-    verts = np.vstack([np.c_[b, np.zeros(len(b))], np.c_[b, np.full(len(b), h)]])
+    verts = np.vstack([np.c_[b, -np.asarray(drop, np.float64)], np.c_[b, np.full(len(b), h)]])
     part = _part_body(spec, verts, mass, (0.0, 0.0, 0.5 * h), fullinertia)
     for i, p in enumerate(np.asarray(feet, np.float64)):
+        pos = [float(p[0]), float(p[1]), 0.0] if i < n_feet else [0.0, 0.0, 0.5 * h]
         g = part.add_geom(name=f"foot{i}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                          size=[s.foot_radius, 0, 0], pos=[float(p[0]), float(p[1]), 0.0])
+                          size=[s.foot_radius, 0, 0], pos=pos)
         _no_collide(g)
     top = s.foot_radius + h + s.clearance
     half = (0.5 * s.fence_thickness, 0.5 * s.fence_length, 0.5 * top)
@@ -206,9 +208,30 @@ def push_model(body: np.ndarray, feet: np.ndarray, mass: float, fullinertia, mu_
         _pair(spec, "support", f"foot{i}", mu_s, f"foot{i}")
     _pair(spec, "support", "part", mu_s, "part_support")
     _contact_sensor(spec, "tool_contact", "tool", "part", FOUND)
-    for i in range(len(feet)):
-        _contact_sensor(spec, f"foot{i}", f"foot{i}", "support", FORCE)
     return _compile(spec)
+
+
+def support_loads(m: mujoco.MjModel, state: np.ndarray):
+    """The support's contacts of a push scene in ``state`` (a
+    ``mjSTATE_FULLPHYSICS`` vector, C engine): ``(points (k, 2), loads (k,))``,
+    contact positions in the part's body frame (m, relative to the centre of
+    mass's vertical) and normal forces (N)."""
+    d = mujoco.MjData(m)
+    mujoco.mj_setState(m, d, np.asarray(state, np.float64), mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    mujoco.mj_forward(m, d)
+    support = m.geom("support").id
+    part = m.body("part").id
+    R = d.xmat[part].reshape(3, 3)
+    pts, loads = [], []
+    f = np.zeros(6)
+    for i in range(d.ncon):
+        con = d.contact[i]
+        if support not in (con.geom1, con.geom2) or con.efc_address < 0:
+            continue
+        mujoco.mj_contactForce(m, d, i, f)
+        pts.append((R.T @ (con.pos - d.xpos[part]))[:2])
+        loads.append(max(float(f[0]), 0.0))
+    return np.reshape(np.asarray(pts, np.float64), (-1, 2)), np.asarray(loads, np.float64)
 
 
 def tumble_model(vertices: np.ndarray, com, mass: float, fullinertia, mu_f: float, mu_s: float,
@@ -241,19 +264,15 @@ def layout(m: mujoco.MjModel) -> Layout:
     part_q = int(m.jnt_qposadr[m.joint("part").id])
     tool_q = int(m.jnt_qposadr[m.joint("tool_x").id])
     part_v = int(m.jnt_dofadr[m.joint("part").id])
-    feet, pairs = [], []
-    i = 0
+    pairs = []
     while True:
         try:
-            sid = m.sensor(f"foot{i}").id
+            pairs.append(int(m.pair(f"foot{len(pairs)}").id))
         except KeyError:
             break
-        feet.append(int(m.sensor_adr[sid]))
-        pairs.append(int(m.pair(f"foot{i}").id))
-        i += 1
     return Layout(nstate=int(mujoco.mj_stateSize(m, mujoco.mjtState.mjSTATE_FULLPHYSICS.value)),
                   nu=int(m.nu), nsensordata=int(m.nsensordata), part_qpos=1 + part_q,
                   tool_qpos=1 + tool_q, part_qvel=1 + m.nq + part_v,
                   tool_contact=int(m.sensor_adr[m.sensor("tool_contact").id]),
-                  foot_force=tuple(feet), foot_pairs=tuple(pairs),
+                  foot_pairs=tuple(pairs),
                   tool_pair=int(m.pair("tool_part").id))

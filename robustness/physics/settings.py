@@ -12,7 +12,8 @@ import dataclasses
 import math
 
 BACKENDS = ("auto", "c", "mjx")
-SUPPORT_MODES = ("tripod", "centred", "sampled")
+#: the impratio advised for the soft contact model (no noslip, MJX): see PhysicsSettings
+SOFT_IMPRATIO = 30.0
 STROKES = ("planned", "contact")
 
 #: The tumble device's pads need a friction coefficient of at least this much (upper pad
@@ -46,14 +47,20 @@ class PhysicsSettings:
         2 ms moved the final poses by at most 0.07 mm and the summed slips
         by at most 0.4 mm (of 3.5-9.5 mm); 8 ms moved the poses by up to
         0.44 mm.  Soft contacts need ``timeconst >= 2 timestep`` (20 ms).
-      noslip_iterations: 20 (C engine).  Without them a sticking contact
-        creeps: the rectangle's 15 cm reorient push at mu_f 1.5 (the
-        quasi-static model sticks) slid 7.99 mm along the fence with
-        impratio 1, 0.23 mm with impratio 100, and 0.058 mm with noslip 20
-        (``bench/physics.py``).  MJX accepts the option and ignores it.
-      impratio: 1 on the C engine (noslip removes the creep);
-        ``mjx_impratio`` 100 on MJX, the remedy there (0.50-0.60 mm of creep
-        on the same push, :mod:`robustness.physics.mjx_engine`).
+      noslip_iterations: 20, impratio: 1: the contact model, the same
+        whatever the backend (``backend: auto`` never changes it with the
+        hardware).  Soft friction creeps at a contact that should stick;
+        MuJoCo's noslip solver removes it.  Measured (``bench/physics.py``,
+        C engine) on the rectangle's 15 cm reorient push at mu_f 1.5, as the
+        slip along the fence in mm, for the supports tripod (c 8 mm) / rigid
+        / uniform: noslip 20 + impratio 1 0.06 / 0.33 / 0.08; no noslip,
+        impratio 30: 0.46 / 1.63 / 3.89; no noslip, impratio 100: 0.28 /
+        2.60 / 4.54 (and a uniform pad on 29 feet flips over while settling
+        at impratio 100).  MJX has no noslip solver: it runs only the soft
+        model (``noslip_iterations: 0``, with ``impratio`` as given, 30
+        advised), and a rollout asked to run MJX with noslip refuses, naming
+        the fields; ``auto`` picks MJX on an accelerator only for the soft
+        model.
       iterations, ls_iterations, tolerance: Newton solver settings.
       cone: elliptic always (pyramidal cones: 156 mm and 114 deg of error on
         a plan that elliptic gets to 8 mm, issue 9).  multiccd stays on
@@ -63,8 +70,10 @@ class PhysicsSettings:
     Push cell (Akella-Mason: a fence moved by a robot, open loop)
       push_speed: 5 mm/s of fence travel while in contact (quasi-static for
         15-22 g parts; at 15 mm/s the slip changed sign, issue 9).
-      push_offset: 30 mm, the paper's approach offset before the planned
-        contact line.
+      push_offset: 10 mm, the approach: the fence comes down this far before
+        the planned contact line (a fixture's clearance; the paper's 30 mm
+        hid a fence landing on a part that had slipped by up to 30 mm, which
+        is now a ``fence_strike``).
       slow_zone: the last 5 mm of the approach run at ``push_speed`` (the
         first ``push_offset - slow_zone`` at ``approach_speed``).
       approach_speed, transit_speed, lift_speed (m/s), yaw_rate (rad/s).
@@ -72,22 +81,21 @@ class PhysicsSettings:
       clearance: fence (or plate) bottom above the part's top when lifted, m.
       settle_time, dwell_time: s, rest before the first push and after each
         push (the pose after a push is read at the end of its dwell).
-      part_thickness: extrusion of a polygonal part, m (3 mm: a plate.  The
-        fence pushes at half the thickness above the support, and that
-        moment shifts the feet's loads: on the rectangle with 16 support
-        points, 10 mm of thickness left 37 % of the feet unloaded during a
-        push, and the planar models know nothing of it).
-      part_density: kg/m^3 of the extruded polygon (7800, steel: the
-        40 x 20 x 3 mm rectangle weighs 18.7 g, in the 15-22 g range that
-        issue 9 found quasi-static at 5 mm/s).
-      support: how the sampled support friction is realised
-        (:mod:`robustness.physics.geometry`): ``"tripod"`` (default) three
-        feet with the sampled ``c``, statically determinate; ``"centred"``
-        feet at the sampled points, weights moved to the nearest with the
-        same ``c`` and their centroid under the centre of mass; ``"sampled"``
-        feet at the sampled points with the sampled weights.
-      foot_radius: radius of the support feet (spheres at the sampled
-        support points), m.
+      part_thickness: extrusion of a polygonal part, m (3 mm: a plate; the
+        part file's ``thickness`` sets it).  The fence pushes at half the
+        thickness above the support, and that moment shifts the support's
+        loads (rear feet unload during a push; the planar models know
+        nothing of it).
+      part_density: kg/m^3 of the extruded polygon (7800, steel; the part
+        file's ``density``): the 40 x 20 x 3 mm rectangle weighs 18.7 g, in
+        the 15-22 g range that issue 9 found quasi-static at 5 mm/s.
+      flatness: m, how far the corners of a part on ``rigid`` support may
+        protrude below its nominal underside (the sampled flatness errors'
+        scale: corner i is lowered ``flatness * lift_i``; only their order
+        picks the three corners it rests on, :mod:`kernels.support`).
+      foot_radius: radius of the support feet of the ``uniform``, ``ring``
+        and ``tripod`` families (spheres at the family's points, which stay
+        ``kernels.support.FOOT_INSET`` inside the outline), m.
       fence_length, fence_thickness, fence_gap (bottom above the support), m.
       tool_mass: kg of the driven fence / plate (gravity-compensated).
       servo_kp: N/m of the x/y position servos; ``servo_yaw_kp`` N m/rad;
@@ -126,13 +134,12 @@ class PhysicsSettings:
     timestep: float = 0.004
     noslip_iterations: int = 20
     impratio: float = 1.0
-    mjx_impratio: float = 100.0
     iterations: int = 50
     ls_iterations: int = 20
     tolerance: float = 1e-10
 
     push_speed: float = 0.005
-    push_offset: float = 0.03
+    push_offset: float = 0.01
     slow_zone: float = 0.005
     approach_speed: float = 0.02
     transit_speed: float = 0.05
@@ -140,12 +147,12 @@ class PhysicsSettings:
     yaw_rate: float = 1.0
     retract: float = 0.005
     clearance: float = 0.01
-    settle_time: float = 0.3
+    settle_time: float = 0.6
     dwell_time: float = 0.3
 
     part_thickness: float = 0.003
     part_density: float = 7800.0
-    support: str = "tripod"
+    flatness: float = 2.0e-4
     foot_radius: float = 0.0005
     fence_length: float = 0.2
     fence_thickness: float = 0.005
@@ -171,11 +178,9 @@ class PhysicsSettings:
     batch: int = 256
 
     def __post_init__(self):
-        if self.support not in SUPPORT_MODES:
-            raise ValueError(f"support: expected one of {SUPPORT_MODES}, got {self.support!r}")
+        from kernels.support import FOOT_INSET
+
         for f in dataclasses.fields(self):
-            if f.name == "support":
-                continue
             if f.name in ("noslip_iterations", "iterations", "ls_iterations", "threads"):
                 _nonneg_int(self, f.name)
             elif f.name in ("slip_stride", "chunk_steps", "batch"):
@@ -188,6 +193,10 @@ class PhysicsSettings:
         if self.slow_zone > self.push_offset:
             raise ValueError(f"slow_zone: must not exceed push_offset ({self.push_offset} m), got "
                              f"{self.slow_zone}")
+        if self.foot_radius > FOOT_INSET:
+            raise ValueError(f"foot_radius: the support feet stay {FOOT_INSET * 1e3:g} mm inside the "
+                             f"outline; a radius above that would reach outside it, got "
+                             f"{self.foot_radius}")
         if self.fence_gap >= self.part_thickness:
             raise ValueError("fence_gap: must be below part_thickness, or the fence misses the part")
 

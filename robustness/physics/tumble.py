@@ -56,7 +56,7 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace):
     mass0 = tb.part_mass(poly, s)
     sched, plate_half, grip = tb.tumble_schedule(plan, poly, s, mass0)
     models = []
-    impratio = s.mjx_impratio if backend == "mjx" else s.impratio
+    impratio = s.impratio
     for i in idx:
         mass, inertia = geo.polyhedron_mass_properties(parts.vertices[i][hull], parts.com[i],
                                                        s.polyhedron_density)
@@ -147,7 +147,7 @@ def rollout_tumble_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
       ``grip_n`` (the grasp force, N).
     """
     s = settings or PhysicsSettings()
-    backend = resolve_backend(backend)
+    backend = resolve_backend(backend, s)
     check_batch(params, in_axes, n)
     if not plan.tumbles:
         raise ValueError("plan: has no tumbles; nothing to roll out")

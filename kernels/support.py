@@ -1,0 +1,283 @@
+"""Support families of a pushed part: where the support touches it and how
+its weight is shared (body frame, origin at the centre of mass, metres).
+
+A part resting on a flat support is carried by a set of contact points; their
+normal loads balance its weight, so the loads' centroid lies under the centre
+of mass.  What the quasi-static model needs of the support is the limit-surface
+ratio ``c = sum w_i |p_i|`` of the loads ``w_i`` (fractions of the weight) at
+the points ``p_i`` (:func:`kernels.quasistatic.limit_surface_ratio`).  A
+*family* says which points and which loads a real part has; the same
+definition is drawn by the quasi-static sampler (:mod:`robustness.samplers`)
+and realised by the MuJoCo scene (:mod:`robustness.physics`):
+
+``rigid``
+    A rigid part on a rigid table rests on corners of its underside (the
+    polygon's hull vertices), three of them in general: which three depends on
+    the part's flatness errors.  Corner ``i`` protruding ``lift_i`` below the
+    nominal face, the part rests on the facet of the lower hull of the lifted
+    corners above its centre of mass, whose loads are the centre of mass's
+    barycentric coordinates in that triangle (statically determinate):
+    :func:`corner_weights`, the solution of the linear programme
+    ``max sum lam_i lift_i`` s.t. ``sum lam_i p_i = 0, sum lam_i = 1, lam >= 0``
+    (its vertices are the triangles; enumerated).  Only the ORDER of the lifts
+    matters, not their size (the programme is homogeneous in ``lift``).
+``uniform``
+    A compliant pad: pressure over the whole footprint.  The corners and
+    ``UNIFORM_FEET`` points of a fixed quasi-uniform set in the polygon
+    (:func:`uniform_points`),
+    moved ``FOOT_INSET`` inside the outline, loaded as equal springs under a
+    rigid body are: the minimum-norm loads that balance the weight
+    (:func:`equilibrium_weights`, affine in position: uniform when the centre
+    of mass is the points' centroid).
+``ring``
+    Pressure along the rim (a part with a raised edge, a dished underside):
+    the corners and ``RING_FEET`` points equally spaced along the outline, inset like the
+    uniform points, with equilibrium loads (:func:`ring_points`).
+``tripod``
+    Three feet on a circle of radius ``c`` about the centre of mass, an
+    equilateral triangle turned to lie as deep inside the outline as possible
+    (:func:`tripod_points`); loads ``1/3`` each.  A model of a support, kept for
+    comparing the model with physics; the largest ``c`` that fits inside the
+    outline is :func:`tripod_fit`.
+
+Pure JAX, one part at a time (``jax.vmap`` at the call site), in the dtype of
+the inputs; :func:`family_c_range` (host side, numpy float64) gives the range
+of ``c`` a family can take on a part, for the planner's distances.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+#: named support families; ``points`` is the sampled Dirichlet distribution of
+#: :mod:`robustness.support` (model only: its loads cannot be realised by feet)
+FAMILIES = ("rigid", "uniform", "ring", "tripod", "points")
+#: integer codes of the families (the sampler's per-sample ``family`` column)
+CODES = {name: i for i, name in enumerate(FAMILIES)}
+#: the components of the ``any`` mixture, drawn with equal probability
+ANY_COMPONENTS = ("rigid", "uniform", "ring", "tripod")
+#: points of the uniform and ring families
+UNIFORM_FEET = 25
+RING_FEET = 24
+#: how far (m) the uniform, ring and tripod feet stay inside the outline
+#: (at least the MuJoCo feet's radius, ``PhysicsSettings.foot_radius``)
+FOOT_INSET = 1.0e-3
+#: the ``any`` mixture's tripods take ``c`` uniform in [TRIPOD_MIN_FRACTION, 1] x tripod_fit
+TRIPOD_MIN_FRACTION = 0.5
+#: orientations tried when fitting a tripod inside the outline
+TRIPOD_TRIALS = 72
+
+# a fixed quasi-uniform sequence (Kronecker, generalised golden ratio in 3D)
+_PHI3 = 1.2207440846057596
+_KRONECKER = np.mod(0.5 + np.outer(np.arange(1, UNIFORM_FEET + 1),
+                                   [1 / _PHI3, 1 / _PHI3 ** 2, 1 / _PHI3 ** 3]), 1.0)
+
+
+def _edges(body):
+    """Outward unit normals (h, 2) and offsets (h,) of a CCW polygon
+    ``{x: n_e . x <= d_e}``; ``d_e`` is the origin's distance to edge ``e``."""
+    body = jnp.asarray(body)
+    e = jnp.roll(body, -1, axis=0) - body
+    n = jnp.stack([e[:, 1], -e[:, 0]], -1) / jnp.linalg.norm(e, axis=1, keepdims=True)
+    return n, jnp.einsum("ei,ei->e", n, body)
+
+
+def _inset(points, body, inset: float):
+    """``points`` scaled about the origin so that the scaled outline lies at
+    least ``inset`` inside ``body`` (never below half size)."""
+    _, d = _edges(body)
+    lam = jnp.clip(1.0 - inset / jnp.maximum(jnp.min(d), 1e-300), 0.5, 1.0)
+    return lam * points
+
+
+def uniform_points(body, inset: float = FOOT_INSET):
+    """(h + UNIFORM_FEET, 2) points spread over the CCW polygon ``body`` (h
+    vertices; body frame, the centre of mass inside; m): its corners and a
+    fixed Kronecker sequence mapped through the triangle fan from the origin
+    (a triangle chosen by area, a point uniform in it), all moved ``inset``
+    inside the outline (the corners keep the centre of mass inside the
+    points' hull however far off-centre it is)."""
+    body = jnp.asarray(body)
+    u = jnp.asarray(_KRONECKER, body.dtype)
+    nxt = jnp.roll(body, -1, axis=0)
+    area = jnp.maximum(0.5 * (body[:, 0] * nxt[:, 1] - body[:, 1] * nxt[:, 0]), 0.0)
+    cdf = jnp.cumsum(area) / jnp.sum(area)
+    tri = jnp.minimum(jnp.searchsorted(cdf, u[:, 0], side="right"), body.shape[0] - 1)
+    a, b = jnp.sqrt(u[:, 1]), u[:, 2]          # uniform in the triangle (0, v_i, v_i+1)
+    pts = (a * (1.0 - b))[:, None] * body[tri] + (a * b)[:, None] * nxt[tri]
+    return _inset(jnp.concatenate([body, pts]), body, inset)
+
+
+def ring_points(body, inset: float = FOOT_INSET):
+    """(h + RING_FEET, 2) points on the outline of the CCW polygon ``body``
+    (h vertices, m): its corners and RING_FEET equally spaced by arc length
+    (half a spacing from vertex 0), all moved ``inset`` inside it."""
+    body = jnp.asarray(body)
+    nxt = jnp.roll(body, -1, axis=0)
+    length = jnp.linalg.norm(nxt - body, axis=1)
+    cum = jnp.concatenate([jnp.zeros(1, body.dtype), jnp.cumsum(length)])
+    s = (jnp.arange(RING_FEET, dtype=body.dtype) + 0.5) / RING_FEET * cum[-1]
+    e = jnp.clip(jnp.searchsorted(cum, s, side="right") - 1, 0, body.shape[0] - 1)
+    t = ((s - cum[e]) / jnp.maximum(length[e], 1e-300))[:, None]
+    return _inset(jnp.concatenate([body, body[e] * (1.0 - t) + nxt[e] * t]), body, inset)
+
+
+def _tripod_dirs(rot):
+    a = rot + jnp.arange(3) * (2.0 * math.pi / 3.0)
+    return jnp.stack([jnp.cos(a), jnp.sin(a)], -1)
+
+
+def _tripod_reach(body, inset: float):
+    """Per trial rotation (TRIPOD_TRIALS,): the largest circumradius whose
+    three feet lie ``inset`` inside ``body``; and the rotations."""
+    body = jnp.asarray(body)
+    n, d = _edges(body)
+    rots = jnp.arange(TRIPOD_TRIALS, dtype=body.dtype) * (2.0 * math.pi / 3.0 / TRIPOD_TRIALS)
+    dirs = jax.vmap(_tripod_dirs)(rots)                          # (T, 3, 2)
+    nu = jnp.einsum("tki,ei->tke", dirs, n)                      # (T, 3, h)
+    reach = jnp.where(nu > 1e-12, (d - inset)[None, None] / jnp.where(nu > 1e-12, nu, 1.0),
+                      jnp.inf)
+    return jnp.min(reach, axis=(1, 2)), rots
+
+
+def tripod_fit(body, inset: float = FOOT_INSET):
+    """() the largest tripod circumradius (m) whose feet fit ``inset`` inside
+    the CCW polygon ``body`` (body frame, origin at the centre of mass)."""
+    reach, _ = _tripod_reach(body, inset)
+    return jnp.maximum(jnp.max(reach), 0.0)
+
+
+def tripod_points(c, body, inset: float = FOOT_INSET):
+    """(3, 2) feet of circumradius ``c`` (m) about the centre of mass, turned
+    to lie as deep inside ``body`` as possible (of ``TRIPOD_TRIALS``
+    rotations, the one that fits the largest tripod)."""
+    reach, rots = _tripod_reach(body, inset)
+    return c * _tripod_dirs(rots[jnp.argmax(reach)])
+
+
+#: semi-smooth Newton iterations of :func:`equilibrium_weights` (the active set
+#: settles in a few; the property test checks 1e-9 m of balance)
+EQUILIBRIUM_ITERATIONS = 40
+
+
+def equilibrium_weights(points, iterations: int = EQUILIBRIUM_ITERATIONS):
+    """(S,) loads (fractions of the weight) of equal springs that can lift
+    off, under a rigid body standing on ``points`` (S, 2; m, the centre of
+    mass at the origin): ``w_i = max(0, a + b . p_i)`` (the support's plane,
+    tilted by the centre of mass's offset; feet it leaves carry nothing) with
+    ``sum w = 1`` and ``sum w p = 0``.  That is the minimum-norm ``w >= 0``
+    balancing the weight, solved through its concave dual
+    ``max l . (1, 0, 0) - |max(0, X l)|^2 / 2`` by semi-smooth Newton steps
+    with a backtracking line search (step lengths ``2^-j``, j < 12, tried at
+    once) from the all-in-contact solution (affine loads, uniform when the centre
+    of mass is the points' centroid)."""
+    p = jnp.asarray(points)
+    scale = jnp.maximum(jnp.max(jnp.abs(p)), 1e-300)
+    X = jnp.concatenate([jnp.ones((p.shape[0], 1), p.dtype), p / scale], axis=1)   # (S, 3)
+    b = jnp.asarray([1.0, 0.0, 0.0], p.dtype)
+    ridge = 1e-13 * jnp.eye(3, dtype=p.dtype)
+    lam0 = jnp.linalg.solve(X.T @ X + ridge, b)
+
+    ts = 2.0 ** -jnp.arange(12, dtype=p.dtype)           # candidate step lengths
+
+    def dual(lam):
+        return b @ lam - 0.5 * jnp.sum(jnp.maximum(X @ lam, 0.0) ** 2)
+
+    def step(_, lam):
+        z = X @ lam
+        on = (z > 0).astype(p.dtype)
+        grad = b - X.T @ jnp.maximum(z, 0.0)
+        hess = (X * on[:, None]).T @ X + ridge
+        d = jnp.linalg.solve(hess, grad)
+        gs = jax.vmap(lambda t: dual(lam + t * d))(ts)
+        ok = gs >= dual(lam) + 1e-4 * ts * (grad @ d)
+        return lam + ts[jnp.argmax(ok)] * jnp.any(ok) * d
+
+    lam = jax.lax.fori_loop(0, int(iterations), step, lam0)
+    w = jnp.maximum(X @ lam, 0.0)
+    return w / jnp.sum(w)
+
+
+def _triples(h: int) -> np.ndarray:
+    return np.asarray(list(itertools.combinations(range(h), 3)), np.int32).reshape(-1, 3)
+
+
+def corner_weights(corners, lift):
+    """(h,) loads of a rigid part resting on its corners (module docstring).
+
+    Args:
+      corners: (h, 2) hull vertices, body frame (origin at the centre of mass), m.
+      lift: (h,) how far each corner protrudes below the nominal face (any
+        scale; only the order matters).
+
+    Returns:
+      (h,) the centre of mass's barycentric coordinates in the triangle of
+      corners that carries the part (three non-zero in general), summing to 1.
+    """
+    p = jnp.asarray(corners)
+    lift = jnp.asarray(lift, p.dtype)
+    idx = jnp.asarray(_triples(p.shape[0]))                     # (T, 3)
+    P = p[idx]                                                   # (T, 3, 2)
+    A = jnp.concatenate([jnp.swapaxes(P, 1, 2), jnp.ones((idx.shape[0], 1, 3), p.dtype)], 1)
+    det = jnp.linalg.det(A)
+    size = jnp.maximum(jnp.max(jnp.abs(p)), 1e-300)
+    ok_det = jnp.abs(det) > 1e-9 * size * size
+    Asafe = jnp.where(ok_det[:, None, None], A, jnp.eye(3, dtype=p.dtype))
+    lam = jnp.linalg.solve(Asafe, jnp.broadcast_to(jnp.asarray([0.0, 0.0, 1.0], p.dtype),
+                                                   (idx.shape[0], 3))[..., None])[..., 0]
+    valid = ok_det & jnp.all(lam >= -1e-12, axis=1)
+    score = jnp.where(valid, jnp.einsum("tk,tk->t", lam, lift[idx]), -jnp.inf)
+    best = jnp.argmax(score)
+    w = jnp.zeros(p.shape[0], p.dtype).at[idx[best]].add(jnp.maximum(lam[best], 0.0))
+    return w / jnp.sum(w)
+
+
+def family_points(family: str, body, c=None, n_points: int = 0):
+    """The support points of a feet family (uniform, ring, tripod) on ``body``
+    (body frame, m); rigid: the hull corners themselves."""
+    if family == "uniform":
+        return uniform_points(body)
+    if family == "ring":
+        return ring_points(body)
+    if family == "tripod":
+        return tripod_points(c, body)
+    if family == "rigid":
+        return jnp.asarray(body)
+    raise ValueError(f"family: expected one of {FAMILIES[:4]}, got {family!r}")
+
+
+def family_c_range(family: str, body) -> tuple[float, float]:
+    """The range (m) of the limit-surface ratio ``c`` that a family can give
+    the nominal part ``body`` (CCW, body frame, the centre of mass at the
+    origin), host side in float64: ``rigid`` over every corner triangle that
+    holds the centre of mass; ``uniform``, ``ring`` one value; ``any`` from
+    ``TRIPOD_MIN_FRACTION`` of the largest fitting tripod to the largest of
+    the others (corners included)."""
+    b = np.asarray(body, np.float64)
+    with jax.enable_x64(True):
+        bj = jnp.asarray(b)
+        if family == "rigid":
+            cs = []
+            r = np.linalg.norm(b, axis=1)
+            for t in _triples(len(b)):
+                A = np.vstack([b[t].T, np.ones(3)])
+                if abs(np.linalg.det(A)) <= 1e-9 * np.max(np.abs(b)) ** 2:
+                    continue
+                lam = np.linalg.solve(A, [0.0, 0.0, 1.0])
+                if lam.min() >= -1e-12:
+                    cs.append(float(np.maximum(lam, 0) @ r[t] / np.maximum(lam, 0).sum()))
+            return min(cs), max(cs)
+        if family in ("uniform", "ring"):
+            pts = np.asarray(family_points(family, bj))
+            w = np.asarray(equilibrium_weights(jnp.asarray(pts)))
+            c = float(w @ np.linalg.norm(pts, axis=1))
+            return c, c
+        if family == "any":
+            lo = TRIPOD_MIN_FRACTION * float(tripod_fit(bj))
+            his = [family_c_range(f, b)[1] for f in ("rigid", "uniform", "ring")]
+            return lo, max(his)
+    raise ValueError(f"family: expected rigid, uniform, ring or any, got {family!r}")

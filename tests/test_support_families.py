@@ -1,0 +1,181 @@
+"""Support families (kernels.support): one definition drawn by the
+quasi-static sampler and realised by the MuJoCo scene.
+
+References: scipy's linear programme for the rigid corner loads, a
+non-negative least-squares solve for the equal-spring loads, geometry for
+"inside the outline", and the C engine's own contact forces for the scene.
+"""
+import itertools
+import pathlib
+import warnings
+
+import hypothesis.strategies as st
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+import cvxpy as cp
+from scipy.optimize import linprog
+
+from kernels import polygon as pg
+from kernels import support as ks
+from planning import plan_pose
+from robustness import FrictionRange, GeometryTolerance, Sampler
+from robustness.physics import PhysicsSettings, rollout_push_plan
+from robustness.samplers import parameter_columns
+from sweeps.partfile import load_part
+
+EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
+POLYGONS = ("rectangle", "nice_stable", "biplus_stable", "unistable")
+
+
+def _body(name):
+    part = load_part(EXAMPLES / f"{name}.yaml")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", pg.PartWarning)
+        poly = pg.make_polygon(part.vertices, part.com)
+    return part, np.asarray(poly.body, np.float64)
+
+
+def _x64(f, *a):
+    with jax.enable_x64(True):
+        return np.asarray(f(*(jnp.asarray(x) for x in a)))
+
+
+@pytest.mark.parametrize("name", POLYGONS)
+def test_every_foot_lies_inside_the_outline(name):
+    """No foot of any family outside any bundled part (by FOOT_INSET at least)."""
+    _, body = _body(name)
+    e = np.roll(body, -1, axis=0) - body
+    n = np.stack([e[:, 1], -e[:, 0]], -1) / np.linalg.norm(e, axis=1, keepdims=True)
+    d = np.einsum("ei,ei->e", n, body)
+    fit = float(_x64(ks.tripod_fit, body))
+    assert fit > 0
+    sets = [_x64(ks.uniform_points, body), _x64(ks.ring_points, body),
+            _x64(lambda b: ks.tripod_points(fit, b), body)]
+    for pts in sets:
+        depth = d[:, None] - n @ pts.T
+        assert depth.min() >= ks.FOOT_INSET - 1e-9
+    # a tripod just larger than the fit pokes out
+    big = _x64(lambda b: ks.tripod_points(1.05 * fit, b), body)
+    assert (d[:, None] - n @ big.T).min() < ks.FOOT_INSET
+
+
+def _polygon(seed, h):
+    rng = np.random.default_rng(seed)
+    ang = np.sort(rng.uniform(0, 2 * np.pi, h))
+    r = rng.uniform(0.01, 0.03, h)
+    pts = np.c_[r * np.cos(ang), r * np.sin(ang)]
+    from scipy.spatial import ConvexHull
+    hull = pts[ConvexHull(pts).vertices]
+    com = rng.dirichlet(np.full(len(hull), 0.3)) @ hull      # anywhere inside, often off-centre
+    body = hull - com
+    e = np.roll(body, -1, axis=0) - body
+    depth = np.cross(e, -body) / np.linalg.norm(e, axis=1)   # the centre of mass's edge distances
+    assume(depth.min() > 2 * ks.FOOT_INSET)                  # a part that stands (not on a corner)
+    return body
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(st.integers(0, 10 ** 6), st.integers(3, 8))
+def test_corner_loads_solve_the_resting_linear_programme(seed, h):
+    """The corners a rigid part rests on: max sum lam lift over the convex
+    combinations of corners whose centroid is the centre of mass (scipy LP)."""
+    body = _polygon(seed, h)
+    if len(body) < 3:
+        return
+    lift = np.random.default_rng(seed + 1).uniform(size=len(body))
+    w = _x64(ks.corner_weights, body, lift)
+    A = np.vstack([body.T, np.ones(len(body))])
+    ref = linprog(-lift, A_eq=A, b_eq=[0, 0, 1], bounds=(0, None), method="highs")
+    assert ref.status == 0
+    assert w @ lift == pytest.approx(-ref.fun, abs=1e-9)
+    np.testing.assert_allclose(w @ body, 0.0, atol=1e-12)
+    assert (w > 1e-12).sum() <= 3 and w.min() >= 0 and w.sum() == pytest.approx(1.0)
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(st.integers(0, 10 ** 6), st.integers(3, 8))
+def test_equal_spring_loads_are_the_least_norm_balance(seed, h):
+    """Equal springs that can lift off: the minimum-norm non-negative loads
+    that balance the weight (cvxpy QP reference), also when the centre of
+    mass is far off-centre and some feet lift off."""
+    body = _polygon(seed, h)
+    pts = _x64(ks.uniform_points, body)
+    w = _x64(ks.equilibrium_weights, pts)
+    np.testing.assert_allclose(w @ pts, 0.0, atol=1e-9)
+    q = cp.Variable(len(pts))
+    prob = cp.Problem(cp.Minimize(cp.sum_squares(q)),
+                      [cp.sum(q) == 1, (pts / 0.01).T @ q == 0, q >= 0])
+    prob.solve()
+    assert prob.status == "optimal"
+    assert w @ w <= prob.value * (1 + 1e-5) + 1e-9
+    np.testing.assert_allclose(w, q.value, atol=1e-4)
+
+
+def test_rigid_rectangle_rests_on_a_diagonal():
+    """A centred rectangle on its corners: two opposite corners carry it, c is
+    the corner radius (Peshkin's worst case) whatever the flatness errors."""
+    body = np.array([[-0.02, -0.01], [0.02, -0.01], [0.02, 0.01], [-0.02, 0.01]])
+    for lift in itertools.permutations([0.1, 0.4, 0.7, 0.9]):
+        w = _x64(ks.corner_weights, body, np.array(lift))
+        assert sorted(np.round(w, 12))[-2:] == [0.5, 0.5]
+    assert ks.family_c_range("rigid", body) == pytest.approx((np.hypot(0.02, 0.01),) * 2)
+
+
+@pytest.mark.parametrize("name", POLYGONS)
+def test_sampler_draws_each_family_in_its_range(name):
+    _, body = _body(name)
+    n = 400
+    for fam in ("rigid", "uniform", "ring", "any"):
+        lo, hi = ks.family_c_range(fam, body)
+        s = Sampler(friction=FrictionRange(support=fam))
+        p, ax = s.sample(jax.random.key(3), n, n_vertices=len(body), dim=2, body=body)
+        cols = parameter_columns(p, ax, n, n_vertices=len(body), dim=2)
+        c = cols["c_m"]
+        assert c.min() >= lo - 1e-12 and c.max() <= hi + 1e-12, fam
+        names = set(cols["support"])
+        if fam == "any":
+            assert names == set(ks.ANY_COMPONENTS)
+            fit = float(_x64(ks.tripod_fit, body))
+            tri = c[cols["support"] == "tripod"]
+            assert tri.min() >= ks.TRIPOD_MIN_FRACTION * fit - 1e-12 and tri.max() <= fit + 1e-12
+        else:
+            assert names == {fam}
+
+
+def test_family_validation_names_the_field():
+    with pytest.raises(ValueError, match="support: expected one of"):
+        FrictionRange(support="foam")
+    with pytest.raises(ValueError, match="tripod.*c: \\[lo, hi\\]"):
+        FrictionRange(support="tripod")
+    with pytest.raises(ValueError, match="c: .*tripod"):
+        FrictionRange(support="rigid", c=(0.004, 0.008))
+    with pytest.raises(ValueError, match="support_points: .*points"):
+        FrictionRange(support="rigid", support_points=8)
+    assert FrictionRange().support == "any"
+    assert FrictionRange(c=(0.004, 0.008)).support == "tripod"
+
+
+@pytest.mark.parametrize("name", POLYGONS)
+def test_the_scene_realises_the_drawn_support(name):
+    """Each family drawn by the sampler, stood in MuJoCo (C engine): the loads
+    MuJoCo puts on the support after settling realise the family's c on the
+    perturbed part (c_physical vs c_support), which is the sampled c to
+    within the perturbation (the sampler's c is on the nominal part)."""
+    part, body = _body(name)
+    goal = (0.01, 0.0, 0.0)
+    plan = plan_pose(part.vertices, (0.0, 0.0, 0.0), goal, com=part.com)
+    n = 12
+    sam = Sampler(GeometryTolerance(tau_v=5e-5), FrictionRange(mu_f=(0.5, 0.5)))
+    params = sam.sample(jax.random.key(5), n, n_vertices=len(part.vertices), dim=2,
+                        n_pushes=plan.n_pushes, body=body)
+    r = rollout_push_plan(plan, *params, n, backend="c", settings=PhysicsSettings(batch=n))
+    assert set(r["support"]) == set(ks.ANY_COMPONENTS)
+    sim = r["simulated"]
+    assert sim.all()
+    tol = np.where(r["support"] == "rigid", 1e-3, 2e-4)      # rigid rocks on its corners
+    np.testing.assert_array_less(np.abs(r["c_physical"] - r["c_support"]), tol)
+    np.testing.assert_allclose(r["c_support"], r["c"], atol=2e-4)
+    assert r["support_ok"].all()
