@@ -176,6 +176,7 @@ PLANS_SCHEMA = pa.schema([
     pa.field("reason", STR),
     pa.field("plan_class", STR),                    # push plans
     pa.field("distance_rule", STR),                 # push plans: peshkin | quasi-static
+    pa.field("support", STR),                       # push plans: the support the distances assume
     pa.field("n_steps", I64),                       # pushes or tumbles (0 without a plan)
     pa.field("total_distance_m", F64),              # push plans: total fence travel
     pa.field("straight_distance_m", F64),           # |goal - start| of the position
@@ -271,6 +272,8 @@ def pack_samples(samples: pd.DataFrame, param_columns: Sequence[str]) -> pd.Data
     for f in SAMPLED_FIELDS:
         if f.type == F64:
             out[f.name] = samples[f.name] if f.name in samples else np.full(n, np.nan)
+        elif f.type == STR:
+            out[f.name] = samples[f.name] if f.name in samples else np.full(n, None, object)
 
     def gather(cols):
         if not cols:

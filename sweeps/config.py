@@ -55,8 +55,9 @@ class PartInline(Strict):
 
 class Planner(Strict):
     """Planner settings: pushing (margin, safety factor, objective; the search
-    strategy, the model-based distances for a support ratio range ``support_c``
-    ``[lo, hi]`` (m), slip-aware plans for a fence friction of at least
+    strategy, the distances' support: ``support`` ``any`` (Peshkin's bound, valid
+    for every support), ``rigid``, ``uniform``, ``ring`` (valid for every ``c`` the
+    family gives the part) or a ratio range ``support_c`` ``[lo, hi]`` (m), slip-aware plans for a fence friction of at least
     ``min_fence_mu``, a ``workspace`` ``[xmin, xmax, ymin, ymax]`` (m, world), the
     search's effort: at most ``max_reorients`` reorient pushes, ``extra_steps``
     more steps than the fewest per run) and tumbling (the planner's accuracy and
@@ -67,9 +68,13 @@ class Planner(Strict):
         if self.support_c is not None and not 0 < self.support_c[0] <= self.support_c[1]:
             raise ValueError(f"support_c: expected [lo, hi] with 0 < lo <= hi (m), got "
                              f"{list(self.support_c)}")
-        if self.min_fence_mu is not None and self.support_c is None:
+        if self.support_c is not None and self.support != "any":
+            raise ValueError(f"support: the distances assume either a support family "
+                             f"(support: {self.support}) or a c range (support_c), not both")
+        if self.min_fence_mu is not None and self.support_c is None and self.support == "any":
             raise ValueError("min_fence_mu: slip-aware plans need the support's range too; "
-                             "add planner.support_c: [lo, hi] (m)")
+                             "add planner.support_c: [lo, hi] (m) or planner.support: rigid "
+                             "(uniform, ring)")
         w = self.workspace
         if w is not None and not (w[0] < w[1] and w[2] < w[3]):
             raise ValueError(f"workspace: expected [xmin, xmax, ymin, ymax] with xmin < xmax and "
@@ -80,7 +85,7 @@ class Planner(Strict):
         """The keyword arguments of :func:`planning.plan_pose` these settings give."""
         return dict(margin_deg=self.margin_deg, safety_factor=self.safety_factor,
                     objective=self.objective, strategy=self.strategy,
-                    support=None if self.support_c is None else {"c": list(self.support_c)},
+                    support=self.support if self.support_c is None else {"c": list(self.support_c)},
                     min_fence_mu=self.min_fence_mu, workspace=self.workspace,
                     max_reorients=self.max_reorients, extra_steps=self.extra_steps)
 
@@ -89,6 +94,7 @@ class Planner(Strict):
     objective: Literal["distance", "pushes"] = "distance"
     strategy: Literal["search", "paper"] = "search"
     support_c: Optional[tuple[float, float]] = None
+    support: Literal["any", "rigid", "uniform", "ring"] = "any"
     min_fence_mu: Optional[float] = Field(None, ge=0)
     workspace: Optional[tuple[float, float, float, float]] = None
     max_reorients: StrictInt = Field(24, ge=EFFORT_BOUNDS["max_reorients"][0],
@@ -136,10 +142,38 @@ class Physics(Strict):
     stroke: Literal["planned", "contact"] = "planned"
     cell: PhysicsSettings = Field(default_factory=PhysicsSettings)
 
-    def run(self):
+    @model_validator(mode="after")
+    def _engine(self):
+        if self.backend == "mjx" and self.cell.noslip_iterations > 0:
+            raise ValueError(f"backend: MJX has no noslip solver, and physics.cell uses it "
+                             f"(noslip_iterations {self.cell.noslip_iterations}); set "
+                             f"physics.cell.noslip_iterations: 0 and impratio: 30 (the soft "
+                             f"contact model, run by both engines) or backend: c")
+        return self
+
+    def run(self, part=None):
+        """The :class:`~robustness.physics.PhysicsRun`, the part's material (its
+        file's thickness and density) in the cell settings."""
+        import dataclasses as dc
+
         from robustness.physics import PhysicsRun
 
-        return PhysicsRun(backend=self.backend, stroke=self.stroke, settings=self.cell)
+        cell = self.cell
+        if part is not None:
+            d = PhysicsSettings()
+            if part.kind == "polygon":
+                for key, field in (("thickness", "part_thickness"), ("density", "part_density")):
+                    if getattr(cell, field) != getattr(d, field):
+                        raise ValueError(f"physics.cell.{field}: the part's {key} is a part-file "
+                                         f"field; set {key}: in {part.path.name} instead")
+                cell = dc.replace(cell, part_thickness=float(part.thickness),
+                                  part_density=float(part.density))
+            else:
+                if cell.polyhedron_density != d.polyhedron_density:
+                    raise ValueError(f"physics.cell.polyhedron_density: the part's density is a "
+                                     f"part-file field; set density: in {part.path.name} instead")
+                cell = dc.replace(cell, polyhedron_density=float(part.density))
+        return PhysicsRun(backend=self.backend, stroke=self.stroke, settings=cell)
 
 
 class Evaluation(Strict):
@@ -162,9 +196,10 @@ class Evaluation(Strict):
 
         return Sampler(self.tolerances, self.friction, self.execution)
 
-    def physics_run(self):
-        """The :class:`~robustness.physics.PhysicsRun` of ``model: mujoco`` (else None)."""
-        return self.physics.run() if self.model == "mujoco" else None
+    def physics_run(self, part=None):
+        """The :class:`~robustness.physics.PhysicsRun` of ``model: mujoco`` (else
+        None), with ``part``'s material (:class:`sweeps.partfile.PartFile`)."""
+        return self.physics.run(part) if self.model == "mujoco" else None
 
 
 HINTS = {
@@ -196,6 +231,7 @@ HINTS = {
     "c": "a range [low, high] of limit-surface ratios in metres, > 0",
     "support_points": "an integer number of support points >= 1",
     "weight_concentration": "an integer Dirichlet concentration in 1..64",
+    "support": "one of any, rigid, uniform, ring, tripod (with c: [lo, hi]), points",
     "seed": "an integer >= 0",
 }
 

@@ -48,6 +48,9 @@ class _PartSchema(BaseModel):
     kind: Optional[Literal["polygon", "polyhedron"]] = None
     vertices: list[list[Number]]
     com: Optional[list[Number]] = None
+    thickness: Optional[Number] = None
+    density: Optional[Number] = None
+    mass: Optional[Number] = None
     description: Optional[str] = None
 
 
@@ -66,6 +69,12 @@ class PartFile:
         centroid is used).
       description: free text or ``None``.
       path: the file it was read from.
+      thickness: a polygon's extrusion, m (the file's ``thickness``, default
+        ``DEFAULT_THICKNESS`` 3 mm: a plate); ``None`` for a polyhedron.
+      density: kg/m^3 (the file's ``density``, or its ``mass`` over the
+        hull's volume; default ``DEFAULT_DENSITY``: 7800, steel, for a
+        polygon, 500 for a polyhedron, the tumble cell's light block).
+      material_given: which of thickness / density / mass the file gave.
     """
 
     name: str
@@ -74,6 +83,9 @@ class PartFile:
     com: Optional[np.ndarray]
     description: Optional[str]
     path: pathlib.Path
+    thickness: Optional[float] = None
+    density: float = 7800.0
+    material_given: tuple = ()
 
     @property
     def dim(self) -> int:
@@ -87,7 +99,18 @@ class PartFile:
             d["com"] = self.com.tolist()
         if self.description is not None:
             d["description"] = self.description
+        for k in self.material_given:
+            d[k] = float(getattr(self, k)) if k != "mass" else float(self.mass)
         return d
+
+    @property
+    def mass(self) -> float:
+        """kg: density times the hull's area and thickness (polygon) or volume."""
+        from scipy.spatial import ConvexHull
+
+        hull = ConvexHull(np.asarray(self.vertices, np.float64))
+        size = hull.volume * (self.thickness if self.kind == "polygon" else 1.0)
+        return float(self.density * size)
 
 
 def _loc(loc) -> str:
@@ -205,11 +228,47 @@ def _parse(doc, path: pathlib.Path) -> PartFile:
         com = np.asarray(raw.com, dtype=np.float64)
         _finite_rows(com, "com")
     name = raw.name if raw.name is not None else path.stem
+    thickness, density, given = _material(raw, kind, vertices)
     vertices.setflags(write=False)
     if com is not None:
         com.setflags(write=False)
     return PartFile(name=name, kind=kind, vertices=vertices, com=com,
-                    description=raw.description, path=path)
+                    description=raw.description, path=path, thickness=thickness,
+                    density=density, material_given=given)
+
+
+#: a polygon's default extrusion (m) and the default densities (kg/m^3)
+DEFAULT_THICKNESS = 0.003
+DEFAULT_DENSITY = {"polygon": 7800.0, "polyhedron": 500.0}
+
+
+def _material(raw, kind: str, vertices: np.ndarray):
+    """``(thickness, density, given)`` from a part document's material keys."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    given = tuple(k for k in ("thickness", "density", "mass") if getattr(raw, k) is not None)
+    for k in given:
+        v = float(getattr(raw, k))
+        if not (np.isfinite(v) and v > 0):
+            unit = {"thickness": "m", "density": "kg/m^3", "mass": "kg"}[k]
+            raise ValueError(f"{k}: must be a finite number > 0 ({unit}), got {getattr(raw, k)!r}")
+    if "density" in given and "mass" in given:
+        raise ValueError("mass: give the part's density or its mass, not both")
+    if kind == "polyhedron" and "thickness" in given:
+        raise ValueError("thickness: a polyhedron's size is its vertices; thickness is a "
+                         "polygon's extrusion (drop it)")
+    thickness = (float(raw.thickness) if raw.thickness is not None else DEFAULT_THICKNESS) \
+        if kind == "polygon" else None
+    density = float(raw.density) if raw.density is not None else DEFAULT_DENSITY[kind]
+    if raw.mass is not None:
+        try:
+            size = ConvexHull(vertices).volume * (thickness if kind == "polygon" else 1.0)
+        except QhullError:
+            size = 0.0
+        if not size > 0:
+            raise ValueError("mass: the part has no area (volume) to spread its mass over")
+        density = float(raw.mass) / size
+    return thickness, density, given
 
 
 def load_part(path: Union[str, pathlib.Path]) -> PartFile:

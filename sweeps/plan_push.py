@@ -5,6 +5,7 @@ Usage::
     nudge plan-push PART.yaml --start X,Y,THETA --goal X,Y,THETA
         [--margin-deg 7] [--safety-factor 1.15] [--objective distance|pushes]
         [--solver closed_form|cvxpy] [--strategy search|paper] [--support-c LO HI]
+        [--support any|rigid|uniform|ring]
         [--min-fence-mu MU] [--workspace XMIN XMAX YMIN YMAX]
         [--max-reorients N] [--extra-steps N]
         [--json] [--plot FILE.png] [--psd FILE.png]
@@ -86,8 +87,13 @@ def build_parser(prog: str = "nudge plan-push") -> argparse.ArgumentParser:
                    help="range of the support's limit-surface ratio c = m_max / f_max in metres "
                         "(0 < LO <= HI): reorient pushes get the shortest distance that completes "
                         "them for every c in the range (quasi-static model) instead of Peshkin's")
+    p.add_argument("--support", choices=("any", "rigid", "uniform", "ring"), default=None,
+                   help="the support the reorient distances must be valid for (default any: "
+                        "Peshkin's bound; rigid: the part rests on its corners; uniform: a "
+                        "compliant pad; ring: its rim); not with --support-c")
     p.add_argument("--min-fence-mu", type=_number("--min-fence-mu"), metavar="MU",
-                   help="lower bound of the fence friction coefficient (>= 0, needs --support-c): "
+                   help="lower bound of the fence friction coefficient (>= 0, needs --support-c "
+                        "or --support rigid|uniform|ring): "
                         "only reorient pushes whose fence contact sticks throughout are used")
     p.add_argument("--workspace", nargs=4, type=_number("--workspace"),
                    metavar=("XMIN", "XMAX", "YMIN", "YMAX"),
@@ -171,9 +177,13 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
             goal = parse_pose(args.goal, "--goal")
         if args.plot and start is None:
             raise InputError("--plot: needs --start and --goal")
-        if args.min_fence_mu is not None and args.support_c is None:
-            raise InputError("--min-fence-mu: slip-aware plans need --support-c LO HI too (whether "
-                             "the fence contact sticks depends on the support's limit-surface ratio)")
+        if args.support is not None and args.support_c is not None:
+            raise InputError("--support: give a support family or --support-c LO HI, not both")
+        if args.min_fence_mu is not None and args.support_c is None \
+                and args.support in (None, "any"):
+            raise InputError("--min-fence-mu: slip-aware plans need --support-c LO HI or --support "
+                             "rigid|uniform|ring too (whether the fence contact sticks depends on "
+                             "the support's limit-surface ratio)")
         for flag, path in (("--plot", args.plot), ("--psd", args.psd)):
             if path:
                 check_figure_path(path, flag)
@@ -200,7 +210,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
         warnings.simplefilter("always")
         plausible.mute(shown)   # the warnings shown above, once
         try:
-            support = None if args.support_c is None else {"c": list(args.support_c)}
+            support = args.support if args.support_c is None else {"c": list(args.support_c)}
             prepared = prepare_part(part.vertices, part.com, args.margin_deg, args.safety_factor,
                                     support=support, min_fence_mu=args.min_fence_mu)
             plan = None

@@ -330,6 +330,10 @@ def load_design(ref, overrides=()) -> Design:
             raise ConfigError(f"{path}: kind: the part {part.name!r} is a {part.kind}, so the study "
                               f"kind must be {want}")
         design.tasks(cid)
+        try:
+            design.configs[cid].physics_run(part)   # the part's material against physics.cell
+        except ValueError as exc:
+            raise ConfigError(f"{path}: {exc}") from None
     try:
         design.warnings = check_design(design)
     except ConfigError as exc:

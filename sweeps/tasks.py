@@ -113,6 +113,7 @@ def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[
     else:
         total = float(plan.total_distance)
         row.update(verdict="solved", plan_class=plan.plan_class, distance_rule=plan.distance_rule,
+                   support=plan.support,
                    n_steps=plan.n_pushes,
                    total_distance_m=total, plan_error=float(max(plan.final_error)),
                    length_ratio=total / straight if straight > 0 else math.nan)

@@ -258,7 +258,7 @@ def run_block(ctx: Context, unit: Unit) -> dict:
         ev = evaluate(plan, cfg.sampler(), unit.samples, key, model=cfg.model,
                       dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
                       pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                      confidence=cfg.required.confidence, physics=cfg.physics_run(), task=name,
+                      confidence=cfg.required.confidence, physics=cfg.physics_run(part), task=name,
                       bound=False)
         df = tables.pack_samples(ev.samples, ev.param_columns)
         df["sample_id"] = df["sample_id"] + unit.lo

@@ -23,7 +23,8 @@ N = 256
 
 FULL = Sampler(
     GeometryTolerance(tau_v=1e-4, tau_com=2e-4, distribution="gaussian", sigma_v=8e-5),
-    FrictionRange(mu_f=(0.2, 0.8), mu_s=(0.3, 0.4), support_points=8, weight_concentration=2),
+    FrictionRange(mu_f=(0.2, 0.8), mu_s=(0.3, 0.4), support_points=8, weight_concentration=2,
+                  support="points"),
     ExecutionTolerance(start_xy=1e-3, start_theta=0.02, fence_angle=0.003, distance_abs=1e-4,
                        distance_rel=0.01, tumble_slip_xy=1e-5, tumble_slip_theta=1e-4))
 
@@ -79,7 +80,8 @@ def test_deterministic_by_key(poly, drawn):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
     assert not np.array_equal(np.asarray(p.geometry.vertex_offset), np.asarray(r.geometry.vertex_offset))
     # groups draw from their own sub-keys: other friction settings leave the geometry draws alone
-    s2 = dataclasses.replace(FULL, friction=FrictionRange(mu_f=(0.1, 0.2), support_points=4))
+    s2 = dataclasses.replace(FULL, friction=FrictionRange(mu_f=(0.1, 0.2), support_points=4,
+                                                                       support="points"))
     q2, _ = s2.sample(jax.random.key(3), N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
                       body=poly.body)
     np.testing.assert_array_equal(np.asarray(p.geometry.vertex_offset),
@@ -166,5 +168,6 @@ def test_parameter_columns(drawn):
     assert "fence_angle_err_rad_p3" in cols and np.all(np.isnan(cols["push_dist_abs_err_m_p5"]))
     assert "slip_sum_dtheta_rad" in cols
     assert all(len(v) == N for v in cols.values())
-    assert all(np.asarray(v).dtype == np.float64 for v in cols.values())
+    assert all(np.asarray(v).dtype == np.float64 for k, v in cols.items() if k != "support")
+    assert set(cols["support"]) == {"points"}
     assert math.isclose(cols["dv1_x_m"][7], float(p.geometry.vertex_offset[7, 1, 0]))

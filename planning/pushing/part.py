@@ -86,6 +86,8 @@ class PushPart:
       margin: margin angle (rad); safety_factor: multiplier of the distance rule;
         margin_deg: the margin as given (degrees).
       support_c: ``(lo, hi)`` limit-surface ratio range (m) or None.
+      support: what the distances assume of the support: ``"any"``, a family
+        name, or ``"c"`` (the range given).
       min_fence_mu: lower bound of the fence friction for slip-aware plans, or None.
       distance_rule: ``"peshkin"`` or ``"quasi-static"``.
       rate_c: the ratio (m) whose sticking rate the replay uses (``min(hi, a)``),
@@ -108,6 +110,7 @@ class PushPart:
     safety_factor: float
     margin_deg: float = 7.0
     support_c: Optional[tuple[float, float]] = None
+    support: str = "any"
     min_fence_mu: Optional[float] = None
     distance_rule: str = "peshkin"
     rate_c: Optional[float] = None
@@ -212,12 +215,27 @@ def check_pose(pose, field: str) -> np.ndarray:
     return arr
 
 
-def check_support(support) -> Optional[tuple[float, float]]:
-    """Validate ``support``: None, ``{"c": [lo, hi]}`` or ``(lo, hi)``, the
-    range (m) of the limit-surface ratio ``c = m_max / f_max`` of the support
-    (:func:`kernels.quasistatic.limit_surface_ratio`); returns ``(lo, hi)``."""
+#: support families the planner plans distances for (:mod:`kernels.support`)
+SUPPORT_FAMILIES = ("any", "rigid", "uniform", "ring")
+
+
+def check_support(support):
+    """Validate ``support``: ``None`` or ``"any"`` (Peshkin's distances, valid
+    for every support), a family name ``"rigid"``, ``"uniform"``, ``"ring"``
+    (distances valid for every ``c`` that family gives the part), or
+    ``{"c": [lo, hi]}`` / ``(lo, hi)``: the range (m) of the limit-surface ratio
+    ``c = m_max / f_max`` of the support
+    (:func:`kernels.quasistatic.limit_surface_ratio`).
+
+    Returns ``(family, c_range)``: ``("any", None)``, ``(family, None)`` (the
+    range comes from the part) or ``("c", (lo, hi))``."""
     if support is None:
-        return None
+        return "any", None
+    if isinstance(support, str):
+        if support not in SUPPORT_FAMILIES:
+            raise ValueError(f"support: expected one of {', '.join(SUPPORT_FAMILIES)} or "
+                             f"{{'c': [lo, hi]}} (m), got {support!r}")
+        return support, None
     rng = support.get("c") if isinstance(support, dict) else support
     if isinstance(support, dict) and set(support) - {"c"}:
         raise ValueError(f"support: unknown keys {sorted(set(support) - {'c'})}; expected "
@@ -229,7 +247,7 @@ def check_support(support) -> Optional[tuple[float, float]]:
                          f"got {support!r}") from None
     if not (math.isfinite(lo) and math.isfinite(hi)) or not 0.0 < lo <= hi:
         raise ValueError(f"support: c range must satisfy 0 < lo <= hi (m), got [{lo}, {hi}]")
-    return lo, hi
+    return "c", (lo, hi)
 
 
 def _tables(part_geom, body, margin, safety, support_c, min_mu):
@@ -266,12 +284,20 @@ def _tables(part_geom, body, margin, safety, support_c, min_mu):
 
 @functools.lru_cache(maxsize=64)
 def _prepare_cached(vkey: bytes, vshape, ckey, margin_deg: float, safety_factor: float,
-                    support_c, min_mu) -> PushPart:
+                    family, support_c, min_mu) -> PushPart:
     vertices = np.frombuffer(vkey, dtype=np.float64).reshape(vshape)
     com = None if ckey is None else np.frombuffer(ckey, dtype=np.float64)
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always", pg.PartWarning)
         poly = pg.make_polygon(vertices, com)
+    if family in ("rigid", "uniform", "ring"):   # every c the family gives this part
+        from kernels.support import family_c_range
+
+        support_c = family_c_range(family, np.asarray(poly.body))
+    if min_mu is not None and support_c is None:
+        raise ValueError("min_fence_mu: slip-aware plans need the support's limit-surface ratio "
+                         "range: give support={'c': [lo, hi]} (m) or a family (rigid, uniform, "
+                         "ring) too (whether the fence contact sticks depends on it)")
     margin = math.radians(margin_deg)
     geom, cls = _part_geometry(jnp.asarray(poly.body))
     mx, step, pivot, beta2, gain, stick, rate_c = _tables(geom, poly.body, margin, safety_factor,
@@ -280,7 +306,7 @@ def _prepare_cached(vkey: bytes, vshape, ckey, margin_deg: float, safety_factor:
     return PushPart(polygon=poly, geom=geom, stable=stable, max_reorient=mx, step=step,
                     pivot=pivot, beta2=beta2, gain=gain, stick_limit=stick, object_class=int(cls),
                     margin=margin, safety_factor=float(safety_factor), margin_deg=float(margin_deg),
-                    support_c=support_c,
+                    support_c=support_c, support=family,
                     min_fence_mu=min_mu,
                     distance_rule="peshkin" if support_c is None else "quasi-static",
                     rate_c=rate_c, warnings_seen=tuple((w.message, w.category) for w in seen))
@@ -302,9 +328,12 @@ def prepare_part(vertices, com=None, margin_deg: float = 7.0, safety_factor: flo
       com: optional centre of mass (m), default the area centroid.
       margin_deg: margin angle in degrees, 0 < margin < 90.
       safety_factor: multiplier of the reorient distance rule, >= 1.
-      support: optional ``{"c": [lo, hi]}``: the range (m) of the support's
-        limit-surface ratio; reorient distances then follow the quasi-static
-        model (module docstring) instead of Peshkin's bound.
+      support: ``None`` / ``"any"`` (Peshkin's bound: distances valid for every
+        support), a family ``"rigid"``, ``"uniform"`` or ``"ring"``
+        (:mod:`kernels.support`: distances valid for every ``c`` that family
+        gives this part) or ``{"c": [lo, hi]}`` (m, the support's
+        limit-surface ratio range); but for ``any``, reorient distances follow
+        the quasi-static model (module docstring).
       min_fence_mu: optional lower bound (>= 0) of the fence friction
         coefficient: only reorient pushes whose fence contact sticks throughout
         for every ``c`` in the support range are allowed (needs ``support``).
@@ -314,13 +343,9 @@ def prepare_part(vertices, com=None, margin_deg: float = 7.0, safety_factor: flo
                                     "infinite push (the paper uses 7 degrees)")
     safety_factor = _check_number(safety_factor, "safety_factor", 1.0,
                                   hint="; below 1 the distance rule's guarantee is lost (paper: 1.15)")
-    support_c = check_support(support)
+    family, support_c = check_support(support)
     if min_fence_mu is not None:
         min_fence_mu = _check_number(min_fence_mu, "min_fence_mu", 0.0)
-        if support_c is None:
-            raise ValueError("min_fence_mu: slip-aware plans need the support's limit-surface ratio "
-                             "range: give support={'c': [lo, hi]} (m) too (whether the fence contact "
-                             "sticks depends on it)")
     v = pg._as_points(vertices, "vertices", 2)
     ckey = None
     if com is not None:
@@ -331,7 +356,7 @@ def prepare_part(vertices, com=None, margin_deg: float = 7.0, safety_factor: flo
             raise pg.PartError("com: holds NaN or inf; give a finite centre of mass in metres")
         ckey = c.tobytes()
     part = _prepare_cached(np.ascontiguousarray(v).tobytes(), v.shape, ckey, margin_deg,
-                           safety_factor, support_c, min_fence_mu)
+                           safety_factor, family, support_c, min_fence_mu)
     for message, category in part.warnings_seen:
         warnings.warn(message, category, stacklevel=3)
     return part

@@ -107,6 +107,10 @@ class PushPlan:
         ``quasi-static`` (for supports with a limit-surface ratio in
         ``support_c``; replay it with ``rate_c = min(support_c[1], radius)``).
       support_c: ``(lo, hi)`` limit-surface ratio range (m), or ``None``.
+      support: the support the distances are valid for: ``any`` (Peshkin's
+        bound), a family (``rigid``, ``uniform``, ``ring``: every ``c`` it
+        gives the part, in ``support_c``) or ``c`` (the range given).  A plan
+        is only as valid as that assumption.
       min_fence_mu: fence friction bound of a slip-aware plan, or ``None``.
       workspace: ``(xmin, xmax, ymin, ymax)`` (m) the plan stays inside, or ``None``.
       max_reorients, extra_steps: the search's effort budget and depth.
@@ -130,6 +134,7 @@ class PushPlan:
     strategy: str = "search"
     distance_rule: str = "peshkin"
     support_c: Optional[tuple[float, float]] = None
+    support: str = "any"
     min_fence_mu: Optional[float] = None
     workspace: Optional[tuple[float, float, float, float]] = None
     max_reorients: int = 24
@@ -159,6 +164,7 @@ class PushPlan:
             "final_error": list(self.final_error), "strategy": self.strategy,
             "distance_rule": self.distance_rule,
             "support_c": None if self.support_c is None else list(self.support_c),
+            "support": self.support,
             "min_fence_mu": self.min_fence_mu,
             "workspace": None if self.workspace is None else list(self.workspace),
             "max_reorients": self.max_reorients, "extra_steps": self.extra_steps,
@@ -188,16 +194,25 @@ class PushPlan:
             final_error=_tuple(d["final_error"], 2), strategy=d.get("strategy", "search"),
             distance_rule=d.get("distance_rule", "peshkin"),
             support_c=None if sc is None else _tuple(sc, 2),
+            support=str(d.get("support", "any" if sc is None else "c")),
             min_fence_mu=None if d.get("min_fence_mu") is None else float(d["min_fence_mu"]),
             workspace=None if ws is None else _tuple(ws, 4),
             max_reorients=int(d.get("max_reorients", 24)), extra_steps=int(d.get("extra_steps", 3)),
             turns=int(d.get("turns", 0)),
         )
 
+    def _support_text(self) -> str:
+        if self.support == "any":
+            return "any support"
+        lo, hi = self.support_c
+        what = "c" if self.support == "c" else f"{self.support} support, c"
+        return f"{what} in [{lo * 1e3:.3g}, {hi * 1e3:.3g}] mm only"
+
     def summary(self) -> str:
         """A short human-readable table of the plan."""
         lines = [f"{self.object_class} part, {self.plan_class} plan ({self.strategy} strategy, "
-                 f"{self.distance_rule} distances): {self.n_pushes} pushes "
+                 f"{self.distance_rule} distances valid for {self._support_text()}): "
+                 f"{self.n_pushes} pushes "
                  f"({self.n_reorients} reorient), total {self.total_distance:.6g} m; replay error "
                  f"{self.final_error[0]:.2e} m / {self.final_error[1]:.2e} rad"]
         lines.append(f"{'#':>3} {'kind':<9} {'dir_x':>9} {'dir_y':>9} {'dist_m':>10} {'min_m':>10} "

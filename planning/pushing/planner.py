@@ -496,6 +496,7 @@ def make_plan(part: PushPart, settings: Settings, start, goal, pushes, cls: int,
         objective_value=float(len(pushes)) if settings.objective == "pushes" else total,
         total_distance=total, margin_deg=part.margin_deg, safety_factor=part.safety_factor,
         final_error=(float(err[0]), float(err[1])), strategy=settings.strategy,
-        distance_rule=part.distance_rule, support_c=part.support_c, min_fence_mu=part.min_fence_mu,
+        distance_rule=part.distance_rule, support_c=part.support_c, support=part.support,
+        min_fence_mu=part.min_fence_mu,
         workspace=settings.workspace, max_reorients=settings.max_reorients,
         extra_steps=settings.extra_steps, turns=turns)
