@@ -173,7 +173,7 @@ def load(path, n_samples=None, max_samples=None, seed=None):
         if cfg.model == "mujoco":
             check_pad_friction(cfg.friction, "push" if part.kind == "polygon" else "tumble")
             # the part file's thickness and density into the cell, once
-            cell = cfg.physics.run(part).settings
+            cell = cfg.physics.run(part, cfg.friction).settings
             cfg = cfg.model_copy(update={"physics": cfg.physics.model_copy(update={"cell": cell})})
         screen_config(cfg, part)   # implausible values (sweeps.plausible), before any work
     except ValueError as exc:   # ConfigError, or a friction the MuJoCo tumble device cannot use

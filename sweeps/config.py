@@ -50,6 +50,9 @@ class PartInline(Strict):
     kind: Optional[Literal["polygon", "polyhedron"]] = None
     vertices: list[list[float]]
     com: Optional[list[float]] = None
+    thickness: Optional[float] = None
+    density: Optional[float] = None
+    mass: Optional[float] = None
     description: Optional[str] = None
 
 
@@ -129,6 +132,29 @@ class Task(Strict):
     goal: list[Angle]
 
 
+def _check_tripod(friction, part) -> None:
+    """A tripod's feet must fit inside the polygon's outline (``kernels.support``)."""
+    if friction is None or part.kind != "polygon" or friction.support != "tripod":
+        return
+    import warnings
+
+    import jax
+    import numpy as np
+
+    from kernels import polygon as pg
+    from kernels.support import FOOT_INSET, tripod_fit
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        body = pg.make_polygon(part.vertices, part.com).body
+    with jax.enable_x64(True):
+        fit = float(tripod_fit(np.asarray(body, np.float64)))
+    if friction.c[1] > fit:
+        raise ValueError(f"friction.c: a tripod of c {friction.c[1] * 1e3:.3g} mm does not fit "
+                         f"inside {part.name} (its feet stay {FOOT_INSET * 1e3:g} mm inside the "
+                         f"outline: c <= {fit * 1e3:.3g} mm); lower c or use support: any")
+
+
 class Physics(Strict):
     """``model: mujoco``: how plans are rolled out in MuJoCo (:mod:`robustness.physics`).
 
@@ -151,15 +177,17 @@ class Physics(Strict):
                              f"contact model, run by both engines) or backend: c")
         return self
 
-    def run(self, part=None):
+    def run(self, part=None, friction=None):
         """The :class:`~robustness.physics.PhysicsRun`, the part's material (its
-        file's thickness and density) in the cell settings."""
+        file's thickness and density) in the cell settings; a tripod support of
+        ``friction`` checked against the part's outline."""
         import dataclasses as dc
 
         from robustness.physics import PhysicsRun
 
         cell = self.cell
         if part is not None:
+            _check_tripod(friction, part)
             d = PhysicsSettings()
             if part.kind == "polygon":
                 for key, field in (("thickness", "part_thickness"), ("density", "part_density")):
@@ -196,10 +224,18 @@ class Evaluation(Strict):
 
         return Sampler(self.tolerances, self.friction, self.execution)
 
+    @model_validator(mode="after")
+    def _support_in_physics(self):
+        if self.model == "mujoco" and self.friction.support == "points":
+            raise ValueError("friction.support: the 'points' family's sampled loads cannot be "
+                             "realised by feet in MuJoCo (statics sets the loads); use any, rigid, "
+                             "uniform, ring or tripod with model: mujoco")
+        return self
+
     def physics_run(self, part=None):
         """The :class:`~robustness.physics.PhysicsRun` of ``model: mujoco`` (else
         None), with ``part``'s material (:class:`sweeps.partfile.PartFile`)."""
-        return self.physics.run(part) if self.model == "mujoco" else None
+        return self.physics.run(part, self.friction) if self.model == "mujoco" else None
 
 
 HINTS = {

@@ -59,6 +59,21 @@ def test_minimal_file_defaults(tmp_path):
     np.testing.assert_array_equal(part.vertices, [[0, 0], [0.03, 0], [0, 0.02]])
 
 
+def test_material_fields_and_their_defaults(tmp_path):
+    """thickness / density / mass: the physics scene's part (defaults: a 3 mm steel
+    plate; a polyhedron of density 500)."""
+    part = load_part(write(tmp_path, "vertices: [[0, 0], [0.04, 0], [0.04, 0.02], [0, 0.02]]\n"))
+    assert part.thickness == 0.003 and part.density == 7800.0
+    assert part.mass == pytest.approx(7800 * 0.04 * 0.02 * 0.003)
+    part = load_part(write(tmp_path, "vertices: [[0, 0], [0.04, 0], [0.04, 0.02], [0, 0.02]]\n"
+                                     "thickness: 0.005\nmass: 0.01\n", "m.yaml"))
+    assert part.thickness == 0.005 and part.density == pytest.approx(0.01 / (0.04 * 0.02 * 0.005))
+    assert parse_part(part.to_dict(), part.path).density == pytest.approx(part.density)
+    cube = load_part(write(tmp_path, "vertices: [[0,0,0],[1,0,0],[0,1,0],[0,0,1],[1,1,0],[1,0,1],"
+                                     "[0,1,1],[1,1,1]]\n", "c.yaml"))
+    assert cube.thickness is None and cube.density == 500.0 and cube.mass == pytest.approx(500.0)
+
+
 def test_kind_inferred_for_3_columns(tmp_path):
     p = write(tmp_path, "vertices: [[0,0,0],[1,0,0],[0,1,0],[0,0,1]]\ncom: [0.1, 0.1, 0.1]\n")
     part = load_part(p)
@@ -105,6 +120,9 @@ def test_unknown_key_names_it_and_lists_allowed(tmp_path):
     ("", "empty"),
     ("vertices: [[0,0],[1,0],[0,1]]\nvertices: [[0,0],[1,0],[0,1]]\n", "given twice"),
     ("vertices: [[0,0],[1,0],[0,1]\n", "YAML syntax error"),
+    ("vertices: [[0,0],[1,0],[0,1]]\nthickness: -1\n", "thickness: must be a finite number > 0"),
+    ("vertices: [[0,0],[1,0],[0,1]]\ndensity: 7800\nmass: 1\n", "mass: give the part's density"),
+    ("vertices: [[0,0,0],[1,0,0],[0,1,0],[0,0,1]]\nthickness: 0.003\n", "thickness: a polyhedron"),
     ("vertices: [[0,0],[1,0],[0,1]]\n  bad: indent\n", "YAML syntax error"),
 ])
 def test_bad_files_give_one_line_naming_the_field(tmp_path, text, field):

@@ -125,3 +125,50 @@ def test_evaluate_tumble_in_mujoco_beside_the_exact_model():
     assert (s["dpos_vs_exact_m"] < 1e-3).all() and (s["dtheta_vs_exact_rad"].abs() < 0.01).all()
     with pytest.raises(ValueError, match="friction.mu_f"):
         evaluate(plan, Sampler(), 1, jax.random.key(0), model="mujoco")
+
+
+SUPPORT_PART = """part:
+  name: plate
+  vertices: [[0, 0], [0.04, 0], [0.04, 0.02], [0, 0.02]]
+  thickness: 0.005
+  density: 2700
+"""
+
+
+def test_sweep_in_mujoco_realises_the_support_family_and_the_part_material(tmp_path):
+    """friction.support and the part file's thickness and density, through
+    ``nudge sweep``: the samples name their family, and the scene stood the
+    5 mm aluminium plate on it (the rows are the physics of that part)."""
+    cfg = tmp_path / "physics.yaml"
+    doc = STUDY.format(extra="").replace("part: rectangle\n", SUPPORT_PART).replace(
+        "mu_s: [0.5, 0.5]}", "mu_s: [0.5, 0.5], support: rigid}")
+    cfg.write_text(doc)
+    out = tmp_path / "out"
+    r = nudge("sweep", cfg, "--out", out)
+    assert r.returncode == 0, r.stderr
+    s = pd.read_parquet(out / "samples")
+    assert (s["support"] == "rigid").all()
+    # a centred rectangle on its corners rests on a diagonal: c is the corner radius
+    assert s["c_m"].to_numpy() == pytest.approx(math.hypot(0.02, 0.01))
+    assert s["success"].all(), s[["err_pos_m", "failure_mode"]]
+    # the material reached the scene: a different thickness is refused in physics.cell
+    cfg.write_text(doc.replace("timestep: 0.004", "timestep: 0.004, part_thickness: 0.002"))
+    _input_error(nudge("sweep", cfg, "--out", tmp_path / "o2"), "part_thickness",
+                 "thickness:", "part-file")
+
+
+def test_the_contact_model_does_not_change_with_the_backend(tmp_path):
+    """MJX has no noslip solver: asking for it with the default (noslip)
+    contact model is refused before any work, naming the fields."""
+    cfg = tmp_path / "physics.yaml"
+    cfg.write_text(STUDY.format(extra="").replace("backend: c", "backend: mjx"))
+    _input_error(nudge("sweep", cfg, "--out", tmp_path / "o"), "noslip_iterations: 0",
+                 "impratio: 30")
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_points_support_cannot_be_rolled_out(tmp_path):
+    cfg = tmp_path / "physics.yaml"
+    cfg.write_text(STUDY.format(extra="").replace("mu_s: [0.5, 0.5]}",
+                                                  "mu_s: [0.5, 0.5], support: points}"))
+    _input_error(nudge("sweep", cfg, "--out", tmp_path / "o"), "support", "points")

@@ -179,3 +179,43 @@ def test_the_scene_realises_the_drawn_support(name):
     np.testing.assert_array_less(np.abs(r["c_physical"] - r["c_support"]), tol)
     np.testing.assert_allclose(r["c_support"], r["c"], atol=2e-4)
     assert r["support_ok"].all()
+
+
+def test_plans_name_the_support_their_distances_assume(tmp_path):
+    """planner.support through ``nudge certify`` and ``nudge plan-push``: the
+    plans table, the certificate and the printed plan name the support."""
+    from tests.commandline import nudge
+
+    cfg = tmp_path / "cert.yaml"
+    cfg.write_text("""part: rectangle
+planner: {support: rigid}
+friction: {mu_f: [0.8, 0.8], support: rigid}
+tolerances: {tau_com: 1.0e-4}
+eps: {pos_eps_m: 0.002, theta_eps_rad: 0.05}
+required: {probability: 0.5, confidence: 0.5}
+n_samples: 20
+tasks:
+  - {name: turn, start: [0, 0, 0], goal: [0.05, 0.02, 1.0]}
+""")
+    out = tmp_path / "out"
+    r = nudge("certify", cfg, "--out", out, "--quiet")
+    assert r.returncode in (0, 1), r.stderr
+    import pandas as pd
+
+    plans = pd.read_parquet(out / "plans")
+    assert (plans["support"] == "rigid").all() and (plans["distance_rule"] == "quasi-static").all()
+    cert = pd.read_parquet(out / "certificates")
+    assert "support (rigid)" in cert["claim"].iloc[0], cert["claim"].iloc[0]
+    s = pd.read_parquet(out / "samples")
+    assert (s["support"] == "rigid").all()
+    r = nudge("plan-push", "rectangle", "--start", "0,0,0", "--goal", "0.05,0.02,1.0",
+              "--support", "rigid")
+    assert r.returncode == 0, r.stderr
+    assert "valid for rigid support, c in [22.4, 22.4] mm only" in r.stdout, r.stdout
+    r = nudge("plan-push", "rectangle", "--start", "0,0,0", "--goal", "0.05,0.02,1.0",
+              "--support", "rigid", "--support-c", "0.004", "0.008")
+    assert r.returncode == 2 and "--support" in r.stderr
+    cfg.write_text(cfg.read_text().replace("planner: {support: rigid}",
+                                           "planner: {support: rigid, support_c: [0.004, 0.008]}"))
+    r = nudge("certify", cfg, "--out", tmp_path / "o2", "--quiet")
+    assert r.returncode == 2 and "support" in r.stderr, r.stderr
