@@ -256,3 +256,12 @@ def test_batches_do_not_change_the_rows(rectangle):
         np.testing.assert_array_equal(a[k], b[k])
     with pytest.raises(ValueError, match="n: the sampled params hold"):
         rollout_push_plan(plan, *params, 3, backend="c")
+
+
+def test_auto_never_changes_the_contact_model():
+    from robustness.physics.runner import resolve_backend
+
+    assert resolve_backend("auto", PhysicsSettings()) == "c"     # noslip: only the C engine
+    assert resolve_backend("c", PhysicsSettings(noslip_iterations=0)) == "c"
+    with pytest.raises(ValueError, match="noslip_iterations: 0"):
+        resolve_backend("mjx", PhysicsSettings())

@@ -13,7 +13,8 @@ import pytest
 from kernels import polygon as pg
 from planning import plan_pose
 from robustness import FrictionRange, Sampler
-from robustness.physics import rollout_push_plan
+from robustness.physics import PhysicsSettings, rollout_push_plan
+from robustness.physics.settings import SOFT_IMPRATIO
 from sweeps.partfile import load_part
 
 EXAMPLES = pathlib.Path(__file__).resolve().parents[1] / "examples"
@@ -28,15 +29,22 @@ def _translate_plan(distance):
     return plan, body
 
 
+#: the contact model both engines run (MJX has no noslip solver)
+SOFT = PhysicsSettings(noslip_iterations=0, impratio=SOFT_IMPRATIO)
+
+
 def test_mjx_smoke_on_cpu_agrees_with_the_c_engine():
-    """One sample, a 2 cm translation: MJX (float32, impratio remedy, no
-    noslip) lands the planned edge and agrees with the C engine to 0.5 mm."""
+    """One sample, a 2 cm translation on a tripod (c 8 mm), the same (soft)
+    contact model on both engines: MJX (float32) lands the planned edge and
+    agrees with the C engine, the oracle, to 0.5 mm (measured 0.03 mm; on
+    rigid corner support and on a 29-foot pad the engines do not agree yet:
+    bench/fidelity.py reports them)."""
     plan, body = _translate_plan(0.02)
-    sam = Sampler(friction=FrictionRange(mu_f=(0.8, 0.8), mu_s=(0.5, 0.5)))
+    sam = Sampler(friction=FrictionRange(mu_f=(0.8, 0.8), mu_s=(0.5, 0.5), c=(0.008, 0.008)))
     params = sam.sample(jax.random.key(0), 1, n_vertices=4, dim=2, n_pushes=1, body=body)
     with jax.enable_x64(True):            # a caller inside a float64 scope is safe
-        m = rollout_push_plan(plan, *params, 1, backend="mjx")
-    c = rollout_push_plan(plan, *params, 1, backend="c")
+        m = rollout_push_plan(plan, *params, 1, backend="mjx", settings=SOFT)
+    c = rollout_push_plan(plan, *params, 1, backend="c", settings=SOFT)
     assert m["backend"] == "mjx" and m["steps"] == c["steps"]
     assert m["edges"][0, 0] == m["planned_edges"][0]
     assert math.hypot(m["x"][0] - c["x"][0], m["y"][0] - c["y"][0]) < 5e-4
@@ -50,8 +58,8 @@ def test_mjx_batch_agrees_with_the_c_engine_on_an_accelerator():
     plan, body = _translate_plan(0.1)
     sam = Sampler(friction=FrictionRange(mu_f=(0.5, 1.0), mu_s=(0.3, 0.6)))
     params = sam.sample(jax.random.key(1), 64, n_vertices=4, dim=2, n_pushes=1, body=body)
-    m = rollout_push_plan(plan, *params, 64, backend="mjx")
-    c = rollout_push_plan(plan, *params, 64, backend="c")
+    m = rollout_push_plan(plan, *params, 64, backend="mjx", settings=SOFT)
+    c = rollout_push_plan(plan, *params, 64, backend="c", settings=SOFT)
     np.testing.assert_array_equal(m["edges"], c["edges"])
     assert np.max(np.hypot(m["x"] - c["x"], m["y"] - c["y"])) < 1e-3
     assert m["success"].mean() >= c["success"].mean() - 0.05
@@ -61,5 +69,8 @@ def test_mjx_batch_agrees_with_the_c_engine_on_an_accelerator():
 @gpu
 def test_auto_backend_is_mjx_on_an_accelerator():
     from robustness.physics import default_backend
+    from robustness.physics.runner import resolve_backend
 
     assert default_backend() == "mjx"
+    assert resolve_backend("auto", SOFT) == "mjx"
+    assert resolve_backend("auto", PhysicsSettings()) == "c"   # noslip: the C engine

@@ -101,11 +101,12 @@ def _chunk_one(m, d0, qpos, qvel, time, ctrl):
 _CHUNK_FNS: dict = {}
 
 
-def _chunk_fn(batched: tuple, convex: tuple, axes):
-    """The jitted, vmapped chunk function for one batching pattern, kept so
-    that later engines with the same pattern (and shapes) reuse its
-    compilation instead of compiling again (~1 minute on a CPU)."""
-    key = (batched, convex)
+def _chunk_fn(batched: tuple, convex: tuple, axes, structure: tuple):
+    """The jitted, vmapped chunk function for one batching pattern and model
+    structure (sizes: scenes with other feet counts differ), kept so that later
+    engines with the same pattern reuse its compilation instead of compiling
+    again (~1 minute on a CPU)."""
+    key = (batched, convex, structure)
     if key not in _CHUNK_FNS:
         _CHUNK_FNS[key] = jax.jit(jax.vmap(_chunk_one, in_axes=(axes, None, 0, 0, 0, 0)))
     return _CHUNK_FNS[key]
@@ -159,7 +160,10 @@ class MJXEngine:
         self.batched_fields = tuple(sorted(batched))
         self._d0 = mjx().make_data(mx)
         convex_key = tuple(i for i, cm in enumerate(convex) if cm is not None)
-        self._run = _chunk_fn(self.batched_fields, convex_key, self.axes)
+        m0 = self.models[0]
+        structure = (m0.nq, m0.nv, m0.nu, m0.ngeom, m0.npair, m0.nmesh, m0.nmeshvert,
+                     m0.nsensordata)
+        self._run = _chunk_fn(self.batched_fields, convex_key, self.axes, structure)
 
     def run(self, state: np.ndarray, controls: np.ndarray):
         """Same contract as :meth:`robustness.physics.c_engine.CEngine.run`
