@@ -238,7 +238,12 @@ def tumble_schedule(plan, poly, s, mass: float) -> tuple:
         path[:, 2] = np.interp(grid, phis, ztop) - s.plate_compliance + ht
         end = path[-1].copy()
         prev = np.r_[end[:2], ztop[-1] + s.clearance + ht, 0.0]
-        reach = max(reach, float(X[-1]))
+        # the plate must hold the part's top under it all along the roll: the
+        # part's extent about the plate's centre (nominal kinematics, every angle)
+        for ph, xj in zip(phis[::8], X[::8]):
+            Wr = (W - A) @ axis_rotation(axis, ph).T + A
+            centre = p0 + xj * u[:2]
+            reach = max(reach, float(np.max(np.abs(Wr[:, :2] - centre[None]))))
         phases += [
             Phase("press", k, steps_for((lifted[2] - pressed[2]) / s.lift_speed, dt), lifted,
                   pressed),
@@ -249,7 +254,10 @@ def tumble_schedule(plan, poly, s, mass: float) -> tuple:
                   hook=True),
         ]
     phases.append(Phase("final", -1, steps_for(s.settle_time, dt), prev, prev))
-    plate_half = reach + diam + 0.05      # the part's top stays under the plate
+    # a gripper's plate: the part's largest extent about the plate's centre during
+    # any roll, plus a margin of a tenth of the part's size (a few part diameters
+    # across, where the plate used to be the roll's reach + the diameter + 5 cm)
+    plate_half = reach + 0.1 * diam
     return Schedule(phases, dt), plate_half, grip
 
 
