@@ -24,8 +24,9 @@ pushes), ``n`` samples with perturbed geometry, friction and execution.
 3. **Soft-friction creep** of a sticking contact: the rectangle's 15 cm
    reorient push (start heading 30 degrees, fence along +x, mu_f 1.5, the
    quasi-static model sticks), the tracked slip of the contact along the
-   fence, C engine with noslip 20 (default), with noslip 0 (MJX's setting)
-   at impratio 1 and 100, and MJX itself (impratio 100).
+   fence (tripod support, c 8 mm), C engine with noslip 20 (default), with
+   noslip 0 at impratio 1, 30 (the soft model both engines run) and 100, and
+   MJX itself under the soft model.
 
 Last line: ``RESULT steps_per_s=N overhead=R mjx_cpu_steps_per_s=M``
 (physics steps per second per sample summed over samples, C engine, our
@@ -58,6 +59,7 @@ from robustness.physics import push as push_mod  # noqa: E402
 from robustness.physics import scene  # noqa: E402
 from robustness.physics.c_engine import cpu_threads  # noqa: E402
 from robustness.physics.pushing import FenceStrokes, nominal_polygon, push_parts  # noqa: E402
+from robustness.physics.settings import SOFT_IMPRATIO  # noqa: E402
 from robustness.samplers import slice_batch  # noqa: E402
 from sweeps.partfile import load_part  # noqa: E402
 
@@ -66,7 +68,7 @@ import mujoco  # noqa: E402
 
 def _sampler(mu_f=(0.5, 1.0)):
     return Sampler(geometry=GeometryTolerance(tau_v=2e-5, tau_com=1e-4),
-                   friction=FrictionRange(mu_f=mu_f, mu_s=(0.4, 0.6), support_points=16),
+                   friction=FrictionRange(mu_f=mu_f, mu_s=(0.4, 0.6), support="rigid"),
                    execution=ExecutionTolerance(start_xy=2e-4, start_theta=math.radians(0.2),
                                                 fence_angle=math.radians(0.2),
                                                 distance_abs=2e-4))
@@ -83,7 +85,7 @@ def _params(plan, sampler, n, seed=0):
 def raw_rollout(plan, params, axes, n, s):
     """Time ONE ``mujoco.rollout`` over the layer's models and controls."""
     poly, _ = nominal_polygon(plan)
-    parts = push_parts(plan, poly, params, axes, n, s.support)
+    parts = push_parts(plan, poly, params, axes, n)
     idx = np.flatnonzero(parts.valid)
     models = push_mod._models(parts, idx, s, s.impratio)
     lay = scene.layout(models[0])
@@ -116,7 +118,7 @@ def layer_vs_raw(plan, n, s, repeat):
 
 def mjx_cpu(plan, n, s):
     one = dataclasses.replace(plan, pushes=plan.pushes[:1], goal=plan.pushes[0].pose_after)
-    params, axes = _params(one, _sampler(), n, seed=1)
+    params, axes = _params(one, _sampler(), n, seed=1)   # rigid support: MJX mesh-plane contacts
     t0 = time.perf_counter()
     rollout_push_plan(one, params, axes, n, backend="mjx", settings=s)
     first = time.perf_counter() - t0
@@ -149,7 +151,7 @@ def creep(backends_settings):
                     reorient_edge=edge, object_class="nice-stable", objective="distance",
                     objective_value=0.15, total_distance=0.15, margin_deg=7.0,
                     safety_factor=1.15, final_error=(0.0, 0.0))
-    sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(0.5, 0.5)))
+    sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(0.5, 0.5), c=(0.008, 0.008)))
     params, axes = _params(plan, sam, 1, seed=2)
     rows = []
     for label, backend, s in backends_settings:
@@ -186,16 +188,19 @@ def main():
           f"{dict(zip(*np.unique(r['failure_mode'], return_counts=True)))}")
     mjx_sps = float("nan")
     if not (args.quick or args.no_mjx):
-        compile_s, run_s, msteps = mjx_cpu(plan, args.mjx_n, s)
+        compile_s, run_s, msteps = mjx_cpu(plan, args.mjx_n, dataclasses.replace(
+            s, noslip_iterations=0, impratio=SOFT_IMPRATIO))
         mjx_sps = msteps / run_s
         print(f"MJX on CPU (float32, {args.mjx_n} worlds): compile {compile_s:.1f} s, "
               f"{mjx_sps:.0f} world-steps/s ({mjx_sps / sps:.3f} x the C layer)")
+    soft = dataclasses.replace(s, noslip_iterations=0, impratio=SOFT_IMPRATIO)
     rows = [("C noslip 20 (default)", "c", s),
             ("C noslip 0, impratio 1", "c", dataclasses.replace(s, noslip_iterations=0)),
+            ("C noslip 0, impratio 30 (soft)", "c", soft),
             ("C noslip 0, impratio 100", "c", dataclasses.replace(s, noslip_iterations=0,
                                                                  impratio=100.0))]
     if not (args.quick or args.no_mjx):
-        rows.append(("MJX (impratio 100, float32)", "mjx", s))
+        rows.append(("MJX (soft, float32)", "mjx", soft))
     print(f"{'creep of a sticking 15 cm reorient push':<40}{'slip mm':>9}{'pose err mm':>13}")
     for label, sl, ep in creep(rows):
         print(f"{label:<40}{sl:>9.3f}{ep:>13.3f}")

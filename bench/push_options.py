@@ -171,9 +171,10 @@ def physics_rows(srows, goals_per_part, seed):
             cs = np.asarray(p.friction.c)
             j = int(np.flatnonzero((cs >= lo) & (cs <= hi))[0])   # a support whose c is in the range
             f = p.friction
-            f2 = dataclasses.replace(f, mu_f=jnp.asarray(MU_F), c=jnp.repeat(f.c[j:j + 1], 2),
-                                     support_points=jnp.repeat(f.support_points[j:j + 1], 2, axis=0),
-                                     support_weights=jnp.repeat(f.support_weights[j:j + 1], 2, axis=0))
+            f2 = jax.tree_util.tree_map(   # sample j's support (every batched field), twice
+                lambda x, a: x if a is None else jnp.repeat(x[j:j + 1], 2, axis=0), f, ax.friction,
+                is_leaf=lambda x: x is None)
+            f2 = dataclasses.replace(f2, mu_f=jnp.asarray(MU_F))
             params = dataclasses.replace(p, friction=f2)   # nominal part: only friction is batched
             t0 = time.perf_counter()
             res = rollout_push_plan(plan, params, ax, 2, backend="c")

@@ -256,7 +256,11 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
     if model == "mujoco":
         from robustness.physics.settings import check_pad_friction
 
-        check_pad_friction(sampler.friction, kind)
+        if kind == "tumble":
+            from robustness.physics.tumbling import nominal_polyhedron
+
+            grip = (physics.settings.grip_ratio if physics is not None else 2.0)
+            check_pad_friction(sampler.friction, kind, nominal_polyhedron(plan), grip)
         rows = _physics_rows(plan, kind, params64, in_axes, n, sampler, pe, te, slip_fraction,
                              merge_factor, physics)
         dtype = jnp.dtype(rows.pop("dtype"))

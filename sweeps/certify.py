@@ -171,7 +171,13 @@ def load(path, n_samples=None, max_samples=None, seed=None):
         part = load_part_ref(cfg.part, path.parent)
         tasks = explicit_tasks(cfg.tasks, part.kind)
         if cfg.model == "mujoco":
-            check_pad_friction(cfg.friction, "push" if part.kind == "polygon" else "tumble")
+            if part.kind == "polyhedron":
+                from kernels.polyhedron import make_polyhedron
+
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    poly = make_polyhedron(part.vertices, part.com)
+                check_pad_friction(cfg.friction, "tumble", poly, cfg.physics.cell.grip_ratio)
             # the part file's thickness and density into the cell, once
             cell = cfg.physics.run(part, cfg.friction).settings
             cfg = cfg.model_copy(update={"physics": cfg.physics.model_copy(update={"cell": cell})})

@@ -119,12 +119,6 @@ class Study(Evaluation):
     bounds: StrictBool = True        # the analytic bounds in the summary (one compile per plan shape)
     report: StrictBool = True        # report.html at the end
 
-    @model_validator(mode="after")
-    def _tumble_pads(self):
-        if self.model == "mujoco" and self.kind == "tumble":
-            check_pad_friction(self.friction, "tumble")
-        return self
-
     @property
     def executor_spec(self) -> Executor:
         return Executor(kind=self.executor) if isinstance(self.executor, str) else self.executor
@@ -331,7 +325,11 @@ def load_design(ref, overrides=()) -> Design:
                               f"kind must be {want}")
         design.tasks(cid)
         try:
-            design.configs[cid].physics_run(part)   # the part's material against physics.cell
+            cfg = design.configs[cid]
+            cfg.physics_run(part)   # the part's material against physics.cell
+            if cfg.model == "mujoco" and part.kind == "polyhedron":
+                check_pad_friction(cfg.friction, "tumble", _polyhedron(part),
+                                   cfg.physics.cell.grip_ratio)
         except ValueError as exc:
             raise ConfigError(f"{path}: {exc}") from None
     try:
@@ -339,6 +337,17 @@ def load_design(ref, overrides=()) -> Design:
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc.lines[0]}", [f"{path}: {ln}" for ln in exc.lines]) from None
     return design
+
+
+def _polyhedron(part):
+    """The part file's polyhedron (:func:`kernels.make_polyhedron`), warnings muted."""
+    import warnings
+
+    from kernels import make_polyhedron
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return make_polyhedron(part.vertices, part.com)
 
 
 def _check_param_paths(doc: dict) -> None:

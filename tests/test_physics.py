@@ -265,3 +265,37 @@ def test_auto_never_changes_the_contact_model():
     assert resolve_backend("c", PhysicsSettings(noslip_iterations=0)) == "c"
     with pytest.raises(ValueError, match="noslip_iterations: 0"):
         resolve_backend("mjx", PhysicsSettings())
+
+
+def test_pad_friction_is_derived_per_part():
+    """The tumble device's pad friction from the moments about the pivot edge
+    (tumbling.pad_friction_needed): a cube needs 1 + 1/(2 ratio) on the upper
+    pad, a 1 x 1 x 2 box rolled over its short edge lying flat 2 + 1/(2 ratio);
+    the lower pad that times ratio / (ratio + 1)."""
+    import itertools
+
+    from kernels.polyhedron import make_polyhedron
+    from robustness.physics.settings import check_pad_friction
+    from robustness.physics.tumbling import pad_friction_needed
+
+    cube = make_polyhedron(np.array(list(itertools.product([0, 0.1], repeat=3)), float))
+    for r in (2.0, 4.0):
+        top, bottom = pad_friction_needed(cube, r)
+        assert top == pytest.approx(1 + 1 / (2 * r)) and bottom == pytest.approx(top * r / (r + 1))
+    box = make_polyhedron(np.array(list(itertools.product([0, 0.1], [0, 0.1], [0, 0.2])), float))
+    assert pad_friction_needed(box, 2.0)[0] == pytest.approx(2.25 + 0.25)
+    check_pad_friction(FrictionRange(mu_f=(1.3, 1.3), mu_s=(0.9, 0.9)), "tumble", cube)
+    with pytest.raises(ValueError, match="friction.mu_f: .*upper pad needs .* >= 2.55"):
+        check_pad_friction(FrictionRange(mu_f=(1.3, 1.3), mu_s=(1.8, 1.8)), "tumble", box)
+
+
+def test_pads_below_the_derived_friction_drag_the_cube(cube_plan):
+    """The derivation checked in MuJoCo: the cube rolls with the upper pad at 1.3
+    (>= 1.25) and does not at 1.2."""
+    ok = {}
+    for mu in (1.2, 1.3):
+        sam = Sampler(friction=FrictionRange(mu_f=(mu, mu), mu_s=(1.5, 1.5)))
+        params = sam.sample(jax.random.key(0), 1, n_vertices=8, dim=3,
+                            n_tumbles=cube_plan.n_tumbles)
+        ok[mu] = bool(rollout_tumble_plan(cube_plan, *params, 1, backend="c")["faces_ok"][0])
+    assert ok == {1.2: False, 1.3: True}

@@ -224,9 +224,18 @@ class PhysicsRun:
             raise ValueError(f"stroke: expected one of {STROKES}, got {self.stroke!r}")
 
 
-def check_pad_friction(friction, kind: str) -> None:
+#: margin (added) over the derived pad friction (:func:`robustness.physics.tumbling.pad_friction_needed`)
+PAD_MU_MARGIN = 0.05
+
+
+def check_pad_friction(friction, kind: str, poly=None, grip_ratio: float = 2.0) -> None:
     """Raise ValueError (naming the field) when a tumble plan is to be rolled out in
-    MuJoCo with pads of less friction than ``TUMBLE_PAD_MU``.
+    MuJoCo with pads of less friction than the device needs.
+
+    With ``poly`` (a :class:`kernels.polyhedron.Polyhedron`) the need is derived
+    for that part (:func:`robustness.physics.tumbling.pad_friction_needed`, every
+    face and edge, the upper pad pressing with ``grip_ratio`` weights) plus
+    ``PAD_MU_MARGIN``; without it, ``TUMBLE_PAD_MU`` for both pads (the cube's).
 
     Args:
       friction: a :class:`robustness.FrictionRange` (``mu_f`` upper pad, ``mu_s`` lower).
@@ -234,9 +243,17 @@ def check_pad_friction(friction, kind: str) -> None:
     """
     if kind != "tumble":
         return
-    for name in ("mu_f", "mu_s"):
+    if poly is None:
+        need = {"mu_f": TUMBLE_PAD_MU, "mu_s": TUMBLE_PAD_MU}
+    else:
+        from robustness.physics.tumbling import pad_friction_needed
+
+        top, bottom = pad_friction_needed(poly, grip_ratio)
+        need = {"mu_f": round(top + PAD_MU_MARGIN, 2), "mu_s": round(bottom + PAD_MU_MARGIN, 2)}
+    for name, pad in (("mu_f", "upper"), ("mu_s", "lower")):
         lo = getattr(friction, name)[0]
-        if lo < TUMBLE_PAD_MU:
-            raise ValueError(f"friction.{name}: the MuJoCo tumble device's pads need a friction "
-                             f"coefficient >= {TUMBLE_PAD_MU} (below it the plates drag the part "
-                             f"instead of rolling it), got {lo:g}; set friction.{name}: [1.5, 1.5]")
+        if lo < need[name]:
+            raise ValueError(f"friction.{name}: the MuJoCo tumble device's {pad} pad needs a "
+                             f"friction coefficient >= {need[name]:g} for this part (below it the "
+                             f"plates drag the part instead of rolling it), got {lo:g}; set "
+                             f"friction.{name}: [1.5, 1.5]")

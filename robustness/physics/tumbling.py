@@ -296,6 +296,58 @@ def apply_slip(state, layout, parts, idx, k, faces) -> np.ndarray:
     return st
 
 
+def pad_friction_needed(poly, grip_ratio: float, grid: int = 64) -> tuple[float, float]:
+    """The pad friction the tumble device needs to roll ``poly`` (a
+    :class:`kernels.polyhedron.Polyhedron`) over every edge of every face,
+    quasi-statically, the upper pad pressing with ``grip_ratio`` times the
+    part's weight.
+
+    Rolling about the edge A on the lower pad by ``phi``, the upper pad touches
+    the highest vertex T (height ``h`` above A, ``d_T`` along the roll
+    direction u from A; the one farthest back when several tie) and pushes it
+    along u with friction ``f <= mu_top F``.  Moments about the edge: the
+    part turns when ``f h >= m g (-d_G) + F (-d_T)`` (centre of mass and T
+    behind the edge resist) until the centre of mass passes over the edge, so
+    ``mu_top >= max_phi ((-d_G)^+ / ratio + (-d_T)^+) / h``; the lower pad holds
+    the edge against the same horizontal force under the normal load
+    ``F + m g``: ``mu_bottom >= mu_top ratio / (ratio + 1)``.  For a cube at
+    ratio 2: 1.25 and 0.83 (the top pad's contact is the cube's rear top edge).
+
+    Returns ``(mu_top, mu_bottom)``, the largest over every face and edge.
+    """
+    hull = poly.vertices[list(poly.hull_vertices)]
+    size = float(np.max(np.linalg.norm(hull[:, None] - hull[None], axis=-1)))
+    r = float(grip_ratio)
+    need = 0.0
+    for f, cycle in enumerate(poly.face_cycles):
+        Rb, tb = face_pose(poly.face_origins[f], poly.face_rotations[f], (0.0, 0.0, 0.0))
+        W = hull @ Rb.T + tb
+        G = poly.com @ Rb.T + tb
+        cf = poly.vertices[list(cycle)] @ Rb.T + tb
+        for k in range(len(cycle)):
+            A = poly.vertices[cycle[k]] @ Rb.T + tb
+            B = poly.vertices[cycle[(k + 1) % len(cycle)]] @ Rb.T + tb
+            e = (B - A) / np.linalg.norm(B - A)
+            u = 0.5 * (A + B) - cf.mean(axis=0)
+            u = u - np.dot(u, e) * e
+            u[2] = 0.0
+            u /= np.linalg.norm(u)
+            axis = np.cross([0.0, 0.0, 1.0], u)
+            psi = math.pi - float(poly.dihedral_angles[poly.edge_index(cycle[k],
+                                                                      cycle[(k + 1) % len(cycle)])])
+            for ph in np.linspace(0.0, psi, grid, endpoint=False):
+                Q = axis_rotation(axis, ph)
+                Wr = (W - A) @ Q.T
+                dG = float((G - A) @ Q.T @ u)
+                if dG >= 0.0:            # the centre of mass is over the edge: it falls on
+                    break
+                top = Wr[:, 2] >= Wr[:, 2].max() - 1e-9 * size
+                h = float(Wr[:, 2].max())
+                dT = float(np.min(Wr[top] @ u))
+                need = max(need, (max(-dG, 0.0) / r + max(-dT, 0.0)) / h)
+    return need, need * r / (r + 1.0)
+
+
 def part_mass(poly, s) -> float:
     """Nominal mass (kg) of the uniform polyhedron."""
     return geo.polyhedron_mass_properties(poly.vertices[list(poly.hull_vertices)], poly.com,
