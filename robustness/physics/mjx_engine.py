@@ -160,9 +160,8 @@ class MJXEngine:
         self.batched_fields = tuple(sorted(batched))
         self._d0 = mjx().make_data(mx)
         convex_key = tuple(i for i, cm in enumerate(convex) if cm is not None)
-        m0 = self.models[0]
-        structure = (m0.nq, m0.nv, m0.nu, m0.ngeom, m0.npair, m0.nmesh, m0.nmeshvert,
-                     m0.nsensordata)
+        # the model's static part (sizes, mesh faces, ...) is in its tree structure
+        structure = jax.tree_util.tree_structure(self.model)
         self._run = _chunk_fn(self.batched_fields, convex_key, self.axes, structure)
 
     def run(self, state: np.ndarray, controls: np.ndarray):
