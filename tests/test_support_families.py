@@ -72,7 +72,7 @@ def _polygon(seed, h):
     com = rng.dirichlet(np.full(len(hull), 0.3)) @ hull      # anywhere inside, often off-centre
     body = hull - com
     e = np.roll(body, -1, axis=0) - body
-    depth = np.cross(e, -body) / np.linalg.norm(e, axis=1)   # the centre of mass's edge distances
+    depth = (e[:, 1] * body[:, 0] - e[:, 0] * body[:, 1]) / np.linalg.norm(e, axis=1)   # COM's edge distances
     assume(depth.min() > 2 * ks.FOOT_INSET)                  # a part that stands (not on a corner)
     return body
 
