@@ -8,6 +8,10 @@ for one part and lifted with ``jax.vmap`` at the call site.
   surface and fence friction).
 * Polyhedra: :func:`make_polyhedron`, :func:`tumble_geometry`, :func:`tumble`,
   :func:`replay` (exact tumble kinematics of Marigo & Bicchi).
+* Supports: :mod:`kernels.support` (the support families a pushed part rests
+  on, drawn by the sampler and realised by the MuJoCo scene):
+  :func:`corner_weights`, :func:`equilibrium_weights`, :func:`family_c_range`,
+  :func:`tripod_fit`.
 * Shared formulas: :mod:`kernels.planar` (angle wraps, rotations).
 
 Kernels take the dtype of their inputs (float32 or float64); planners and
@@ -22,10 +26,13 @@ from kernels.tumble_geometry import TumbleGeometry, tumble_geometry
 from kernels.push import PushOutcome, replay_push, replay_pushes
 from kernels.quasistatic import SimOutcome, limit_surface_ratio, simulate_push, simulate_pushes
 from kernels.tumble import TumbleConfig, make_config, replay, tumble
+from kernels.support import (SUPPORT_FAMILIES, corner_weights, equilibrium_weights,
+                             family_c_range, tripod_fit)
 
 __all__ = [
     "TOLERANCE_MERGE_FACTOR", "wrap_angle", "rot2", "PartError", "PartWarning", "Polygon", "PolygonGeometry", "make_polygon",
     "polygon_geometry", "Polyhedron", "TumbleGeometry", "make_polyhedron", "tumble_geometry",
     "PushOutcome", "replay_push", "replay_pushes", "SimOutcome", "limit_surface_ratio",
     "simulate_push", "simulate_pushes", "TumbleConfig", "make_config", "replay", "tumble",
+    "SUPPORT_FAMILIES", "corner_weights", "equilibrium_weights", "family_c_range", "tripod_fit",
 ]

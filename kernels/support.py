@@ -58,6 +58,8 @@ import numpy as np
 FAMILIES = ("rigid", "uniform", "ring", "tripod", "points")
 #: integer codes of the families (the sampler's per-sample ``family`` column)
 CODES = {name: i for i, name in enumerate(FAMILIES)}
+#: the names a configuration may give (``any`` mixes ANY_COMPONENTS)
+SUPPORT_FAMILIES = ("any",) + FAMILIES
 #: the components of the ``any`` mixture, drawn with equal probability
 ANY_COMPONENTS = ("rigid", "uniform", "ring", "tripod")
 #: points of the uniform and ring families
@@ -229,7 +231,8 @@ def corner_weights(corners, lift):
     Asafe = jnp.where(ok_det[:, None, None], A, jnp.eye(3, dtype=p.dtype))
     lam = jnp.linalg.solve(Asafe, jnp.broadcast_to(jnp.asarray([0.0, 0.0, 1.0], p.dtype),
                                                    (idx.shape[0], 3))[..., None])[..., 0]
-    valid = ok_det & jnp.all(lam >= -1e-12, axis=1)
+    # a centre of mass on a triangle's edge (a rectangle's diagonal) is inside, in float32 too
+    valid = ok_det & jnp.all(lam >= -100.0 * jnp.finfo(p.dtype).eps, axis=1)
     score = jnp.where(valid, jnp.einsum("tk,tk->t", lam, lift[idx]), -jnp.inf)
     best = jnp.argmax(score)
     w = jnp.zeros(p.shape[0], p.dtype).at[idx[best]].add(jnp.maximum(lam[best], 0.0))

@@ -24,7 +24,12 @@ settings never changes another group's draws:
   (:func:`polyhedron_combinatorics_changed`): the evaluation reports both per
   sample and never pretends the nominal combinatorics still hold.
 * **friction** (:class:`FrictionRange`): the fence-part coefficient ``mu_f``
-  (uniform in a range); the support pressure distribution: ``support_points``
+  (uniform in a range); the part's support, a family of :mod:`kernels.support`
+  (``any``, the default, draws one of rigid / uniform / ring / tripod per sample;
+  rigid draws the corners' flatness ranks, which pick the three corners the part
+  rests on; its own uniforms, ``fold_in(key, 7)``, so the ``points`` family's
+  draws are unchanged) giving ``c`` and the per-sample ``family`` code; or, for
+  the ``points`` family, the support pressure distribution: ``support_points``
   points uniform in the part's nominal (body-frame) polygon with
   Dirichlet(``weight_concentration``) weights (an integer), tilted so that the
   pressure's centroid lies under the centre of mass as it must for a part at
@@ -250,7 +255,7 @@ def _range_from_u(u, n: int, lo, hi, const: bool, dtype):
     return lo + u * (hi - lo), 0
 
 
-def _family_c(key, body, n: int, family: str, c_tripod, dtype):
+def _family_c(key, body, n: int, family: str, dtype):
     """``(c, a_c, code, a_code, lift, a_lift)`` of a named family on the nominal
     ``body`` (:mod:`kernels.support`): rigid corners with lifts drawn uniform
     (their order picks the triangle), the uniform pad and the rim (one ``c``,
@@ -319,7 +324,7 @@ def _sample_friction(key, body, n: int, st: tuple, val: dict, has_body: bool,
             w, a_w = jnp.full((S,), 1.0 / S, dtype), None
     else:                       # a named family (its own uniforms: the points' draws unchanged)
         c, a_c, code, a_code, lift, a_lift = _family_c(jax.random.fold_in(key, 7), body, n,
-                                                       family, None, dtype)
+                                                       family, dtype)
     return (FrictionParams(mu_f, mu_s, c, pts, w, code, lift),
             FrictionParams(a_f, a_s, a_c, a_p, a_w, a_code, a_lift))
 

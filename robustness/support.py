@@ -17,8 +17,10 @@ of mass (the moment balance of a part at rest).  A sampled distribution is
    as the points allow and :func:`centroid_offset` tells by how much).
 
 The limit-surface ratio ``c = sum w |p|`` (:func:`kernels.quasistatic.limit_surface_ratio`)
-of the centred weights is what the quasi-static model and the MuJoCo support
-(``robustness.physics``) both use, so the two describe the same part.  Pure
+of the centred weights is the ``points`` support family's (``FrictionRange(support=
+"points")``), a model of the support for the quasi-static model only: its loads are drawn,
+and statics, not a draw, sets the loads of a part standing in MuJoCo.  The families a
+scene realises (rigid, uniform, ring, tripod) live in :mod:`kernels.support`.  Pure
 JAX, one sample at a time (``jax.vmap`` over samples).
 """
 from __future__ import annotations

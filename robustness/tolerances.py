@@ -14,10 +14,12 @@ import dataclasses
 import math
 from typing import Literal, Optional
 
+from kernels.support import SUPPORT_FAMILIES
+
 DISTRIBUTIONS = ("uniform", "gaussian")
-#: support families of a pushed part (:mod:`kernels.support`); ``any`` mixes the
-#: first four; ``points`` is the sampled Dirichlet distribution (model only)
-SUPPORTS = ("any", "rigid", "uniform", "ring", "tripod", "points")
+#: support families (``any`` mixes rigid, uniform, ring and tripod; ``points`` is
+#: the sampled Dirichlet distribution, model only)
+SUPPORTS = SUPPORT_FAMILIES
 COM_SHAPES = ("disc", "box")
 
 

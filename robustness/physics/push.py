@@ -3,7 +3,7 @@
 One row per sample, comparable row by row with
 :func:`robustness.evaluation.evaluate`'s quasi-static and exact rows of the
 same draws: the same perturbed hull (nominal order) and centre of mass, the
-same support distribution (feet realising the sampled points and weights,
+same support family (the part on its own underside or on the family's feet,
 :mod:`robustness.physics.geometry`), ``mu_f``, ``mu_s``, start error, fence
 angle and push-distance errors; poses reported for the NOMINAL reference point
 (the simulated centre of mass minus ``R(theta) dcom``).  How the cell runs
@@ -89,7 +89,7 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace, stroke):
 
     def after_settle(state, i_phase):
         """The loads MuJoCo put on the support: the limit-surface ratio they
-        realise, and whether the centre of mass stands inside the loaded contacts."""
+        realise, and whether the centre of mass stands inside the support contacts."""
         for j, m in enumerate(models):
             pts, loads = scene.support_loads(m, state[j])
             out["c_physical"][j] = geo.realised_c(pts, loads)
