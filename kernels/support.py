@@ -208,6 +208,23 @@ def _triples(h: int) -> np.ndarray:
     return np.asarray(list(itertools.combinations(range(h), 3)), np.int32).reshape(-1, 3)
 
 
+def _corner_triangles(corners, tol):
+    """Every corner triangle ``idx`` (T, 3), the centre of mass's barycentric
+    coordinates ``lam`` (T, 3) in it and whether it holds the centre of mass
+    (``valid``: non-degenerate, every coordinate >= ``-tol``)."""
+    p = jnp.asarray(corners)
+    idx = jnp.asarray(_triples(p.shape[0]))                     # (T, 3)
+    P = p[idx]                                                   # (T, 3, 2)
+    A = jnp.concatenate([jnp.swapaxes(P, 1, 2), jnp.ones((idx.shape[0], 1, 3), p.dtype)], 1)
+    det = jnp.linalg.det(A)
+    size = jnp.maximum(jnp.max(jnp.abs(p)), 1e-300)
+    ok_det = jnp.abs(det) > 1e-9 * size * size
+    Asafe = jnp.where(ok_det[:, None, None], A, jnp.eye(3, dtype=p.dtype))
+    lam = jnp.linalg.solve(Asafe, jnp.broadcast_to(jnp.asarray([0.0, 0.0, 1.0], p.dtype),
+                                                   (idx.shape[0], 3))[..., None])[..., 0]
+    return idx, lam, ok_det & jnp.all(lam >= -tol, axis=1)
+
+
 def corner_weights(corners, lift):
     """(h,) loads of a rigid part resting on its corners (module docstring).
 
@@ -222,24 +239,15 @@ def corner_weights(corners, lift):
     """
     p = jnp.asarray(corners)
     lift = jnp.asarray(lift, p.dtype)
-    idx = jnp.asarray(_triples(p.shape[0]))                     # (T, 3)
-    P = p[idx]                                                   # (T, 3, 2)
-    A = jnp.concatenate([jnp.swapaxes(P, 1, 2), jnp.ones((idx.shape[0], 1, 3), p.dtype)], 1)
-    det = jnp.linalg.det(A)
-    size = jnp.maximum(jnp.max(jnp.abs(p)), 1e-300)
-    ok_det = jnp.abs(det) > 1e-9 * size * size
-    Asafe = jnp.where(ok_det[:, None, None], A, jnp.eye(3, dtype=p.dtype))
-    lam = jnp.linalg.solve(Asafe, jnp.broadcast_to(jnp.asarray([0.0, 0.0, 1.0], p.dtype),
-                                                   (idx.shape[0], 3))[..., None])[..., 0]
     # a centre of mass on a triangle's edge (a rectangle's diagonal) is inside, in float32 too
-    valid = ok_det & jnp.all(lam >= -100.0 * jnp.finfo(p.dtype).eps, axis=1)
+    idx, lam, valid = _corner_triangles(p, 100.0 * jnp.finfo(p.dtype).eps)
     score = jnp.where(valid, jnp.einsum("tk,tk->t", lam, lift[idx]), -jnp.inf)
     best = jnp.argmax(score)
     w = jnp.zeros(p.shape[0], p.dtype).at[idx[best]].add(jnp.maximum(lam[best], 0.0))
     return w / jnp.sum(w)
 
 
-def family_points(family: str, body, c=None, n_points: int = 0):
+def family_points(family: str, body, c=None):
     """The support points of a feet family (uniform, ring, tripod) on ``body``
     (body frame, m); rigid: the hull corners themselves."""
     if family == "uniform":
@@ -264,16 +272,11 @@ def family_c_range(family: str, body) -> tuple[float, float]:
     with jax.enable_x64(True):
         bj = jnp.asarray(b)
         if family == "rigid":
-            cs = []
-            r = np.linalg.norm(b, axis=1)
-            for t in _triples(len(b)):
-                A = np.vstack([b[t].T, np.ones(3)])
-                if abs(np.linalg.det(A)) <= 1e-9 * np.max(np.abs(b)) ** 2:
-                    continue
-                lam = np.linalg.solve(A, [0.0, 0.0, 1.0])
-                if lam.min() >= -1e-12:
-                    cs.append(float(np.maximum(lam, 0) @ r[t] / np.maximum(lam, 0).sum()))
-            return min(cs), max(cs)
+            idx, lam, valid = (np.asarray(a) for a in _corner_triangles(bj, 1e-12))
+            lam = np.maximum(lam[valid], 0.0)
+            r = np.linalg.norm(b, axis=1)[idx[valid]]
+            cs = np.sum(lam * r, axis=1) / np.sum(lam, axis=1)
+            return float(cs.min()), float(cs.max())
         if family in ("uniform", "ring"):
             pts = np.asarray(family_points(family, bj))
             w = np.asarray(equilibrium_weights(jnp.asarray(pts)))

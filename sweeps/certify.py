@@ -143,7 +143,7 @@ def load(path, n_samples=None, max_samples=None, seed=None):
     """
     from robustness.physics.settings import check_pad_friction
     from sweeps.plausible import screen_config
-    from sweeps.study import load_part_ref
+    from sweeps.study import load_part_ref, part_polyhedron
     from sweeps.yamlio import YamlError, dump_yaml, read_yaml
 
     path = pathlib.Path(path)
@@ -172,12 +172,8 @@ def load(path, n_samples=None, max_samples=None, seed=None):
         tasks = explicit_tasks(cfg.tasks, part.kind)
         if cfg.model == "mujoco":
             if part.kind == "polyhedron":
-                from kernels.polyhedron import make_polyhedron
-
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    poly = make_polyhedron(part.vertices, part.com)
-                check_pad_friction(cfg.friction, "tumble", poly, cfg.physics.cell.grip_ratio)
+                check_pad_friction(cfg.friction, "tumble", part_polyhedron(part),
+                                   cfg.physics.cell.grip_ratio)
             # the part file's thickness and density into the cell, once
             cell = cfg.physics.run(part, cfg.friction).settings
             cfg = cfg.model_copy(update={"physics": cfg.physics.model_copy(update={"cell": cell})})

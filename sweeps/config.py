@@ -170,11 +170,9 @@ class Physics(Strict):
 
     @model_validator(mode="after")
     def _engine(self):
-        if self.backend == "mjx" and self.cell.noslip_iterations > 0:
-            raise ValueError(f"backend: MJX has no noslip solver, and physics.cell uses it "
-                             f"(noslip_iterations {self.cell.noslip_iterations}); set "
-                             f"physics.cell.noslip_iterations: 0 and impratio: 30 (the soft "
-                             f"contact model, run by both engines) or backend: c")
+        from robustness.physics.runner import check_contact_model
+
+        check_contact_model(self.backend, self.cell)
         return self
 
     def run(self, part=None, friction=None):
@@ -227,9 +225,9 @@ class Evaluation(Strict):
     @model_validator(mode="after")
     def _support_in_physics(self):
         if self.model == "mujoco" and self.friction.support == "points":
-            raise ValueError("friction.support: the 'points' family's sampled loads cannot be "
-                             "realised by feet in MuJoCo (statics sets the loads); use any, rigid, "
-                             "uniform, ring or tripod with model: mujoco")
+            from robustness.physics.geometry import POINTS_NOT_REALISABLE
+
+            raise ValueError(f"friction.{POINTS_NOT_REALISABLE}")
         return self
 
     def physics_run(self, part=None):

@@ -100,17 +100,13 @@ class PartFile:
         if self.description is not None:
             d["description"] = self.description
         for k in self.material_given:
-            d[k] = float(getattr(self, k)) if k != "mass" else float(self.mass)
+            d[k] = float(getattr(self, k))
         return d
 
     @property
     def mass(self) -> float:
         """kg: density times the hull's area and thickness (polygon) or volume."""
-        from scipy.spatial import ConvexHull
-
-        hull = ConvexHull(np.asarray(self.vertices, np.float64))
-        size = hull.volume * (self.thickness if self.kind == "polygon" else 1.0)
-        return float(self.density * size)
+        return float(self.density * _solid_volume(self.vertices, self.kind, self.thickness))
 
 
 def _loc(loc) -> str:
@@ -242,10 +238,20 @@ DEFAULT_THICKNESS = 0.003
 DEFAULT_DENSITY = {"polygon": 7800.0, "polyhedron": 500.0}
 
 
-def _material(raw, kind: str, vertices: np.ndarray):
-    """``(thickness, density, given)`` from a part document's material keys."""
+def _solid_volume(vertices: np.ndarray, kind: str, thickness) -> float:
+    """m^3 of the solid: the hull's area times ``thickness`` (polygon) or its
+    volume (polyhedron); 0 for a degenerate hull."""
     from scipy.spatial import ConvexHull, QhullError
 
+    try:
+        size = ConvexHull(np.asarray(vertices, np.float64)).volume
+    except QhullError:
+        return 0.0
+    return float(size * (thickness if kind == "polygon" else 1.0))
+
+
+def _material(raw, kind: str, vertices: np.ndarray):
+    """``(thickness, density, given)`` from a part document's material keys."""
     given = tuple(k for k in ("thickness", "density", "mass") if getattr(raw, k) is not None)
     for k in given:
         v = float(getattr(raw, k))
@@ -261,10 +267,7 @@ def _material(raw, kind: str, vertices: np.ndarray):
         if kind == "polygon" else None
     density = float(raw.density) if raw.density is not None else DEFAULT_DENSITY[kind]
     if raw.mass is not None:
-        try:
-            size = ConvexHull(vertices).volume * (thickness if kind == "polygon" else 1.0)
-        except QhullError:
-            size = 0.0
+        size = _solid_volume(vertices, kind, thickness)
         if not size > 0:
             raise ValueError("mass: the part has no area (volume) to spread its mass over")
         density = float(raw.mass) / size

@@ -328,7 +328,7 @@ def load_design(ref, overrides=()) -> Design:
             cfg = design.configs[cid]
             cfg.physics_run(part)   # the part's material against physics.cell
             if cfg.model == "mujoco" and part.kind == "polyhedron":
-                check_pad_friction(cfg.friction, "tumble", _polyhedron(part),
+                check_pad_friction(cfg.friction, "tumble", part_polyhedron(part),
                                    cfg.physics.cell.grip_ratio)
         except ValueError as exc:
             raise ConfigError(f"{path}: {exc}") from None
@@ -339,7 +339,7 @@ def load_design(ref, overrides=()) -> Design:
     return design
 
 
-def _polyhedron(part):
+def part_polyhedron(part):
     """The part file's polyhedron (:func:`kernels.make_polyhedron`), warnings muted."""
     import warnings
 

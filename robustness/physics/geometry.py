@@ -30,6 +30,12 @@ import numpy as np
 
 
 
+#: why a ``points`` support cannot be stood in MuJoCo (one line, naming the field)
+POINTS_NOT_REALISABLE = ("support: the 'points' family's sampled loads cannot be realised by "
+                         "feet in MuJoCo (statics sets the loads); use any, rigid, uniform, ring "
+                         "or tripod with model: mujoco")
+
+
 def support_of(code: int, body: np.ndarray, c: float, lift: np.ndarray):
     """A sample's support on its (perturbed) part.
 
@@ -55,9 +61,7 @@ def support_of(code: int, body: np.ndarray, c: float, lift: np.ndarray):
         if family == "rigid":
             return np.zeros((0, 2)), np.asarray(ks.corner_weights(b, jnp.asarray(lift)))
         if family == "points":
-            raise ValueError("support: the 'points' family's sampled loads cannot be realised by "
-                             "feet in MuJoCo (statics sets the loads); use any, rigid, uniform, "
-                             "ring or tripod with model: mujoco")
+            raise ValueError(POINTS_NOT_REALISABLE)
         pts = ks.family_points(family, b, c)
         return np.asarray(pts), np.asarray(ks.equilibrium_weights(pts))
 

@@ -31,6 +31,16 @@ def default_backend() -> str:
     return "c"
 
 
+def check_contact_model(backend: str, settings) -> None:
+    """Raise ValueError when ``backend`` cannot run the contact model of
+    ``settings``: MJX has no noslip solver."""
+    if backend == "mjx" and settings is not None and settings.noslip_iterations > 0:
+        raise ValueError(f"backend: MJX has no noslip solver, and the cell's contact model uses "
+                         f"it (physics.cell.noslip_iterations {settings.noslip_iterations}); set "
+                         f"physics.cell.noslip_iterations: 0 and impratio: 30 (the soft model, "
+                         f"run by both engines) or backend: c")
+
+
 def resolve_backend(backend: str, settings=None) -> str:
     """Validate ``backend`` (one of ``BACKENDS``) against the contact model of
     ``settings`` and resolve ``"auto"``: MJX only on an accelerator and only for
@@ -38,12 +48,8 @@ def resolve_backend(backend: str, settings=None) -> str:
     solver), so that the contact model never changes with the hardware."""
     if backend not in BACKENDS:
         raise ValueError(f"backend: expected one of {BACKENDS}, got {backend!r}")
+    check_contact_model(backend, settings)
     noslip = settings is not None and settings.noslip_iterations > 0
-    if backend == "mjx" and noslip:
-        raise ValueError(f"backend: MJX has no noslip solver, and the cell's contact model uses "
-                         f"it (noslip_iterations {settings.noslip_iterations}); set "
-                         f"physics.cell.noslip_iterations: 0 and impratio: 30 (the soft model, "
-                         f"run by both engines) or backend: c")
     if backend == "auto":
         return "c" if noslip else default_backend()
     return backend
