@@ -179,6 +179,65 @@ def test_rolling_plate_squares_a_yawed_cube(cube_plan):
     assert abs(r["err_theta"][0]) < 0.25 * abs(ex["err_theta_rad"].iloc[0])
 
 
+def test_tumble_cell_is_a_gripper(cube_plan):
+    """The upper plate and the lower jaw are a gripper's plates (a few part
+    diameters across, not the floor); the jaw covers every hull vertex's
+    nominal path over the plan."""
+    from robustness.physics import scene
+    from robustness.physics import tumbling as tb
+
+    s = PhysicsSettings()
+    poly = tb.nominal_polyhedron(cube_plan)
+    _, plate_half, jaw, grip = tb.tumble_schedule(cube_plan, poly, s, tb.part_mass(poly, s))
+    diam = math.sqrt(3) * 0.1
+    assert 1.0 * diam < 2 * plate_half < 3.0 * diam
+    assert all(0.1 + 0.2 * diam <= 2 * h + 1e-9 and 2 * h < 4.0 * diam for h in jaw.half)
+    lo = np.subtract(jaw.centre, jaw.half)
+    hi = np.add(jaw.centre, jaw.half)
+    for cfg in tb.nominal_configs(cube_plan, poly):
+        R, t = tb.face_pose(poly.face_origins[int(cfg[3])], poly.face_rotations[int(cfg[3])], cfg)
+        xy = (np.asarray(poly.vertices) @ R.T + t)[:, :2]
+        assert np.all(xy >= lo) and np.all(xy <= hi)
+    m = scene.tumble_model(np.asarray(poly.vertices), np.asarray(poly.com), 1.0, [1e-3] * 3 + [0] * 3,
+                           1.5, 1.5, plate_half, jaw, grip, s, s.impratio)
+    assert np.allclose(m.geom("support").size[:2], jaw.half)
+    assert np.allclose(m.geom("support").pos[:2], jaw.centre)
+
+
+def test_support_contact_off_the_jaw_leaves_the_workspace():
+    """The monitor's jaw: a point at the support's height outside the jaw's
+    rectangle leaves the workspace; inside it, or lifted, it does not."""
+    from robustness.physics.monitor import Recorder
+    from robustness.physics.scene import Layout
+
+    lay = Layout(nstate=8, nu=0, nsensordata=0, part_qpos=0, tool_qpos=0, part_qvel=0,
+                 tool_contact=0, foot_pairs=(), tool_pair=0)
+    sched = Schedule((Phase("final", -1, 2, np.zeros(4), np.zeros(4)),), 0.001)
+    pts = np.array([[[0.05, 0.0, 0.0], [0.0, 0.0, 0.3]]] * 3)
+    rec = Recorder(sched, lay, 3, (-10, 10, -10, 10), keep=[], support=(pts, (-0.1, 0.1, -0.1, 0.1)))
+    st = np.zeros((3, 2, 8))
+    st[:, :, 3] = 1.0                       # identity quaternions
+    st[0, 1, 0] = 0.02                      # the low point at x = 0.07: on the jaw
+    st[1, 1, 0] = 0.08                      # at x = 0.13: off the jaw, touching
+    st[2, 1, 0], st[2, 1, 2] = 0.08, 0.01   # off the jaw but 1 cm up
+    rec.update(0, st, np.zeros((3, 2, 0)))
+    assert list(rec.left) == [False, True, False]
+
+
+def test_tumble_slipped_off_the_jaw_is_reported(cube_plan):
+    """End to end: a slip after the first tumble that carries the cube past
+    the jaw's edge is a left_workspace failure even when the centre of mass's
+    workspace is the whole world (the support the part lands on is the jaw,
+    not an infinite floor)."""
+    sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(1.5, 1.5)),
+                  execution=ExecutionTolerance(tumble_slip_xy=0.4))
+    params = sam.sample(jax.random.key(3), 2, n_vertices=8, dim=3, n_tumbles=cube_plan.n_tumbles)
+    slip = np.broadcast_to(np.asarray(params[0].execution.tumble_slip), (2, cube_plan.n_tumbles, 3))
+    assert np.all(np.abs(slip[:, 0, :2]).max(axis=1) > 0.08)   # past the jaw's 1.7 cm margin
+    r = rollout_tumble_plan(cube_plan, *params, 2, backend="c", workspace=(-10, 10, -10, 10))
+    assert r["left_workspace"].all() and list(r["failure_mode"]) == ["left_workspace"] * 2
+
+
 # --------------------------------------------------------------------------
 # Bad input
 # --------------------------------------------------------------------------

@@ -55,6 +55,9 @@ def yaw_quat(theta: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(th / 2), np.zeros_like(th), np.zeros_like(th), np.sin(th / 2)], -1)
 
 
+SUPPORT_TOUCH = 1e-3   # m: a point this low touches the support
+
+
 def outside(xy: np.ndarray, z: np.ndarray, workspace) -> np.ndarray:
     """Whether points are outside the workspace rectangle ``(xmin, xmax,
     ymin, ymax)`` or have fallen below the support (z < -1 cm)."""
@@ -72,11 +75,17 @@ class Recorder:
       layout: the scene's :class:`~robustness.physics.scene.Layout`.
       n: samples; workspace: ``(xmin, xmax, ymin, ymax)``, m.
       keep: phase indices whose last state (and sensors) are kept.
+      support: optional ``(points (n, m, 3), rectangle)``: body-frame points
+        of each sample (m) that must not touch the support (world z below
+        ``SUPPORT_TOUCH``) outside ``rectangle`` ``(xmin, xmax, ymin, ymax)``
+        (a finite plate whose collision is a plane); touching there counts as
+        leaving the workspace.
     """
 
-    def __init__(self, schedule, layout, n: int, workspace, keep):
+    def __init__(self, schedule, layout, n: int, workspace, keep, support=None):
         self.schedule, self.layout, self.n = schedule, layout, n
         self.workspace = workspace
+        self.support = support
         self.keep = set(int(k) for k in keep)
         self.ends = {}
         self.sensors = {}
@@ -92,6 +101,13 @@ class Recorder:
         _, tilt = yaw_tilt(states[:, :, pq + 3:pq + 7])
         self.max_tilt = np.maximum(self.max_tilt, np.nan_to_num(tilt, nan=np.pi).max(axis=1))
         self.left |= outside(states[:, :, pq:pq + 2], states[:, :, pq + 2], self.workspace).any(axis=1)
+        if self.support is not None:
+            pts, rect = self.support
+            R = quat_to_mat(states[:, :, pq + 3:pq + 7])                       # (n, K, 3, 3)
+            w = np.einsum("nkij,nmj->nkmi", R, pts) + states[:, :, None, pq:pq + 3]
+            low = w[..., 2] < SUPPORT_TOUCH
+            off = outside(w[..., :2], np.zeros_like(w[..., 2]), rect)
+            self.left |= (low & off).any(axis=(1, 2))
         for p in self.keep:
             last = self.schedule.span(p)[1] - 1
             if i0 <= last < i0 + K:

@@ -9,8 +9,9 @@ together and MJX can batch their differing fields):
   spherical *feet* at its support family's points
   (:mod:`robustness.physics.geometry`), with its mass and inertia about its
   centre of mass; and the fence, a box on a tool body driven through joints.
-* :func:`tumble_model`: the lower plate (the support plane), the part (the
-  polyhedron's hull) and the upper plate, a large box on the same tool.
+* :func:`tumble_model`: the lower jaw (a fixed plate of the gripper's size,
+  :class:`Jaw`), the part (the polyhedron's hull) and the upper plate, a box
+  on the same tool.
 
 The tool (fence or upper plate) is NOT a mocap body: a mocap body has zero
 velocity for the contact solver and cannot be driven by ``mujoco.rollout``
@@ -56,7 +57,15 @@ from robustness.physics.settings import PhysicsSettings
 TOOL_JOINTS = ("tool_x", "tool_y", "tool_z", "tool_yaw")
 FOUND = 1                    # contact sensor data bit ("found")
 PLANE_HALF = 10.0            # visual half-size of the support plane (collision is infinite)
-PLATE_HALF_THICKNESS = 0.005  # m, the upper plate of the tumble cell
+PLATE_HALF_THICKNESS = 0.005  # m, the tumble cell's plates (upper plate and lower jaw)
+
+
+@dataclasses.dataclass(frozen=True)
+class Jaw:
+    """The tumble cell's lower jaw: a fixed rectangular plate, its top face at
+    z = 0, world frame: ``centre`` (x, y) and ``half`` (half-widths along x, y), m."""
+    centre: tuple[float, float]
+    half: tuple[float, float]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -235,7 +244,7 @@ def support_loads(m: mujoco.MjModel, state: np.ndarray):
 
 
 def tumble_model(vertices: np.ndarray, com, mass: float, fullinertia, mu_f: float, mu_s: float,
-                 plate_half: float, grip: float, s: PhysicsSettings,
+                 plate_half: float, jaw: Jaw, grip: float, s: PhysicsSettings,
                  impratio: float) -> mujoco.MjModel:
     """The tumble cell (Marigo-Bicchi Fig. 1) for one sampled polyhedron.
 
@@ -244,12 +253,22 @@ def tumble_model(vertices: np.ndarray, com, mass: float, fullinertia, mu_f: floa
       com: (3,) centre of mass, body frame; mass, fullinertia about it.
       mu_f: upper plate-part coefficient; mu_s: lower plate (support)-part.
       plate_half: half-width of the square upper plate, m.
+      jaw: the lower jaw (the support the part rolls on; a box, not the floor).
       grip: grasp force of the upper plate, N (sets its vertical spring:
         ``kp_z = grip / plate_compliance``).
     """
     spec = mujoco.MjSpec()
     _options(spec, s, impratio)
-    _plane(spec)
+    # the jaw's collision is a plane's (its size is the jaw's, for rendering):
+    # MuJoCo's plane-mesh contact is exact at the part's vertices, where a box
+    # jaw (the general convex collider) let the irregular polyhedron's pivot
+    # slip 7.6-12.7 mm per roll with the same static contacts, on a 10 m box as
+    # on a jaw-sized one.  The jaw's extent is enforced by the monitor instead
+    # (a support contact outside it: ``left_workspace``).
+    g = spec.worldbody.add_geom(name="support", type=mujoco.mjtGeom.mjGEOM_PLANE,
+                                pos=[jaw.centre[0], jaw.centre[1], 0.0],
+                                size=[jaw.half[0], jaw.half[1], 0.1])
+    _no_collide(g)
     _part_body(spec, vertices, mass, com, fullinertia)
     _tool(spec, s, (plate_half, plate_half, PLATE_HALF_THICKNESS), grip / s.plate_compliance)
     _pair(spec, "tool", "part", mu_f, "tool_part")

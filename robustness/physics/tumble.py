@@ -54,14 +54,14 @@ def _final_config(state, lay, parts, idx, poly, face_tol):
 def _simulate(plan, poly, parts, idx, s, backend, workspace):
     hull = list(poly.hull_vertices)
     mass0 = tb.part_mass(poly, s)
-    sched, plate_half, grip = tb.tumble_schedule(plan, poly, s, mass0)
+    sched, plate_half, jaw, grip = tb.tumble_schedule(plan, poly, s, mass0)
     models = []
     impratio = s.impratio
     for i in idx:
         mass, inertia = geo.polyhedron_mass_properties(parts.vertices[i][hull], parts.com[i],
                                                        s.polyhedron_density)
         models.append(scene.tumble_model(parts.vertices[i][hull], parts.com[i], mass, inertia,
-                                         float(parts.mu_f[i]), float(parts.mu_s[i]), plate_half,
+                                         float(parts.mu_f[i]), float(parts.mu_s[i]), plate_half, jaw,
                                          grip, s, impratio))
     lay = scene.layout(models[0])
     st0 = np.zeros((len(idx), lay.nstate))
@@ -74,7 +74,11 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace):
     dwell = [p for p, ph in enumerate(sched.phases) if ph.kind == "dwell"]
     holds = [p for p, ph in enumerate(sched.phases) if ph.kind == "hold"]
     lifts = [p for p, ph in enumerate(sched.phases) if ph.kind == "lift"]
-    rec = Recorder(sched, lay, len(idx), workspace, keep=dwell + holds + lifts)
+    rect = (jaw.centre[0] - jaw.half[0], jaw.centre[0] + jaw.half[0],
+            jaw.centre[1] - jaw.half[1], jaw.centre[1] + jaw.half[1])
+    pts = np.stack([parts.vertices[i][hull] for i in idx])
+    rec = Recorder(sched, lay, len(idx), workspace, keep=dwell + holds + lifts,
+                   support=(pts, rect))
     L = plan.n_tumbles
     faces = np.full((len(idx), L), -1, np.int64)
 

@@ -7,8 +7,13 @@ The paper's device is a parallel-jaw gripper with three degrees of freedom
 whose plates, covered by compliant high-friction pads, roll the part; the
 vertical motion is passively compliant so that the grasp force stays
 suitable while the part's height changes.  It is reproduced here: the part
-lies on the lower plate (the support plane); the upper plate, a large square
-box on the joint-driven tool, comes down on the part's top with a soft
+lies on the lower jaw, a fixed plate sized to what the part covers over the
+plan (every hull vertex along the nominal rolls, plus a tenth of the part's
+diameter: 335 x 135 mm for the 100 mm cube rolled twice; its collision is a
+plane's, its extent enforced by the monitor, a support contact outside it
+being ``left_workspace``); the upper plate, a square box of the part's reach
+about its centre during a roll plus the same margin (335 mm for the cube),
+on the joint-driven tool, comes down on the part's top with a soft
 vertical spring preloaded to the grasp force (``grip_ratio`` times the
 part's weight; ``kp_z = grip / plate_compliance``), then moves horizontally,
 perpendicular to the planned tumble edge and towards it: friction at the top
@@ -55,7 +60,7 @@ import numpy as np
 from kernels.planar import rot2_np
 from robustness.physics import geometry as geo
 from robustness.physics.monitor import mat_to_quat, quat_to_mat
-from robustness.physics.scene import PLATE_HALF_THICKNESS
+from robustness.physics.scene import PLATE_HALF_THICKNESS, Jaw
 from robustness.physics.schedule import Phase, Schedule, steps_for, transit_steps
 from robustness.samplers import broadcast
 
@@ -198,8 +203,9 @@ def tumble_schedule(plan, poly, s, mass: float) -> tuple:
     """The upper plate's open-loop schedule (module docstring), common to all
     samples: per tumble, transit (lifted) over the part, press, dwell, roll,
     hold, lift (hook: the face reached, the sampled slip).  Returns
-    ``(Schedule, plate_half, grip)``: the plate's half-width (m) and the
-    grasp force (N, nominal mass)."""
+    ``(Schedule, plate_half, jaw, grip)``: the upper plate's half-width (m),
+    the lower jaw (:class:`~robustness.physics.scene.Jaw`) and the grasp
+    force (N, nominal mass)."""
     configs = nominal_configs(plan, poly)
     hull = poly.vertices[list(poly.hull_vertices)]
     diam = float(np.max(np.linalg.norm(hull[:, None] - hull[None], axis=-1)))
@@ -207,6 +213,7 @@ def tumble_schedule(plan, poly, s, mass: float) -> tuple:
     ht = PLATE_HALF_THICKNESS
     dt = s.timestep
     phases, prev, reach = [], None, 0.0
+    footprint = []           # every hull vertex's (x, y) over every roll: the lower jaw's area
     for k, tumble in enumerate(plan.tumbles):
         cfg = configs[k]
         f = int(cfg[3])
@@ -244,6 +251,7 @@ def tumble_schedule(plan, poly, s, mass: float) -> tuple:
             Wr = (W - A) @ axis_rotation(axis, ph).T + A
             centre = p0 + xj * u[:2]
             reach = max(reach, float(np.max(np.abs(Wr[:, :2] - centre[None]))))
+            footprint.append(Wr[:, :2])
         phases += [
             Phase("press", k, steps_for((lifted[2] - pressed[2]) / s.lift_speed, dt), lifted,
                   pressed),
@@ -258,7 +266,14 @@ def tumble_schedule(plan, poly, s, mass: float) -> tuple:
     # any roll, plus a margin of a tenth of the part's size (a few part diameters
     # across, where the plate used to be the roll's reach + the diameter + 5 cm)
     plate_half = reach + 0.1 * diam
-    return Schedule(phases, dt), plate_half, grip
+    # the lower jaw: a fixed plate under everything the part covers over the
+    # plan (every hull vertex at every roll angle, nominal kinematics), with
+    # the same margin; a part whose support leaves it has left the workspace
+    pts = np.concatenate(footprint)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    jaw = Jaw(centre=tuple(float(v) for v in 0.5 * (lo + hi)),
+              half=tuple(float(v) for v in 0.5 * (hi - lo) + 0.1 * diam))
+    return Schedule(phases, dt), plate_half, jaw, grip
 
 
 def body_pose(state: np.ndarray, layout):
