@@ -69,13 +69,15 @@ def write_report(store, design) -> pathlib.Path:
     axes = list(zip(design.paths, cols)) or [(None, None)]
     if kind == "push":
         sweep = [("Success rate", [(f"success vs {p}", figs.success_vs_param(
-                      summary, c, p, conf, *_other(axes, p))) for p, c in axes if c]),
+                      summary, c, p, conf, *_by_effect(summary, axes, p))) for p, c in axes if c]),
                  ("Errors", [(f"errors vs {p or 'configuration'}",
                               figs.error_quantiles(samples, c, p or "", top.eps.pos_eps_m))
                              for p, c in axes]),
                  ("Failure modes", [("failure modes", figs.failure_modes(summary, labels, axis_label))]),
                  ("Plans", [(f"plan length vs {p or 'configuration'}",
-                             figs.plan_shape(plans, c, p or "", kind)) for p, c in axes])]
+                             figs.plan_shape(plans, c, p or "", kind,
+                                             *_by_effect(plans, axes, p, "total_distance_m")[:2]))
+                            for p, c in axes])]
     else:
         sweep = [("Solvable fraction", [(f"solvable vs {p}", figs.solvable_fraction(plans, c, p, conf))
                                         for p, c in axes if c]),
@@ -85,7 +87,7 @@ def write_report(store, design) -> pathlib.Path:
                                               figs.bound_vs_monte_carlo(summary, c, p or ""))
                                              for p, c in axes]),
                  ("Success rate", [(f"success vs {p}", figs.success_vs_param(
-                     summary, c, p, conf, *_other(axes, p))) for p, c in axes if c]),
+                     summary, c, p, conf, *_by_effect(summary, axes, p))) for p, c in axes if c]),
                  ("Failure modes", [("failure modes", figs.failure_modes(summary, labels, axis_label))])]
     for title, items in sweep:
         pngs = [(t, base64.b64encode(png).decode()) for t, png in items if png]
@@ -104,12 +106,24 @@ def write_report(store, design) -> pathlib.Path:
     return path
 
 
-def _other(axes, path):
-    """``(column, label)`` of the first swept axis other than ``path`` (lines in a plot)."""
-    for p, c in axes:
-        if p != path and c is not None:
-            return c, p
-    return None, ""
+def _by_effect(frame, axes, path, value: str = "n_success", weight=None):
+    """``(by, by_label, facet, facet_label)`` for a figure against ``path``:
+    the other swept axes ranked by their effect on ``value``
+    (:func:`sweeps.figures.study.effect`; success pools ``n_success`` over
+    ``n``), the largest drawn as lines, the next as panels, so that an axis that
+    decides success alone does not flatten every other curve."""
+    from sweeps.figures.study import effect
+
+    if value == "n_success":
+        weight = "n"
+        frame = frame[frame["n"] > 0] if "n" in frame else frame
+    ranked = sorted(((effect(frame, c, value, weight), i, p, c) for i, (p, c) in enumerate(axes)
+                     if p != path and c is not None and c in frame),
+                    key=lambda t: (-t[0], t[1]))
+    out = []
+    for _, _, p, c in ranked[:2]:
+        out += [c, p]
+    return tuple(out + [None, ""] * (2 - len(ranked[:2])))
 
 
 def _config_rows(summary, plans, design, labels):

@@ -231,7 +231,7 @@ def summary_table(store, design) -> str:
         return "(no summary rows)"
     s = s.assign(config_id=s["config_id"].astype(int))
     p = p.assign(config_id=p["config_id"].astype(int))
-    head = ["config"] + [f.replace(".", "_")[-18:] for f in design.paths] + \
+    head = ["config"] + [f.replace(".", "_") for f in design.paths] + \
         ["planned", "samples", "success", "worst CP low", "dominant failure"]
     rows = []
     for cid, g in s.groupby("config_id", sort=True):

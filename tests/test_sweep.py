@@ -309,6 +309,12 @@ def test_bundled_margins_runs_small(tmp_path):
     assert r.returncode == 0, r.stderr
     s = pd.read_parquet(tmp_path / "out" / "summary")
     assert len(s) == 2 * len(s["config_id"].unique()) and (s["n"] == 8).all()
+    # the bundled axes show the margin's effect: the paper's plans get shorter with it
+    # (and the fence angle error it guards against is an axis)
+    assert {"planner_margin_deg", "planner_strategy", "execution_fence_angle"} <= set(s.columns)
+    p = pd.read_parquet(tmp_path / "out" / "plans")
+    d = p[p["planner_strategy"] == "paper"].groupby("planner_margin_deg")["total_distance_m"].mean()
+    assert d[12] < d[7] < d[3], d
 
 
 def test_planner_options_reach_the_plans(tmp_path):

@@ -46,38 +46,70 @@ def _x(ax, col: pd.Series, label: str):
             ax.set_xscale("log")
 
 
+def effect(frame: pd.DataFrame, column: str, value: str, weight: Optional[str] = None) -> float:
+    """How much a swept parameter moves a quantity: the range (max - min) over
+    the parameter's values of ``value`` pooled at each (a ratio of sums when
+    ``weight`` is given, e.g. successes over samples; else the median)."""
+    if column not in frame or frame[column].nunique() < 2:
+        return 0.0
+    g = frame.groupby(column, sort=True, observed=True)
+    v = (g[value].sum() / g[weight].sum().clip(lower=1)) if weight else g[value].median()
+    v = v.to_numpy(float)
+    v = v[np.isfinite(v)]
+    return float(v.max() - v.min()) if v.size else 0.0
+
+
+def _panels(frame: pd.DataFrame, facet: Optional[str], max_panels: int = 4):
+    """``[(value or None, rows)]``: one panel per value of ``facet`` (at most
+    ``max_panels``; otherwise one panel of everything)."""
+    if facet is not None and 1 < frame[facet].nunique() <= max_panels:
+        return list(frame.groupby(facet, sort=True, observed=True))
+    return [(None, frame)]
+
+
+def _lines(frame: pd.DataFrame, by: Optional[str], max_lines: int = 6):
+    if by is not None and 1 < frame[by].nunique() <= max_lines:
+        return list(frame.groupby(by, sort=True, observed=True))
+    return [(None, frame)]
+
+
 def success_vs_param(summary: pd.DataFrame, column: str, label: str, confidence: float,
-                     by: Optional[str] = None, by_label: str = "") -> Optional[bytes]:
+                     by: Optional[str] = None, by_label: str = "", facet: Optional[str] = None,
+                     facet_label: str = "") -> Optional[bytes]:
     """Pooled success rate against one swept parameter, with a CP band; one line
-    per value of a second swept parameter ``by`` (at most 6 values), pooled
-    over everything else."""
+    per value of a second swept parameter ``by`` (at most 6 values) and one
+    panel per value of a third, ``facet`` (at most 4), pooled over everything
+    else."""
     s = summary[summary["n"] > 0]
     if s.empty:
         return None
-    groups = [(None, s)]
-    if by is not None and 1 < s[by].nunique() <= 6:
-        groups = list(s.groupby(by, sort=True, observed=True))
-    fig, ax = plt.subplots(figsize=(5.2, 3.4))
+    panels = _panels(s, facet)
+    fig, axs = plt.subplots(1, len(panels), figsize=(5.2 + 3.6 * (len(panels) - 1), 3.4),
+                            sharey=True, squeeze=False)
     num = _numeric(s[column])
     cats = sorted(s[column].unique(), key=str)
-    for i, (val, part) in enumerate(groups):
-        g = part.groupby(column, sort=True, observed=True).agg(
-            n=("n", "sum"), k=("n_success", "sum")).reset_index()
-        lo, hi = zip(*(clopper_pearson(int(k), int(n), confidence) for k, n in zip(g["k"], g["n"])))
-        x = g[column] if num else np.array([cats.index(v) for v in g[column]])
-        color = f"C{i}"
-        name = "success rate" if val is None else f"{by_label or by} = {fmt(val)}"
-        ax.fill_between(x, lo, hi, color=color, alpha=0.15, lw=0)
-        ax.plot(x, g["k"] / g["n"], "o-", color=color, label=name)
-    if not num:
-        ax.set_xticks(np.arange(len(cats)), [str(v) for v in cats], rotation=20)
-    _x(ax, s[column], label)
-    ax.set_ylim(-0.02, 1.02)
-    ax.set_ylabel("success rate (pooled over tasks)")
-    ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=8, title=f"bands: {confidence:.0%} Clopper-Pearson",
-              title_fontsize=7)
-    ax.set_title(f"success against {label}", fontsize=10)
+    for ax, (fval, panel) in zip(axs[0], panels):
+        for i, (val, part) in enumerate(_lines(panel, by)):
+            g = part.groupby(column, sort=True, observed=True).agg(
+                n=("n", "sum"), k=("n_success", "sum")).reset_index()
+            lo, hi = zip(*(clopper_pearson(int(k), int(n), confidence) for k, n in zip(g["k"], g["n"])))
+            x = g[column] if num else np.array([cats.index(v) for v in g[column]])
+            color = f"C{i}"
+            name = "success rate" if val is None else f"{by_label or by} = {fmt(val)}"
+            ax.fill_between(x, lo, hi, color=color, alpha=0.15, lw=0)
+            ax.plot(x, g["k"] / g["n"], "o-", color=color, label=name)
+        if not num:
+            ax.set_xticks(np.arange(len(cats)), [str(v) for v in cats], rotation=20)
+        _x(ax, s[column], label)
+        ax.set_ylim(-0.02, 1.02)
+        ax.grid(alpha=0.3)
+        title = f"success against {label}"
+        ax.set_title(title if fval is None else f"{facet_label or facet} = {fmt(fval)}", fontsize=10)
+    axs[0][0].set_ylabel("success rate (pooled over tasks)")
+    axs[0][-1].legend(loc="best", fontsize=8, title=f"bands: {confidence:.0%} Clopper-Pearson",
+                      title_fontsize=7)
+    if len(panels) > 1:
+        fig.suptitle(f"success against {label}", fontsize=10, y=1.03)
     return _png(fig)
 
 
@@ -139,38 +171,45 @@ def failure_modes(summary: pd.DataFrame, labels: list, axis_label: str = "config
     return _png(fig)
 
 
-def plan_shape(plans: pd.DataFrame, column: Optional[str], label: str, kind: str) -> Optional[bytes]:
-    """Plan length (pushes / tumbles) and, for pushes, the total push distance
-    relative to the straight distance, against a swept parameter."""
+def plan_shape(plans: pd.DataFrame, column: Optional[str], label: str, kind: str,
+               by: Optional[str] = None, by_label: str = "") -> Optional[bytes]:
+    """Plan length (pushes / tumbles, median and range over tasks) and, for
+    pushes, the median total push distance (m) against a swept parameter, one
+    line per value of ``by`` (at most 6)."""
     p = plans[plans["planned"]]
     if p.empty:
         return None
     key = column or "config_id"
-    fig, ax = plt.subplots(figsize=(5.2, 3.4))
-    g = p.groupby(key, sort=True, observed=True)
     num = column is not None and _numeric(p[key])
-    xs = np.asarray(list(g.groups)) if num else np.arange(g.ngroups)
-    med = g["n_steps"].median().to_numpy()
-    ax.plot(xs, med, "o-", color="tab:blue", label=f"median {'pushes' if kind == 'push' else 'tumbles'}")
-    ax.fill_between(xs, g["n_steps"].min().to_numpy(), g["n_steps"].max().to_numpy(),
-                    color="tab:blue", alpha=0.15, lw=0, label="min-max over tasks")
-    ax.set_ylabel("plan length (steps)", color="tab:blue")
+    cats = sorted(p[key].unique(), key=str)
+    n_ax = 2 if kind == "push" else 1
+    fig, axs = plt.subplots(1, n_ax, figsize=(5.2 + 3.6 * (n_ax - 1), 3.4), squeeze=False)
+    ax_len = axs[0][0]
+    for i, (val, part) in enumerate(_lines(p, by)):
+        g = part.groupby(key, sort=True, observed=True)
+        xs = np.asarray(list(g.groups)) if num else np.array([cats.index(v) for v in g.groups])
+        color = f"C{i}"
+        name = "" if val is None else f"{by_label or by} = {fmt(val)}"
+        ax_len.plot(xs, g["n_steps"].median().to_numpy(), "o-", color=color,
+                    label=name or f"median {'pushes' if kind == 'push' else 'tumbles'}")
+        ax_len.fill_between(xs, g["n_steps"].min().to_numpy(), g["n_steps"].max().to_numpy(),
+                            color=color, alpha=0.12, lw=0)
+        if kind == "push":
+            axs[0][1].plot(xs, g["total_distance_m"].median().to_numpy(), "s-", color=color,
+                           label=name or "median push distance")
+    ax_len.set_ylabel(f"{'pushes' if kind == 'push' else 'tumbles'} per plan "
+                      "(median; band: min-max over tasks)", fontsize=8)
+    ax_len.set_title("plan length", fontsize=10)
     if kind == "push":
-        ax2 = ax.twinx()
-        ratio = g["length_ratio"].median().to_numpy()
-        ax2.plot(xs, ratio, "s--", color="tab:red", label="median push distance / straight distance")
-        ax2.set_ylabel("push distance / straight distance", color="tab:red")
-        ax2.set_ylim(0, max(1.0, float(np.nanmax(ratio)) * 1.15) if np.isfinite(ratio).any() else 1.0)
-    if not num:
-        ax.set_xticks(xs, [str(v) for v in g.groups], rotation=20)
-    _x(ax, p[key], label if column else "configuration")
-    ax.grid(alpha=0.3)
-    handles = ax.get_legend_handles_labels()
-    if kind == "push":
-        h2 = ax2.get_legend_handles_labels()
-        handles = (handles[0] + h2[0], handles[1] + h2[1])
-    ax.legend(*handles, fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2)
-    ax.set_title("plan length" + (" and push distance" if kind == "push" else ""), fontsize=10)
+        axs[0][1].set_ylabel("total push distance (m, median over tasks)", fontsize=8)
+        axs[0][1].set_ylim(bottom=0)
+        axs[0][1].set_title("push distance", fontsize=10)
+    for ax in axs[0]:
+        if not num:
+            ax.set_xticks(np.arange(len(cats)), [str(v) for v in cats], rotation=20)
+        _x(ax, p[key], label if column else "configuration")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
     return _png(fig)
 
 
