@@ -37,7 +37,6 @@ UNI_STABLE, BIPLUS_STABLE, NICE_STABLE = 0, 1, 2
 OBJECT_CLASS_NAMES = ("uni-stable", "biplus-stable", "nice-stable")
 
 CW, CCW = 0, 1
-SENSE_NAMES = ("cw", "ccw")
 
 #: An edge whose centre-of-mass foot lies within this fraction of its length of
 #: one of its ends is *marginal*: flush on the fence, the part balances on that

@@ -104,7 +104,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 import warnings
 from typing import Optional
 
@@ -138,9 +137,6 @@ class Evaluation:
       summary: dict, the ``summary`` table's row.
       param_columns: names of the sampled-parameter columns of ``samples``.
       kind: ``"push"`` or ``"tumble"``; model: the model used.
-      bound: the analytic bound dict (or ``None`` when it does not apply).
-      seconds: wall time of the evaluation (not in the tables, which are
-        bit-for-bit reproducible).
     """
 
     samples: pd.DataFrame
@@ -148,12 +144,6 @@ class Evaluation:
     param_columns: tuple
     kind: str
     model: str
-    bound: Optional[dict]
-    seconds: float = math.nan
-
-    def summary_frame(self) -> pd.DataFrame:
-        """The summary as a one-row DataFrame."""
-        return pd.DataFrame([self.summary])
 
 
 # --------------------------------------------------------------------------
@@ -230,7 +220,6 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
     if not (isinstance(n, (int, np.integer)) and n >= 1):
         raise ValueError(f"n: expected an integer >= 1, got {n!r}")
     dtype = jnp.dtype(dtype)
-    t0 = time.perf_counter()
     if kind == "tumble":
         model = model_for(model, kind)
         pe = float(plan.eps) if pos_eps_m is None else float(pos_eps_m)
@@ -276,11 +265,8 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
     summary = summarise(df, plan, sampler, kind=kind, model=model, dtype=dtype.name,
                         pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, task=task,
                         bound=bound and model != "mujoco", warn_stacklevel=5)
-    b = None
-    if math.isfinite(summary.get("bound_position_m", math.nan)):
-        b = {"position_m": summary["bound_position_m"], "theta_rad": summary["bound_theta_rad"]}
     return Evaluation(samples=df, summary=summary, param_columns=tuple(cols), kind=kind,
-                      model=model, bound=b, seconds=time.perf_counter() - t0)
+                      model=model)
 
 
 def _push_rows(plan, params64, in_axes, n, model, dtype, chunk, task) -> dict:

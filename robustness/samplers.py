@@ -456,12 +456,6 @@ class Sampler:
             params = _cut_steps(params, axes, P, L)
         return params, axes
 
-    def is_zero(self) -> bool:
-        """True when every tolerance is zero (the nominal part and execution)."""
-        g, e = self.geometry, self.execution
-        return (g.tau_v == 0 and g.tau_com == 0 and all(
-            getattr(e, f.name) == 0 for f in dataclasses.fields(e) if f.name != "distribution"))
-
 
 # --------------------------------------------------------------------------
 # Batch helpers

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import warnings
-from typing import Optional
 
 import jax.numpy as jnp
 import numpy as np
@@ -115,12 +114,6 @@ def empty_summary(task: str, kind: str, model: str, dtype: str, pos_eps_m: float
     s["paper_bound_violated"] = None
     s["dominant_failure_mode"] = reason
     return s
-
-
-def bound_of(summary: dict) -> Optional[tuple[float, float]]:
-    """``(position m, orientation rad)`` of the analytic bound in a summary, or None."""
-    bp, bt = summary.get("bound_position_m", math.nan), summary.get("bound_theta_rad", math.nan)
-    return (bp, bt) if math.isfinite(bp) and math.isfinite(bt) else None
 
 
 def paper_bound_check(s: dict, df, plan, sampler, kind: str, bound: bool, task, dev,

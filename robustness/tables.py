@@ -37,7 +37,7 @@ FAILURE_MODES = ("none", "incomplete_reorientation", "wrong_edge", "slip", "hull
                  "wrong_face", "combinatorics_changed", "position", "orientation",
                  "left_workspace", "toppled", "fence_strike")
 
-#: What a certificate can say (:mod:`robustness.certify`).
+#: What a certificate can say (:mod:`robustness.certificates`).
 VERDICTS = ("certified", "not certified", "no plan")
 
 # --------------------------------------------------------------------------

@@ -30,8 +30,6 @@ COMMANDS = {
     "parts": (None, "list the bundled parts, studies and certification configs"),
 }
 
-USAGE = "usage: nudge {" + ",".join(COMMANDS) + "} ... (nudge --help for details)"
-
 
 def _help() -> str:
     lines = ["usage: nudge COMMAND [ARGS...]", "",

@@ -234,16 +234,6 @@ def parse_overrides(items) -> dict:
     return out
 
 
-def get_path(doc: dict, path: str):
-    """The value at a dotted path of a nested dict (KeyError if absent)."""
-    cur = doc
-    for part in path.split("."):
-        if not isinstance(cur, dict) or part not in cur:
-            raise KeyError(path)
-        cur = cur[part]
-    return cur
-
-
 def set_path(doc: dict, path: str, value) -> None:
     """Set a dotted path of a nested dict, creating mappings on the way."""
     parts = path.split(".")

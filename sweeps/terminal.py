@@ -1,5 +1,5 @@
 """Pieces shared by nudge's command lines (``sweeps.plan_push``,
-``sweeps.plan_tumble``, ``robustness.certify``): one-line errors with exit
+``sweeps.plan_tumble``, ``sweeps.certify``): one-line errors with exit
 status 2, pose parsing with ``deg`` suffixes, negative values after flags,
 warnings on stderr, and a ``__main__`` guard that reports instead of dumping
 a traceback.

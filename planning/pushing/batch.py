@@ -109,10 +109,6 @@ class PushPlanBatch:
         return pp.make_plan(self.part, self.settings, self.starts[b], self.goals[b], tuple(pushes),
                             int(self.plan_class[b]), int(self.turns[b]), self.final_error[b])
 
-    def to_plans(self) -> list[PushPlan]:
-        """All plans (raises on the first that is not ok)."""
-        return [self.plan(b) for b in range(len(self))]
-
 
 @functools.lru_cache(maxsize=32)
 def _plan_fns(part: PushPart, strategy: str, extra_steps: int, objective: str, R: int, tier: int):

@@ -36,16 +36,6 @@ GEN_LIST_CAP = 256
 GEN_LIST_CAP_DENSE = 64
 
 
-def __getattr__(name):
-    # planning/__init__ and older callers import these from here; they live in
-    # planning.tumbling.analysis (imported lazily: analysis imports this module).
-    if name in ("TumbleAnalysis", "build_analysis"):
-        from planning.tumbling import analysis
-
-        return getattr(analysis, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 def generator_ks(q: int, n_paper: int, tame: bool) -> tuple[list, bool]:
     """The rotation indices ``k`` of the listed generators and whether the
     list is truncated: all ``-q < k < q`` if ``(2q - 1) n_paper`` fits the cap
