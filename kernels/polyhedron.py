@@ -59,6 +59,7 @@ from kernels.facets import (TOLERANCE_MERGE_FACTOR, angle_between, as_points, ch
                             diameter, extent, merge_hull_faces, newell, validate_topology,
                             volume_centroid)
 from kernels.planar import TWO_PI
+from kernels.tumble_geometry import TumbleGeometry, tumble_geometry
 
 #: Default relative tolerance (times the part's diameter) for merging Qhull's
 #: triangles into maximal planar faces and for dropping collinear corners.
@@ -527,7 +528,3 @@ def combinatorics_changed(vertices, polyhedron: Polyhedron, tol: float = 1e-6) -
     except ValueError:
         return True
     return tuple(sorted(tuple(sorted(c)) for c in cycles)) != polyhedron.faces
-
-
-# the kernel-side geometry of a polyhedron (defined there, used by Polyhedron.geometry)
-from kernels.tumble_geometry import TumbleGeometry, tumble_geometry  # noqa: E402

@@ -20,8 +20,19 @@ from planning.tumbling.analysis import TumbleAnalysis
 from planning.tumbling.plan import Tumble, TumblePlan
 from planning.tumbling.planner import analyze_polyhedron, plan_tumble
 
+# used by the layers above (the one boundary: tests/test_layers.py)
+from planning.pushing import stability  # noqa: F401  (modules other layers use)
+from planning.pushing.stability import PushStability
+from planning.tumbling.development import development_poses, face_footprint, pose3
+from planning.tumbling.paper import paper_bounds
+from planning.tumbling.reachability import lattice_count_bound, radius_for_count, reduced_basis
+from planning.tumbling.trajectory import plan_trajectory, quiet_polyhedron, sample_reached_positions
+
 __all__ = [
     "plan_pose", "plan_pose_batch", "prepare_part", "PushPart", "PushPlanBatch", "Push",
     "PushPlan", "PlanningError", "WorkspaceError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
     "Tumble", "TumblePlan",
+    "stability", "PushStability", "development_poses", "face_footprint", "lattice_count_bound",
+    "paper_bounds", "plan_trajectory", "pose3", "quiet_polyhedron", "radius_for_count",
+    "reduced_basis", "sample_reached_positions",
 ]

@@ -26,9 +26,19 @@ from robustness.stats import clopper_pearson, one_sided_lower, one_sided_upper
 from robustness.summary import summarise
 from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
 
+# used by the layers above (the one boundary: tests/test_layers.py)
+from robustness import tables  # noqa: F401  (modules other layers use)
+from robustness.certificates import (Schedule, auto_schedule, decide, first_certifying, grow,
+                                     no_plan, perturbed_sources)
+from robustness.models import model_for
+from robustness.summary import empty_summary
+from robustness.tables import FAILURE_MODES, to_arrow
+
 __all__ = [
     "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "Sampler", "PerturbationParams",
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
     "one_sided_upper", "certify", "Certificate", "summarise",
+    "tables", "FAILURE_MODES", "Schedule", "auto_schedule", "decide", "empty_summary",
+    "first_certifying", "grow", "model_for", "no_plan", "perturbed_sources", "to_arrow",
 ]

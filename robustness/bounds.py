@@ -60,11 +60,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg
-from kernels.errors import PartWarning
-from kernels.planar import rot2
-from kernels.precision import float64
-from kernels.push import replay_pushes
+from kernels import polygon as pg, PartWarning, rot2, float64, replay_pushes
 from planning import PushPlan, prepare_part
 from robustness.tolerances import ExecutionTolerance, GeometryTolerance
 
@@ -200,8 +196,7 @@ def tumble_first_order_bound(vertices, com, topology, start, faces, tau_v: float
     Returns:
       dict ``x_m``, ``y_m``, ``position_m``, ``theta_rad``.
     """
-    from kernels.tumble_geometry import tumble_geometry
-    from kernels.tumble import replay
+    from kernels import tumble_geometry, replay
 
     if not (math.isfinite(tau_v) and tau_v >= 0):
         raise ValueError(f"tau_v: tolerance must be a finite number >= 0, got {tau_v!r}")
@@ -235,8 +230,7 @@ def tumble_plan_paper_bounds(plan, tau_v: float, tau_g=None) -> dict:
     raise lengths to powers (``d_max^{2N}``...), so they depend on the unit of
     length; they are evaluated in metres, as everything in nudge.
     """
-    from planning.tumbling.paper import paper_bounds
-    from planning import analyze_polyhedron
+    from planning import paper_bounds, analyze_polyhedron
 
     if not (math.isfinite(tau_v) and tau_v >= 0):
         raise ValueError(f"tau_v: tolerance must be a finite number >= 0, got {tau_v!r}")
@@ -265,8 +259,7 @@ def tumble_plan_bound(plan, geometry: GeometryTolerance = GeometryTolerance(),
     the nominal positions ``p_k`` of the plan's trajectory.  The position bound
     is ``hypot`` of the x and y sums, as in :mod:`robustness.bounds`.
     """
-    from kernels.polyhedron import make_polyhedron
-    from kernels.tumble import make_config, replay_trajectory
+    from kernels import make_polyhedron, make_config, replay_trajectory
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PartWarning)

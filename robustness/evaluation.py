@@ -112,9 +112,7 @@ import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 
-from kernels import polygon as pg
-from kernels.planar import wrap_angle_np
-from kernels.precision import float64
+from kernels import polygon as pg, wrap_angle_np, float64
 from robustness.hulls import face_merge_tol
 from robustness.models import MODELS, model_for
 from robustness.replay import edge_pairs, push_nominal, run_push, run_tumble, tumble_nominal

@@ -31,7 +31,7 @@ def polyhedron_combinatorics_changed(vertices, polyhedron, merge_tol: float) -> 
     Returns:
       (n,) bool numpy array.
     """
-    from kernels.polyhedron import combinatorics_changed
+    from kernels import combinatorics_changed
 
     v = np.asarray(vertices, dtype=np.float64)
     return np.array([combinatorics_changed(v[i], polyhedron, tol=merge_tol) for i in range(len(v))],
@@ -56,7 +56,7 @@ def polyhedra_changed(vertices, polyhedron, merge_tol: float, chunk: int = 4096)
     import jax
     import jax.numpy as jnp
 
-    from kernels.precision import float64
+    from kernels import float64
 
     v = np.asarray(vertices, dtype=np.float64)
     check = _compiled(polyhedron.topology)
@@ -80,7 +80,7 @@ def _compiled(topology):
     """The batch check of one nominal topology, compiled with its tables as constants."""
     import jax
 
-    from kernels.hulls import polyhedron_hull_tables, polyhedron_hull_verdict_batch
+    from kernels import polyhedron_hull_tables, polyhedron_hull_verdict_batch
 
     tables = polyhedron_hull_tables(topology)
     return jax.jit(lambda v, tol: polyhedron_hull_verdict_batch(v, tables, tol))

@@ -14,9 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg
-from kernels.hulls import polygon_hull_changed
-from kernels.planar import rot2, wrap_angle
+from kernels import polygon as pg, polygon_hull_changed, rot2, wrap_angle
 from robustness.hulls import polyhedron_combinatorics_changed
 
 
@@ -95,12 +93,12 @@ def _push_one(nom: dict, q: dict, model: str):
     dists = jnp.maximum(nom["dist"] * (1.0 + q["rel"]) + q["abs"], 0.0)
     dists = jnp.where(active, dists, 0.0)  # padding pushes are no-ops
     if model == "exact":
-        from kernels.push import replay_pushes
+        from kernels import replay_pushes
 
         final, outs = replay_pushes(geom, pose0, dirs, dists)
         slip, trunc = jnp.zeros((), dt), jnp.asarray(False)
     else:
-        from kernels.quasistatic import simulate_pushes
+        from kernels import simulate_pushes
 
         final, outs = simulate_pushes(geom, pose0, dirs, dists, q["c"], q["mu"],
                                       expected_edges=nom["planned"], active=active)
@@ -299,7 +297,7 @@ def _tumble_block(nom: dict, q: dict, topology, slip_series: bool):
     every rotational slip is at most ``SLIP_SERIES_MAX`` (static; the tolerance
     bounds it), so its cosine and sine come from a series.
     """
-    from kernels.tumble_geometry import tumble_geometry
+    from kernels import tumble_geometry
 
     geom = jax.vmap(lambda v, c: tumble_geometry(v, c, topology))(nom["V0"] + q["dv"],
                                                                   nom["com0"] + q["dc"])
@@ -341,7 +339,7 @@ def _tumble_block(nom: dict, q: dict, topology, slip_series: bool):
 def _tumble_batch(nom, q, merge_tol, topology, check, slip_series):
     out = _blocks(lambda b: _tumble_block(nom, b, topology, slip_series), q, BLOCK)
     if check:   # the perturbed hulls, in float64 (their tolerance can be ~ float32's rounding)
-        from kernels.hulls import polyhedron_hull_tables, polyhedron_hull_verdict_batch
+        from kernels import polyhedron_hull_tables, polyhedron_hull_verdict_batch
 
         out["changed"], out["undecided"] = polyhedron_hull_verdict_batch(
             nom["V64"] + q["dv64"], polyhedron_hull_tables(topology), merge_tol)
@@ -349,7 +347,7 @@ def _tumble_batch(nom, q, merge_tol, topology, check, slip_series):
 
 
 def tumble_nominal(plan):
-    from kernels.polyhedron import PartWarning, make_polyhedron
+    from kernels import PartWarning, make_polyhedron
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PartWarning)

@@ -69,7 +69,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels.precision import float64
+from kernels import float64
 from robustness.support import centre_weights, support_from_u
 from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
 
@@ -261,8 +261,7 @@ def _family_c(key, body, n: int, family: str, dtype):
     (their order picks the triangle), the uniform pad and the rim (one ``c``,
     unbatched), and under ``any`` a component per sample, in equal parts, whose
     tripod has ``c`` uniform in ``[TRIPOD_MIN_FRACTION, 1] x tripod_fit``."""
-    from kernels import support as ks
-    from kernels.quasistatic import limit_surface_ratio
+    from kernels import support as ks, limit_surface_ratio
 
     h = body.shape[0]
     u = jax.random.uniform(key, (n, 2 + h), dtype)
@@ -312,7 +311,7 @@ def _sample_friction(key, body, n: int, st: tuple, val: dict, has_body: bool,
     elif c_given:               # the tripod family: c drawn directly
         c, a_c = _range_from_u(u[:, 2], n, val["c_lo"], val["c_hi"], c_const, dtype)
     elif family == "points":
-        from kernels.quasistatic import limit_surface_ratio
+        from kernels import limit_surface_ratio
 
         pts, w = support_from_u(u[:, 3:], body, S, k, dtype)
         if S >= 3:   # the pressure's centroid under the centre of mass (a part at rest)
@@ -500,7 +499,7 @@ def slice_batch(params, in_axes, start: int, stop: int):
 def support_names(family, n: int, has_support) -> np.ndarray:
     """(n,) support family names of the samples (``None`` where there is no
     support: a tumbled polyhedron)."""
-    from kernels.support import FAMILIES
+    from kernels import FAMILIES
 
     code = np.broadcast_to(np.asarray(family, np.int64), (n,))
     names = np.asarray(FAMILIES, dtype=object)[code]

@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 
-from kernels.precision import float64
+from kernels import float64
 from robustness import stats
 from robustness.tables import FAILURE_MODES
 
@@ -76,7 +76,7 @@ def deviations(df: pd.DataFrame, plan, kind: str) -> tuple[np.ndarray, np.ndarra
     and |orientation| (rad).  This, not the error to the goal, is what an
     analytic bound on the propagated tolerances bounds (a tumble plan's own
     residual to the goal is up to eps and is not a propagated error)."""
-    from kernels.planar import wrap_angle_np
+    from kernels import wrap_angle_np
 
     f = nominal_final(plan, kind)
     dp = np.hypot(df["final_x_m"].to_numpy(np.float64) - f[0],

@@ -14,7 +14,7 @@ import dataclasses
 import math
 from typing import Literal, Optional
 
-from kernels.support import SUPPORT_FAMILIES
+from kernels import SUPPORT_FAMILIES
 
 DISTRIBUTIONS = ("uniform", "gaussian")
 #: support families (``any`` mixes rigid, uniform, ring and tripod; ``points`` is

@@ -61,7 +61,7 @@ from typing import Literal, Optional, Union
 
 from pydantic import Field, StrictBool, field_validator
 
-from robustness.models import model_for
+from robustness import model_for
 from sweeps.config import (ConfigError, Evaluation, PartInline, Strict, Task, explicit_tasks,
                           validate)
 from sweeps.terminal import Parser, fail, report_warnings, run_main
@@ -141,7 +141,7 @@ def load(path, n_samples=None, max_samples=None, seed=None):
     Raises:
       ConfigError: one line per mistake.
     """
-    from robustness.physics.settings import check_pad_friction
+    from robustness.physics import check_pad_friction
     from sweeps.plausible import screen_config
     from sweeps.study import load_part_ref, part_polyhedron
     from sweeps.yamlio import YamlError, dump_yaml, read_yaml
@@ -251,9 +251,8 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     """Plan, sample (resumable blocks), summarise and decide one task; the certificate row."""
     import jax
 
-    from robustness import tables
-    from robustness.certificates import (Schedule, auto_schedule, decide, grow, no_plan,
-                                         perturbed_sources)
+    from robustness import (tables, Schedule, auto_schedule, decide, grow, no_plan,
+                            perturbed_sources)
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
     kind = "push" if part.kind == "polygon" else "tumble"
@@ -273,7 +272,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
                 else Schedule((int(cfg.n_samples),), conf))
     if plan is None:
         _log(quiet, f"[{name}] no plan: {reason}")
-        from robustness.summary import empty_summary
+        from robustness import empty_summary
 
         s = empty_summary(name, kind, model, cfg.dtype, cfg.eps.pos_eps_m, cfg.eps.theta_eps_rad,
                           conf)
@@ -320,8 +319,7 @@ class Blocks:
         import jax.numpy as jnp
         import pandas as pd
 
-        from robustness import tables
-        from robustness.evaluation import evaluate
+        from robustness import tables, evaluate
 
         while self.n < total and not self.flag.stop:
             m = min(self.size, total - self.n)
@@ -359,7 +357,7 @@ class Blocks:
     def summary(self) -> dict:
         import pandas as pd
 
-        from robustness.summary import summarise
+        from robustness import summarise
 
         folder = self.store.table_path("samples", 0, "x").parent
         files = [folder / f"part-t{self.ti:04d}-b{b:04d}.parquet" for b in range(self.b)]
@@ -404,9 +402,7 @@ def margin_search(part, start, goal, cfg, key, model):
     (one-sided bound at the required confidence); None if none does."""
     import jax.numpy as jnp
 
-    from robustness.certificates import first_certifying
-    from robustness.evaluation import evaluate
-    from robustness.stats import one_sided_lower
+    from robustness import first_certifying, evaluate, one_sided_lower
     from sweeps.tasks import plan_task
 
     ms = cfg.margin_search

@@ -19,8 +19,8 @@ from typing import Literal, Optional, Union
 
 from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, model_validator
 
-from robustness.physics.settings import PhysicsSettings
-from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
+from robustness.physics import PhysicsSettings
+from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance
 from sweeps.plausible import wrap
 from sweeps.terminal import EFFORT_BOUNDS, angle_value
 
@@ -141,8 +141,7 @@ def _check_tripod(friction, part) -> None:
     import jax
     import numpy as np
 
-    from kernels import polygon as pg
-    from kernels.support import FOOT_INSET, tripod_fit
+    from kernels import polygon as pg, FOOT_INSET, tripod_fit
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -170,7 +169,7 @@ class Physics(Strict):
 
     @model_validator(mode="after")
     def _engine(self):
-        from robustness.physics.runner import check_contact_model
+        from robustness.physics import check_contact_model
 
         check_contact_model(self.backend, self.cell)
         return self
@@ -225,7 +224,7 @@ class Evaluation(Strict):
     @model_validator(mode="after")
     def _support_in_physics(self):
         if self.model == "mujoco" and self.friction.support == "points":
-            from robustness.physics.geometry import POINTS_NOT_REALISABLE
+            from robustness.physics import POINTS_NOT_REALISABLE
 
             raise ValueError(f"friction.{POINTS_NOT_REALISABLE}")
         return self

@@ -22,7 +22,7 @@ from typing import Optional
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from robustness.tables import to_arrow
+from robustness import to_arrow
 
 PACKAGES = ("jax", "jaxlib", "numpy", "pandas", "pyarrow", "scipy", "cvxpy", "sympy", "pydantic",
             "mujoco", "mujoco-mjx")

@@ -311,9 +311,9 @@ def check_geometry(part: PartFile) -> None:
     import warnings
 
     if part.kind == "polygon":
-        from kernels.polygon import make_polygon as make
+        from kernels import make_polygon as make
     else:
-        from kernels.polyhedron import make_polyhedron as make
+        from kernels import make_polyhedron as make
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:

@@ -203,8 +203,8 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
         return EXIT_INPUT
 
     # heavy imports (JAX) only after the cheap checks
-    from kernels.polygon import PartError
-    from planning.pushing.planner import PlanningError, plan_pose, prepare_part
+    from kernels import PartError
+    from planning import PlanningError, plan_pose, prepare_part
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -178,7 +178,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
         return EXIT_INPUT
 
     # heavy imports (JAX) only after the cheap checks
-    from kernels.polyhedron import make_polyhedron
+    from kernels import make_polyhedron
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -201,13 +201,13 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
         analysis = None
         try:
             if goal is not None:
-                from planning.tumbling.planner import plan_tumble
+                from planning import plan_tumble
                 plan = plan_tumble(part.vertices, goal, start=start, com=part.com, eps=eps,
                                    tau_v=tau_v, tau_g=tau_g, shorten=not args.no_shorten, **budget)
             if args.lattice or (args.development and plan is not None):
                 # the planner's own analysis (cached by plan_tumble: same part, tolerances
                 # and start face), so the figures show what the plan was built from
-                from planning.tumbling.planner import analyze_polyhedron
+                from planning import analyze_polyhedron
                 analysis = analyze_polyhedron(part.vertices, com=part.com, tau_v=tau_v,
                                               tau_g=tau_g, start_face=int(start[3]))
         except ValueError as exc:   # the planner's bad input (naming the field); a bug is exit 3

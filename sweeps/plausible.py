@@ -109,7 +109,7 @@ def wrap(theta: float) -> float:
     for bit), else wrapped (:func:`kernels.planar.wrap_angle_np`)."""
     if -math.pi < theta <= math.pi:
         return theta
-    from kernels.planar import wrap_angle_np
+    from kernels import wrap_angle_np
 
     return float(wrap_angle_np(theta))
 
@@ -118,7 +118,7 @@ def part_size(vertices) -> float:
     """The part's size (m): the largest distance between two of its vertices."""
     import numpy as np
 
-    from kernels.facets import extent
+    from kernels import extent
 
     return extent(np.asarray(vertices, dtype=np.float64))
 
@@ -127,7 +127,7 @@ def size(s: float) -> list[Finding]:
     """A part ``s`` metres across outside the sizes nudge expects: the kernels'
     own warning (:func:`kernels.errors.warn_implausible_size`), word for word
     (nothing for a part of no size, which the kernels refuse)."""
-    from kernels.errors import warn_implausible_size
+    from kernels import warn_implausible_size
 
     if not s > 0:
         return []

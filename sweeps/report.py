@@ -10,7 +10,7 @@ import pathlib
 
 import jinja2
 
-from robustness.models import model_for
+from robustness import model_for
 from sweeps.parquet import atomic_write
 
 TEMPLATE = jinja2.Template("""<!doctype html>

@@ -40,7 +40,7 @@ from typing import Annotated, Any, Literal, Optional, Union
 import numpy as np
 from pydantic import Discriminator, Field, StrictBool, Tag, model_validator
 
-from robustness.physics.settings import check_pad_friction
+from robustness.physics import check_pad_friction
 
 from sweeps import catalog
 from sweeps.config import (Angle, ConfigError, Evaluation, PartInline, Strict, Task, explicit_tasks,
@@ -249,7 +249,7 @@ def sample_tasks(s: GoalSampling, part, seed: int) -> list[tuple[str, tuple, tup
     rng = np.random.default_rng([int(seed), 0x7a5c])
     faces = None
     if kind == "polyhedron":
-        from kernels.polyhedron import make_polyhedron
+        from kernels import make_polyhedron
 
         n_faces = make_polyhedron(part.vertices, part.com).n_faces
         faces = s.faces if s.faces is not None else list(range(n_faces))

@@ -63,7 +63,7 @@ def plan_task(part, start, goal, planner: Planner, eps: Eps, caught: Optional[li
       PlanInputError: the planner rejected the part or a setting (its message
         names the field).
     """
-    from kernels.errors import PartError
+    from kernels import PartError
     from planning import PlanningError, plan_pose, plan_tumble
 
     with warnings.catch_warnings(record=True) as got:

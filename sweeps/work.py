@@ -28,8 +28,7 @@ from typing import Optional
 
 import pyarrow as pa
 
-from robustness import tables
-from robustness.models import model_for
+from robustness import tables, model_for
 
 CONTEXTS: dict = {}
 
@@ -234,7 +233,7 @@ def run_block(ctx: Context, unit: Unit) -> dict:
     import jax
     import jax.numpy as jnp
 
-    from robustness.evaluation import evaluate
+    from robustness import evaluate
 
     t0 = time.perf_counter()
     L = loaded(ctx)
@@ -279,7 +278,7 @@ def run_summary(ctx: Context, unit: Unit) -> dict:
     """Summarise a task's blocks (all finished) and write its summary row."""
     import pandas as pd
 
-    from robustness.summary import empty_summary, summarise
+    from robustness import empty_summary, summarise
 
     t0 = time.perf_counter()
     L = loaded(ctx)

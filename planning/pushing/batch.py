@@ -21,9 +21,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels.planar import wrap_angle
-from kernels.precision import float64
-from kernels.push import replay_pushes
+from kernels import wrap_angle, float64, replay_pushes
 from planning.pushing import batch_kernel as bk, planner as pp, sequences as sq, workspace as wsp
 from planning.pushing.part import ANG_TOL, PlanningError, PushPart, check_pose, prepare_part
 from planning.pushing.plan import Push, PushPlan

@@ -30,8 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg
-from kernels.planar import TWO_PI, mod_2pi, rot2, rot2_np, wrap_angle, wrap_angle_near
+from kernels import polygon as pg, TWO_PI, mod_2pi, rot2, rot2_np, wrap_angle, wrap_angle_near
 from planning.pushing import pose_lp, sequences as sq
 from planning.pushing.part import SAME_ORIENTATION, PushPart, guarded_start
 

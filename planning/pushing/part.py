@@ -31,9 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg
-from kernels import reorient as ro
-from kernels.precision import float64
+from kernels import polygon as pg, reorient as ro, float64
 
 POS_TOL = 1e-9   # x part size: a plan must reach the goal position this closely (replayed)
 ANG_TOL = 1e-9   # rad: and the goal orientation
@@ -291,7 +289,7 @@ def _prepare_cached(vkey: bytes, vshape, ckey, margin_deg: float, safety_factor:
         warnings.simplefilter("always", pg.PartWarning)
         poly = pg.make_polygon(vertices, com)
     if family in ("rigid", "uniform", "ring"):   # every c the family gives this part
-        from kernels.support import family_c_range
+        from kernels import family_c_range
 
         support_c = family_c_range(family, np.asarray(poly.body))
     if min_mu is not None and support_c is None:

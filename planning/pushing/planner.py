@@ -28,9 +28,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels.planar import angle_distance, wrap_angle_np
-from kernels.precision import float64
-from kernels.push import replay_pushes
+from kernels import angle_distance, wrap_angle_np, float64, replay_pushes
 from planning.pushing import pose_lp, sequences as sq, workspace as wsp
 from planning.pushing.part import (ANG_TOL, OBJECTIVES, SAME_ORIENTATION, PlanningError, PushPart,
                                    WorkspaceError, check_pose, prepare_part)

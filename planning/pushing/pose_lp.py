@@ -39,7 +39,7 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
-from kernels.planar import wrap_angle, wrap_angle_np
+from kernels import wrap_angle, wrap_angle_np
 
 # Length tolerances are relative to a length scale ``scale`` (m, the part's size):
 ZERO_TARGET = 1e-13  # x scale: a residual translation this small needs no push

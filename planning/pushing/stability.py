@@ -27,9 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg
-from kernels.precision import float64
-from kernels.push import replay_push
+from kernels import polygon as pg, float64, replay_push
 from planning.pushing.part import PushPart, prepare_part
 
 

@@ -33,7 +33,7 @@ from typing import Optional
 
 import numpy as np
 
-from kernels.planar import rot2_np
+from kernels import rot2_np
 from planning.pushing.part import PlanningError
 
 

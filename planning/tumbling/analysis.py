@@ -33,8 +33,7 @@ from typing import Optional
 import jax.numpy as jnp
 import numpy as np
 
-from kernels.polyhedron import Polyhedron, make_polyhedron
-from kernels.precision import float64
+from kernels import Polyhedron, make_polyhedron, float64
 from planning.tumbling.development import development, transit_paths
 from planning.tumbling.generator_lattice import generator_lattice
 from planning.tumbling.generators import translation_generators

@@ -23,7 +23,7 @@ import math
 import numpy as np
 from scipy.spatial import cKDTree
 
-from kernels.planar import wrap_angle_np
+from kernels import wrap_angle_np
 from planning.tumbling.effort import VECTOR_OPS
 from planning.tumbling.motions import Motion
 from planning.tumbling.walks import Walks

@@ -24,9 +24,7 @@ from typing import Mapping
 
 import numpy as np
 
-from kernels.planar import rot2_np, wrap_angle_np
-from kernels.polyhedron import Polyhedron
-from kernels.precision import float64
+from kernels import rot2_np, wrap_angle_np, Polyhedron, float64
 from planning.tumbling.motions import Motion, TumbleTable
 
 __all__ = ["transit_paths", "development", "development_poses", "face_footprint", "pose3"]
@@ -101,7 +99,7 @@ def development_poses(poly: Polyhedron, root: int = 0) -> tuple[dict, dict]:
     copy (metres, radians, root face frame), ``parent[f]`` the face it was
     unfolded from (``None`` for the root).  ValueError for a bad root.
     """
-    from kernels.tumble import make_config, tumble
+    from kernels import make_config, tumble
 
     root = int(root)
     if not 0 <= root < poly.n_faces:

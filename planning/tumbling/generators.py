@@ -24,7 +24,7 @@ from __future__ import annotations
 import cmath
 import math
 
-from kernels.planar import wrap_angle_np
+from kernels import wrap_angle_np
 from planning.tumbling.rotations import RotationGroup
 from planning.tumbling.words import WORD_CAP, concat, inverse, junction_cancel, purge
 

@@ -24,7 +24,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from kernels.polyhedron import Polyhedron
+from kernels import Polyhedron
 
 __all__ = ["GivenHull"]
 

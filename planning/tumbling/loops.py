@@ -27,7 +27,7 @@ from typing import Optional
 
 import numpy as np
 
-from kernels.planar import wrap_angle_np
+from kernels import wrap_angle_np
 from planning.tumbling.walks import Walks, akey
 from planning.tumbling.words import concat, inverse, junction_cancel, purge
 

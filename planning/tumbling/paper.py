@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Optional
 
-from kernels.planar import wrap_angle_np
+from kernels import wrap_angle_np
 from planning.lattice import closest_lattice_point
 from planning.tumbling.analysis import TumbleAnalysis
 from planning.tumbling.motions import Motion, compose, inverse_motion

@@ -15,7 +15,7 @@ import dataclasses
 import math
 from typing import Optional
 
-from kernels.planar import angle_distance
+from kernels import angle_distance
 
 VERDICTS = ("solved", "not_solvable", "budget_exhausted")
 REACHABLE_CLASSES = ("discrete", "dense", "dense_lines")

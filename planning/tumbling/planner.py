@@ -46,12 +46,8 @@ from typing import Optional
 import jax.numpy as jnp
 import numpy as np
 
-from kernels.errors import PartWarning
-from kernels.facets import merge_distance
-from kernels.planar import wrap_angle_np
-from kernels.polyhedron import DEFAULT_MERGE_TOL, make_polyhedron
-from kernels.precision import float64
-from kernels.tumble import make_config, replay
+from kernels import (PartWarning, merge_distance, wrap_angle_np, DEFAULT_MERGE_TOL,
+                     make_polyhedron, float64, make_config, replay)
 from planning.tumbling.analysis import TumbleAnalysis, build_analysis
 from planning.tumbling.effort import (DEFAULT_EFFORT, DEFAULT_TIME_LIMIT_S, VECTOR_OPS,
                                       BudgetExhausted, Effort)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from kernels.planar import wrap_angle_np
+from kernels import wrap_angle_np
 from planning.tumbling.effort import VECTOR_OPS
 from planning.tumbling.words import inverse, purge
 

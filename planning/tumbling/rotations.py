@@ -33,7 +33,7 @@ from typing import Optional
 
 import numpy as np
 
-from kernels.planar import wrap_angle_np
+from kernels import wrap_angle_np
 from planning.rationals import best_rational_within
 from planning.tumbling.angle_gcd import extended_gcd_coeffs, rotation_step
 from planning.tumbling.motions import Motion, compose, fixed_point, power_motion, rotation_about

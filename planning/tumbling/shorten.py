@@ -41,7 +41,7 @@ from typing import Optional
 
 import numpy as np
 
-from kernels.planar import wrap_angle_np
+from kernels import wrap_angle_np
 from planning.lattice import closest_lattice_point
 from planning.tumbling.cores import N_CORES, CoreIndex
 from planning.tumbling.effort import VECTOR_OPS, BudgetExhausted, Effort

@@ -10,9 +10,7 @@ import warnings
 
 import numpy as np
 
-from kernels.errors import PartWarning
-from kernels.polyhedron import Polyhedron, make_polyhedron
-from kernels.precision import float64
+from kernels import PartWarning, Polyhedron, make_polyhedron, float64
 
 __all__ = ["plan_trajectory", "sample_reached_positions", "quiet_polyhedron"]
 
@@ -41,7 +39,7 @@ def plan_trajectory(plan):
     """
     import jax.numpy as jnp
 
-    from kernels.tumble import make_config, replay_trajectory
+    from kernels import make_config, replay_trajectory
 
     poly = quiet_polyhedron(plan.vertices, plan.com, getattr(plan, "tau_v", 0.0))
     geom = poly.geometry()
@@ -76,7 +74,7 @@ def sample_reached_positions(poly: Polyhedron, root: int, radius: float, n_walks
     import jax
     import jax.numpy as jnp
 
-    from kernels.tumble import make_config, replay_trajectory
+    from kernels import make_config, replay_trajectory
 
     F = poly.n_faces
     sizes = [len(poly.neighbors(f)) for f in range(F)]

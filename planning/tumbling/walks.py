@@ -13,7 +13,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from kernels.planar import wrap_angle_np
+from kernels import wrap_angle_np
 from planning.tumbling.motions import TumbleTable
 
 TWO_PI = 2.0 * math.pi

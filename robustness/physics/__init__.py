@@ -6,7 +6,8 @@
   :func:`robustness.evaluation.evaluate`'s quasi-static and exact rows.
 * Two backends behind the ``backend`` argument: ``"c"`` (the C engine through
   ``mujoco.rollout``, threads) and ``"mjx"`` (MJX, float32, vmapped); ``"auto"``
-  picks MJX on an accelerator and the C engine on a CPU machine.
+  picks the C engine for the default contact model (noslip, which MJX cannot
+  run) and MJX on an accelerator for the soft one (``check_contact_model``).
 * :class:`PhysicsSettings`: the cell and engine settings, each with the
   number that justifies it.
 
@@ -18,6 +19,12 @@ from robustness.physics.runner import default_backend
 from robustness.physics.tumble import TUMBLE_FAILURE_MODES, rollout_tumble_plan
 from robustness.physics.settings import BACKENDS, STROKES, PhysicsRun, PhysicsSettings
 
+# used by the layers above (the one boundary: tests/test_layers.py)
+from robustness.physics.geometry import POINTS_NOT_REALISABLE
+from robustness.physics.runner import check_contact_model
+from robustness.physics.settings import check_pad_friction
+
 __all__ = ["rollout_push_plan", "rollout_tumble_plan", "PUSH_FAILURE_MODES",
            "TUMBLE_FAILURE_MODES", "PhysicsSettings", "PhysicsRun", "BACKENDS", "STROKES",
-           "default_backend"]
+           "default_backend", "POINTS_NOT_REALISABLE", "check_contact_model",
+           "check_pad_friction"]

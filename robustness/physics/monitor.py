@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from kernels.planar import wrap_angle_np
+from kernels import wrap_angle_np
 
 
 def quat_to_mat(q: np.ndarray) -> np.ndarray:

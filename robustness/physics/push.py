@@ -17,10 +17,8 @@ from typing import Optional
 
 import numpy as np
 
-from kernels.planar import wrap_angle_np
-from kernels.support import FAMILIES
-from robustness.physics import geometry as geo
-from robustness.physics import scene
+from kernels import wrap_angle_np, FAMILIES
+from robustness.physics import geometry as geo, scene
 from robustness.physics.monitor import Recorder, flush_edge, planar_pose, yaw_quat
 from robustness.physics.pushing import FenceStrokes, PushTracker, nominal_polygon, push_parts
 from robustness.physics.runner import check_batch, make_engine, resolve_backend, run_schedule

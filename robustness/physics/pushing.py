@@ -29,9 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg
-from kernels.hulls import polygon_hull_changed
-from kernels.planar import rot2_np
+from kernels import polygon as pg, polygon_hull_changed, rot2_np
 from robustness.physics import geometry as geo
 from robustness.physics.monitor import fence_frame, vertices_world
 from robustness.physics.schedule import Phase, Schedule, steps_for, transit_steps, unwrap_near

@@ -178,7 +178,7 @@ class PhysicsSettings:
     batch: int = 256
 
     def __post_init__(self):
-        from kernels.support import FOOT_INSET
+        from kernels import FOOT_INSET
 
         for f in dataclasses.fields(self):
             if f.name in ("noslip_iterations", "iterations", "ls_iterations", "threads"):

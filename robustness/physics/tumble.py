@@ -16,10 +16,8 @@ from typing import Optional
 
 import numpy as np
 
-from kernels.planar import wrap_angle_np
-from robustness.physics import geometry as geo
-from robustness.physics import scene
-from robustness.physics import tumbling as tb
+from kernels import wrap_angle_np
+from robustness.physics import geometry as geo, scene, tumbling as tb
 from robustness.physics.monitor import Recorder, mat_to_quat
 from robustness.physics.runner import check_batch, make_engine, resolve_backend, run_schedule
 from robustness.physics.settings import PhysicsSettings

@@ -57,7 +57,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels.planar import rot2_np
+from kernels import rot2_np
 from robustness.physics import geometry as geo
 from robustness.physics.monitor import mat_to_quat, quat_to_mat
 from robustness.physics.scene import PLATE_HALF_THICKNESS, Jaw
@@ -91,7 +91,7 @@ def face_pose(origin: np.ndarray, rot: np.ndarray, config) -> tuple:
 
 def nominal_polyhedron(plan):
     """The plan's part as a :class:`kernels.polyhedron.Polyhedron`."""
-    from kernels.polyhedron import PartWarning, make_polyhedron
+    from kernels import PartWarning, make_polyhedron
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PartWarning)
@@ -131,7 +131,7 @@ def tumble_parts(plan, poly, params, in_axes, n: int, merge_factor: float = 8.0,
     """Per-sample polyhedra of ``n`` drawn perturbations (the semantics of
     :func:`robustness.replay.run_tumble`); ``tau_v`` (m) sets the
     combinatorics check's tolerance (default the largest sampled offset)."""
-    from kernels.tumble_geometry import tumble_geometry
+    from kernels import tumble_geometry
     from robustness.hulls import face_merge_tol, polyhedron_combinatorics_changed
 
     p = jax.tree_util.tree_map(lambda x: np.asarray(x, np.float64), broadcast(params, in_axes, n))
@@ -176,7 +176,7 @@ def start_pose(parts: TumbleParts, poly, face: int, i: int) -> tuple:
 
 def nominal_configs(plan, poly) -> np.ndarray:
     """(L + 1, 4) planned configurations before each tumble and at the end."""
-    from kernels.tumble import make_config, replay_trajectory
+    from kernels import make_config, replay_trajectory
 
     with jax.enable_x64(True):
         start = make_config(*plan.start[:3], int(plan.start[3]), dtype=jnp.float64)

@@ -7,8 +7,7 @@ import math
 
 import numpy as np
 
-from planning import PushPart, PushPlan
-from planning.pushing.stability import PushStability
+from planning import PushPart, PushPlan, PushStability
 
 
 def mark_steps(bx, plan: PushPlan, part: PushPart, data: PushStability, stable) -> None:

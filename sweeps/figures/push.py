@@ -26,11 +26,9 @@ import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch, Polygon as PolyPatch  # noqa: E402
 
-from kernels import polygon as pg  # noqa: E402
-from kernels.planar import rot2_np  # noqa: E402
+from kernels import polygon as pg, rot2_np
 from planning import PushPart, PushPlan, prepare_part  # noqa: E402
-from planning.pushing import stability  # noqa: E402
-from planning.pushing.stability import PushStability  # noqa: E402
+from planning import stability, PushStability
 from sweeps.figures.plan_steps import mark_steps  # noqa: E402
 
 START_COLOR = "tab:blue"

@@ -20,8 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from robustness.stats import clopper_pearson  # noqa: E402
-from robustness.tables import FAILURE_MODES  # noqa: E402
+from robustness import clopper_pearson, FAILURE_MODES
 
 MODE_COLORS = dict(zip(FAILURE_MODES[1:], ("tab:orange", "tab:red", "tab:purple", "tab:brown",
                                             "tab:pink", "tab:olive", "tab:cyan", "tab:gray")))

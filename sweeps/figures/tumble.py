@@ -36,13 +36,10 @@ from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import FancyArrowPatch, Patch, Polygon as PolyPatch  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
-from kernels.planar import rot2_np  # noqa: E402
-from kernels.polyhedron import Polyhedron  # noqa: E402
-from planning.tumbling.development import development_poses, face_footprint, pose3  # noqa: E402
-from planning.tumbling.reachability import (lattice_count_bound, radius_for_count,  # noqa: E402
-                                            reduced_basis)
-from planning.tumbling.trajectory import (plan_trajectory, quiet_polyhedron,  # noqa: E402
-                                          sample_reached_positions)
+from kernels import rot2_np, Polyhedron
+from planning import (development_poses, face_footprint, pose3, lattice_count_bound,
+                      radius_for_count, reduced_basis, plan_trajectory, quiet_polyhedron,
+                      sample_reached_positions)
 
 START_COLOR = "tab:blue"
 GOAL_COLOR = "tab:green"

@@ -1,0 +1,76 @@
+"""The layers' boundaries (mjx's rule: a curated ``__init__`` over the
+internals).  Layers import one way, ``sweeps -> robustness -> planning ->
+kernels``; a module of one layer imports another layer only through that
+layer's ``__init__`` (``kernels``, ``planning``, ``robustness``, or the
+``robustness.physics`` sub-package that keeps MuJoCo out of ``import
+robustness``), and only names its ``__all__`` lists."""
+import ast
+import importlib
+import pathlib
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+LAYERS = ("kernels", "planning", "robustness", "sweeps")
+BOUNDARIES = ("kernels", "planning", "robustness", "robustness.physics")
+
+
+def _imports(layer):
+    for path in sorted((ROOT / layer).rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                yield path, node.lineno, node.module, [a.name for a in node.names]
+            elif isinstance(node, ast.Import):
+                for a in node.names:
+                    yield path, node.lineno, a.name, None
+
+
+def _where(path, line):
+    return f"{path.relative_to(ROOT)}:{line}"
+
+
+@pytest.mark.parametrize("layer", LAYERS)
+def test_layers_import_one_way(layer):
+    below = LAYERS[:LAYERS.index(layer)]
+    bad = [f"{_where(p, ln)} imports {mod}" for p, ln, mod, _ in _imports(layer)
+           if mod.split(".")[0] in LAYERS and mod.split(".")[0] not in below + (layer,)]
+    assert not bad, "a lower layer imports a higher one:\n" + "\n".join(bad)
+
+
+@pytest.mark.parametrize("layer", LAYERS)
+def test_other_layers_only_through_their_init(layer):
+    bad = []
+    for p, ln, mod, names in _imports(layer):
+        top = mod.split(".")[0]
+        if top not in LAYERS or top == layer:
+            continue
+        if mod not in BOUNDARIES:
+            bad.append(f"{_where(p, ln)}: {mod} is another layer's internals "
+                       f"(import from {'robustness.physics' if mod.startswith('robustness.physics') else top})")
+            continue
+        public = set(importlib.import_module(mod).__all__)
+        bad += [f"{_where(p, ln)}: {mod}.{n} is not in {mod}.__all__" for n in names or ()
+                if n not in public]
+    assert not bad, "\n".join(bad)
+
+
+def test_the_check_finds_an_internal_import(tmp_path, monkeypatch):
+    """The test above can fail: an import of kernels.planar from a planning
+    module is reported."""
+    fake = tmp_path / "planning"
+    fake.mkdir()
+    (fake / "x.py").write_text("from kernels.planar import wrap_angle_np\nfrom kernels import rot2\n")
+    import sys
+
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    found = [(mod, names) for _, _, mod, names in _imports("planning")]
+    assert ("kernels.planar", ["wrap_angle_np"]) in found
+    with pytest.raises(AssertionError, match="kernels.planar is another layer's internals"):
+        test_other_layers_only_through_their_init("planning")
+
+
+@pytest.mark.parametrize("package", BOUNDARIES)
+def test_every_exported_name_exists(package):
+    mod = importlib.import_module(package)
+    missing = [n for n in mod.__all__ if not hasattr(mod, n)]
+    assert not missing and len(set(mod.__all__)) == len(mod.__all__), missing
