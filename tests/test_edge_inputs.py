@@ -142,7 +142,7 @@ def _raise(exc):
 @pytest.mark.parametrize("exc", [ZeroDivisionError("boom"), TypeError("boom"),
                                  ArithmeticError("boom")])
 def test_a_bug_in_the_tumble_planner_is_an_internal_error(monkeypatch, exc):
-    import planning.tumbling.planner as tp
+    import planning as tp   # the door the command uses (tests/test_layers.py)
 
     monkeypatch.setattr(tp, "plan_tumble", _raise(exc))
     rc, _, err = call(plan_tumble.main, *CUBE)
@@ -152,7 +152,7 @@ def test_a_bug_in_the_tumble_planner_is_an_internal_error(monkeypatch, exc):
 
 
 def test_a_bug_in_plan_push_is_an_internal_error(monkeypatch, tmp_path):
-    import planning.pushing.planner as pp
+    import planning as pp   # the door the command uses (tests/test_layers.py)
     from sweeps.figures import push as push_plots
 
     # an ImportError is the solver's only with --solver cvxpy

@@ -119,7 +119,7 @@ def test_negative_pose_values_are_joined():
 
 
 def test_planning_error_exits_1(monkeypatch, capsys):
-    from planning.pushing import planner as pose_planner
+    import planning as pose_planner   # the door the command uses
     from sweeps import plan_push as push
 
     def fail(*a, **k):
