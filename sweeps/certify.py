@@ -62,11 +62,11 @@ from typing import Literal, Optional, Union
 from pydantic import Field, StrictBool, field_validator
 
 from robustness import model_for
+from sweeps.errors import Exit
 from sweeps.config import (ConfigError, Evaluation, PartInline, Strict, Task, explicit_tasks,
                           validate)
 from sweeps.terminal import Parser, fail, report_warnings, run_main
 
-EXIT_OK, EXIT_NOT_CERTIFIED, EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 MAX_SAMPLES = 100_000
 
 
@@ -195,14 +195,14 @@ def main(argv=None, prog: str = "nudge certify") -> int:
     except ConfigError as exc:
         for line in exc.lines:
             fail(line)
-        return EXIT_INPUT
+        return Exit.INPUT
     run_id = "r" + hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:10]
     out = pathlib.Path(args.out) if args.out else pathlib.Path("results") / f"certify-{path.stem}" / run_id
     try:
         code, certs = run(cfg, text, part, tasks, out, run_id, quiet=args.quiet)
     except (ConfigError, RunError) as exc:
         return fail(str(exc))
-    if code == EXIT_INTERRUPTED:
+    if code == Exit.INTERRUPTED:
         return code
     sys.stdout.write(format_table(certs) + "\n")
     sys.stdout.write(f"results: {out}\n")
@@ -227,7 +227,7 @@ def run(cfg: CertifyConfig, text: str, part, tasks, out: pathlib.Path, run_id: s
             if flag.stop:
                 sys.stderr.write(f"stopped: finished chunks are kept; run the same command again "
                                  f"to resume (results so far: {out})\n")
-                return EXIT_INTERRUPTED, certs
+                return Exit.INTERRUPTED, certs
             key = f"t{ti:04d}-certificate"
             if key in done:
                 row = store.read("certificates", 0)
@@ -243,7 +243,7 @@ def run(cfg: CertifyConfig, text: str, part, tasks, out: pathlib.Path, run_id: s
             path = store.write("certificates", 0, f"t{ti:04d}", tables.frame([row], schema), schema)
             store.mark_done(key, [path])
             certs.append(row)
-    status = EXIT_OK if all(c["verdict"] == "certified" for c in certs) else EXIT_NOT_CERTIFIED
+    status = Exit.OK if all(c["verdict"] == "certified" for c in certs) else Exit.NEGATIVE
     return status, certs
 
 

@@ -20,7 +20,8 @@ from __future__ import annotations
 import sys
 from typing import Optional, Sequence
 
-from sweeps.terminal import EXIT_INPUT, run_main
+from sweeps.errors import Exit
+from sweeps.terminal import run_main
 
 COMMANDS = {
     "plan-push": ("sweeps.plan_push", "plan normal fence pushes for a polygonal part (Akella & Mason)"),
@@ -83,12 +84,12 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help", "help"):
         sys.stdout.write(_help() + "\n")
-        return 0 if argv else EXIT_INPUT
+        return 0 if argv else Exit.INPUT
     cmd, rest = argv[0], argv[1:]
     if cmd not in COMMANDS:
         sys.stderr.write(f"error: unknown command {cmd!r}; commands: {', '.join(COMMANDS)} "
                          "(see nudge --help)\n")
-        return EXIT_INPUT
+        return Exit.INPUT
     module, _ = COMMANDS[cmd]
     if module is None:
         if rest and rest[0] in ("-h", "--help"):

@@ -21,11 +21,12 @@ from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, m
 
 from robustness.physics import PhysicsSettings
 from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance
+from sweeps.errors import UserError
 from sweeps.plausible import wrap
 from sweeps.terminal import EFFORT_BOUNDS, angle_value
 
 
-class ConfigError(ValueError):
+class ConfigError(UserError):
     """A config that cannot be used.  ``lines`` holds one message per mistake
     (each names the field and the fix); ``str()`` is the first."""
 

@@ -26,6 +26,7 @@ from typing import Literal, Optional, Union
 import numpy as np
 from pydantic import BaseModel, ConfigDict, StrictFloat, StrictInt, ValidationError
 
+from sweeps.errors import UserError
 from sweeps.yamlio import YamlError, read_yaml
 
 KINDS = ("polygon", "polyhedron")
@@ -35,7 +36,7 @@ MIN_VERTICES = {"polygon": 3, "polyhedron": 4}
 Number = Union[StrictInt, StrictFloat]
 
 
-class PartFileError(ValueError):
+class PartFileError(UserError):
     """A part file that cannot be read; the one-line message names the file and the field."""
 
 

@@ -44,11 +44,11 @@ import sys
 import warnings
 from typing import Optional, Sequence
 
+from sweeps.errors import Exit
 from sweeps.terminal import (EFFORT_BOUNDS, InputError, Parser, check_figure_path, fail,
                              join_negative_values, load_part_of_kind, report_warnings)
 from sweeps.terminal import parse_pose as _parse_pose
 
-EXIT_OK, EXIT_PLANNING, EXIT_INPUT = 0, 1, 2
 
 
 def parse_pose(text: str, field: str) -> tuple[float, float, float]:
@@ -200,7 +200,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
                                  frictions={"--min-fence-mu": args.min_fence_mu},
                                  limit_surface={"--support-c": args.support_c})
     if shown is None:   # an implausible value (sweeps.plausible): refused before any work
-        return EXIT_INPUT
+        return Exit.INPUT
 
     # heavy imports (JAX) only after the cheap checks
     from kernels import PartError
@@ -226,7 +226,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
             return fail(f"{part.path}: {exc}")
         except PlanningError as exc:
             report_warnings(caught)
-            return fail(str(exc), EXIT_PLANNING)
+            return fail(str(exc), Exit.NEGATIVE)
         except ValueError as exc:
             report_warnings(caught)
             return fail(_flag_names(str(exc)))
@@ -252,7 +252,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
 def _write_figures(args, part, plan, prepared) -> int:
     """``--plot`` and ``--psd`` (the PSD marks the plan's reorient steps); the exit status."""
     if not (args.plot or args.psd):
-        return EXIT_OK
+        return Exit.OK
     from sweeps.figures import push as push_plots
     for flag, path in (("--plot", args.plot), ("--psd", args.psd)):
         if not path:
@@ -265,4 +265,4 @@ def _write_figures(args, part, plan, prepared) -> int:
         except OSError as exc:
             return fail(f"{flag}: cannot write {path} ({exc.strerror or exc})")
         sys.stderr.write(f"wrote {path}\n")
-    return EXIT_OK
+    return Exit.OK

@@ -39,10 +39,10 @@ import warnings
 from fractions import Fraction
 from typing import Optional, Sequence
 
+from sweeps.errors import Exit
 from sweeps.terminal import (InputError, Parser, check_figure_path, fail, join_negative_values,
                              load_part_of_kind, parse_pose, report_warnings)
 
-EXIT_OK, EXIT_NOT_SOLVABLE, EXIT_INPUT = 0, 1, 2
 
 
 def parse_config(text: str, field: str) -> tuple[float, float, float, int]:
@@ -175,7 +175,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
     shown = plausible.screen_cli(part, poses={"--start": args.start, "--goal": args.goal},
                                  lengths={"--eps": eps, "--tau-v": tau_v})
     if shown is None:   # an implausible value (sweeps.plausible): refused before any work
-        return EXIT_INPUT
+        return Exit.INPUT
 
     # heavy imports (JAX) only after the cheap checks
     from kernels import make_polyhedron
@@ -215,14 +215,14 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
             return fail(str(exc))
     report_warnings(caught)
 
-    code = EXIT_OK
+    code = Exit.OK
     if plan is not None:
         if args.json:
             sys.stdout.write(json.dumps(plan.to_dict(), indent=2, default=_json_default) + "\n")
         else:
             sys.stdout.write(f"{part.name}: {part.path}\n{plan.summary()}\n")
         if plan.verdict != "solved":
-            code = EXIT_NOT_SOLVABLE
+            code = Exit.NEGATIVE
             what = ("effort budget exhausted (raise --effort or --time-limit)"
                     if plan.verdict == "budget_exhausted" else "not solvable")
             sys.stderr.write(f"{what}: {' '.join(str(plan.reason).split())}\n")

@@ -33,9 +33,9 @@ import pathlib
 import sys
 from typing import Optional, Sequence
 
-from sweeps.terminal import EXIT_INPUT, Parser, fail, run_main
+from sweeps.errors import Exit
+from sweeps.terminal import Parser, fail, run_main
 
-EXIT_OK, EXIT_INTERRUPTED = 0, 130
 
 #: Rough throughput on 2 CPU cores (samples/s, float64) for --dry-run's estimate.
 RATES = {"exact": 20_000.0, "quasistatic": 4_000.0, "tumble": 20_000.0}
@@ -76,12 +76,12 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "python -m sweeps.run
     except ConfigError as exc:
         for line in exc.lines:
             fail(line)
-        return EXIT_INPUT
+        return Exit.INPUT
     for line in design.warnings:   # implausible values (sweeps.plausible): shown even with --quiet
         sys.stderr.write(f"warning: {line}\n")
     if args.dry_run:
         sys.stdout.write(describe_design(design, out, spec) + "\n")
-        return EXIT_OK
+        return Exit.OK
     from sweeps.executors import ExecutorError, check_scheduler
     from sweeps.store import RunError
     from sweeps.tasks import PlanInputError
@@ -197,7 +197,7 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
                          f"{msgs[0]} (see the summary table's bound columns)\n")
     if stopped:
         sys.stderr.write(f"stopped: finished chunks are kept; {resume}\n")
-        return EXIT_INTERRUPTED
+        return Exit.INTERRUPTED
     if report and design.top.report:
         from sweeps.report import write_report
 
@@ -206,7 +206,7 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
     if not quiet:
         sys.stdout.write(summary_table(store, design) + "\n")
     sys.stdout.write(f"results: {out}\n")
-    return EXIT_OK
+    return Exit.OK
 
 
 def _is_finding(message: str) -> bool:

@@ -26,13 +26,14 @@ from typing import Iterable, Optional
 import pandas as pd
 import pyarrow as pa
 
+from sweeps.errors import UserError
 from sweeps.parquet import atomic_write, git_commit, write_table
 
 MANIFEST = "manifest.json"
 LOG = "chunks.jsonl"
 
 
-class RunError(ValueError):
+class RunError(UserError):
     """A run folder that cannot be used for this run (one line: what and the fix)."""
 
 

@@ -12,10 +12,11 @@ import math
 import warnings
 from typing import Optional
 
+from sweeps.errors import UserError
 from sweeps.config import Eps, Planner
 
 
-class PlanInputError(ValueError):
+class PlanInputError(UserError):
     """The planner rejected its input (a bad part or setting): a config error, not 'no plan'."""
 
 

@@ -16,7 +16,7 @@ import re
 import sys
 from typing import Callable, Iterable, Sequence
 
-EXIT_INPUT, EXIT_INTERNAL = 2, 3
+from sweeps.errors import Exit, UserError
 
 #: The push search's effort settings (``planning.plan_pose``'s ``max_reorients`` and
 #: ``extra_steps``) that the command line and configs accept: ``(low, high)``.  The
@@ -29,7 +29,7 @@ ANGLE = re.compile(rf"^\s*({NUMBER})\s*(deg|rad)?\s*$")
 FACE = re.compile(r"^[Ff]?(\d+)$")
 
 
-class InputError(ValueError):
+class InputError(UserError):
     """Bad command-line input (exit status 2)."""
 
 
@@ -38,7 +38,7 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message):
         sys.stderr.write(f"error: {message} (see --help)\n")
-        sys.exit(EXIT_INPUT)
+        sys.exit(Exit.INPUT)
 
 
 def angle_value(text: str) -> float | None:
@@ -126,7 +126,7 @@ def check_figure_path(path: str, flag: str) -> None:
                          "ending in .png, .pdf or .svg")
 
 
-def fail(message: str, code: int = EXIT_INPUT) -> int:
+def fail(message: str, code: int = Exit.INPUT) -> int:
     """Write ``error: <message>`` as one line on stderr; return ``code``."""
     sys.stderr.write(f"error: {' '.join(str(message).split())}\n")
     return code
@@ -143,19 +143,24 @@ def report_warnings(caught) -> None:
 
 
 def run_main(main: Callable[[], int]) -> None:
-    """``sys.exit(main())``; an unexpected exception becomes one ``error:`` line
-    and exit status 3 (``NUDGE_DEBUG=1`` re-raises it for the traceback)."""
+    """``sys.exit(main())``; a :class:`~sweeps.errors.UserError` that reaches it
+    is one ``error:`` line and exit status 2, any other exception one line and
+    exit status 3 (``NUDGE_DEBUG=1`` re-raises it for the traceback)."""
     try:
         sys.exit(main())
     except KeyboardInterrupt:
-        sys.exit(130)
+        sys.exit(Exit.INTERRUPTED)
+    except UserError as exc:
+        if os.environ.get("NUDGE_DEBUG"):
+            raise
+        sys.exit(fail(str(exc)))
     except Exception as exc:  # noqa: BLE001 - a CLI reports, it does not dump a traceback
         if os.environ.get("NUDGE_DEBUG"):
             raise
         sys.stderr.write(f"error: internal error ({type(exc).__name__}: "
                          f"{' '.join(str(exc).split())}); rerun with NUDGE_DEBUG=1 for the "
                          "traceback\n")
-        sys.exit(EXIT_INTERNAL)
+        sys.exit(Exit.INTERNAL)
 
 
 def load_part_of_kind(path, kind: str, other_tool: str):

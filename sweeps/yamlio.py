@@ -17,8 +17,10 @@ from typing import Union
 
 import yaml
 
+from sweeps.errors import UserError
 
-class YamlError(ValueError):
+
+class YamlError(UserError):
     """A YAML file that cannot be read; the one-line message names the file and where."""
 
 

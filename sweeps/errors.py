@@ -1,0 +1,29 @@
+"""What the edge answers with: one error type for bad input and one table of
+exit statuses, shared by every command (``nudge``, ``python -m sweeps.run``).
+
+Bad input is a :class:`UserError` (or one of the edge's named subclasses:
+``InputError``, ``ConfigError``, ``YamlError``, ``PartFileError``, ``RunError``,
+``PlanInputError``): one ``error: ...`` line naming the field and the fix,
+before any work, and exit status :attr:`Exit.INPUT`.
+"""
+from __future__ import annotations
+
+import enum
+
+
+class Exit(enum.IntEnum):
+    """Exit statuses of every command (the README's table)."""
+
+    OK = 0            #: the command did what was asked (a plan, solved, every task certified, a run)
+    NEGATIVE = 1      #: a valid answer that is no: no plan, not solvable, some task not certified
+    INPUT = 2         #: bad input, reported before any work
+    INTERNAL = 3      #: a bug: one line, ``NUDGE_DEBUG=1`` for the traceback
+    INTERRUPTED = 130  #: Ctrl-C; finished chunks are kept and a rerun resumes
+
+
+class UserError(ValueError):
+    """Bad input at the edge (exit status 2); the message names the field and
+    the fix."""
+
+
+__all__ = ["Exit", "UserError"]
