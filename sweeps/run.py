@@ -180,10 +180,10 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
                     break
                 for unit, rec in ex.run(fn, ctx, units):
                     store.mark_done(rec["key"], rec["files"], rows=rec["rows"])
+                    for kind, line in rec.get("findings", ()):
+                        findings.setdefault(kind, []).append(line)
                     for w in rec.get("warnings", ()):
-                        if _is_finding(w):
-                            findings.setdefault(_finding_kind(w), []).append(w)
-                        elif w not in warned:
+                        if w not in warned:
                             warned.add(w)
                             bar.note(f"warning: {w}")
                     bar.advance(unit.samples)
@@ -207,15 +207,6 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
         sys.stdout.write(summary_table(store, design) + "\n")
     sys.stdout.write(f"results: {out}\n")
     return Exit.OK
-
-
-def _is_finding(message: str) -> bool:
-    """A bound exceeded by a Monte-Carlo sample (robustness.evaluation.BoundViolation)."""
-    return "BOUND VIOLATED" in message
-
-
-def _finding_kind(message: str) -> str:
-    return message.split(" (", 1)[0].lower()
 
 
 def _say(quiet: bool, text: str) -> None:

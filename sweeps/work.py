@@ -210,9 +210,14 @@ def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:
 
 def _recording(fn):
     """Run a unit with its warnings recorded (returned in the record's
-    ``warnings``, one line each) instead of printed by the worker."""
+    ``warnings``, one line each) instead of printed by the worker.  A
+    :class:`~robustness.BoundViolation` is not a warning: the summary row's
+    ``bound_violated`` / ``paper_bound_violated`` columns carry it (the
+    record's ``findings``)."""
     import functools
     import warnings
+
+    from robustness import BoundViolation
 
     @functools.wraps(fn)
     def wrapper(ctx, unit):
@@ -220,7 +225,8 @@ def _recording(fn):
             warnings.simplefilter("always")
             rec = fn(ctx, unit)
         lines = list(rec.get("warnings", ()))
-        lines += [" ".join(str(w.message).split()) for w in caught]
+        lines += [" ".join(str(w.message).split()) for w in caught
+                  if not issubclass(w.category, BoundViolation)]
         rec["warnings"] = list(dict.fromkeys(lines))
         return rec
 
@@ -303,7 +309,28 @@ def run_summary(ctx: Context, unit: Unit) -> dict:
     path = store.write("summary", unit.config_id, f"t{unit.task_index:04d}",
                        tables.frame([row], schema), schema)
     return {"key": unit.key, "files": [path], "rows": 1, "seconds": time.perf_counter() - t0,
-            "success_rate": _finite(s.get("success_rate")), "n": int(s.get("n", 0))}
+            "success_rate": _finite(s.get("success_rate")), "n": int(s.get("n", 0)),
+            "findings": findings(s)}
+
+
+#: The summary's finding columns: ``(column, kind, the bound's columns)``.
+FINDINGS = (("bound_violated", "bound violated", ("bound_position_m", "bound_theta_rad")),
+            ("paper_bound_violated", "paper bound violated",
+             ("paper_bound_position_m", "paper_bound_theta_rad")))
+
+
+def findings(s: dict) -> list:
+    """``[(kind, one line)]`` of a summary row's findings, read from its columns
+    (a bound the Monte-Carlo maximum inside the bound's model exceeds)."""
+    out = []
+    for col, kind, (bp, bt) in FINDINGS:
+        if s.get(col):
+            out.append((kind, f"task {s['task']!r}: the Monte-Carlo maximum "
+                              f"{s['emp_max_pos_in_model_m']:.6g} m / "
+                              f"{s['emp_max_theta_in_model_rad']:.6g} rad over "
+                              f"{s['n_in_bound_model']} samples inside the bound's model, bound "
+                              f"{s[bp]:.6g} m / {s[bt]:.6g} rad"))
+    return out
 
 
 def _finite(x) -> Optional[float]:

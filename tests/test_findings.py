@@ -1,0 +1,37 @@
+"""A bound the Monte Carlo exceeds is a finding read from the summary table's
+columns (``bound_violated``), not matched in warning text, and it is reported
+once per kind, not as a warning per task."""
+import pandas as pd
+
+from tests.test_sweep import TINY
+
+
+def test_a_bound_violation_is_a_finding_read_from_the_summary(tmp_path, monkeypatch, capsys):
+    from robustness import summary
+    from sweeps import run
+
+    monkeypatch.delenv("NUDGE_DEBUG", raising=False)
+    monkeypatch.setattr(summary, "analytic_bound",
+                        lambda plan, sampler, kind: {"position_m": 1e-12, "theta_rad": 1e-12})
+    p = tmp_path / "tiny.yaml"
+    p.write_text(TINY.replace("samples: 24", "samples: 8"))
+    code = run.main([str(p), "--out", str(tmp_path / "out"), "--quiet"])
+    err = capsys.readouterr().err
+    s = pd.read_parquet(tmp_path / "out" / "summary")
+    assert code == 0 and s["bound_violated"].all() and len(s) == 4
+    lines = [ln for ln in err.splitlines() if ln.startswith("finding:")]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("finding: bound violated in 4 (configuration, task) pair(s), e.g. "
+                               "task 'a': the Monte-Carlo maximum")
+    assert "bound 1e-12 m / 1e-12 rad" in lines[0]
+    assert "BOUND VIOLATED" not in err and "warning:" not in err
+
+
+def test_no_finding_without_a_violation(tmp_path, capsys):
+    from sweeps import run
+
+    p = tmp_path / "tiny.yaml"
+    p.write_text(TINY.replace("samples: 24", "samples: 8"))
+    assert run.main([str(p), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    assert "finding:" not in capsys.readouterr().err
+    assert not pd.read_parquet(tmp_path / "out" / "summary")["bound_violated"].fillna(False).any()
