@@ -13,6 +13,7 @@ every returned plan has been replayed by the exact kinematics of
 :mod:`kernels`.  Units: metres, radians, CCW positive.
 """
 from planning.pushing.batch import PushPlanBatch, plan_pose_batch
+from planning.pushing.options import PushOptions
 from planning.pushing.part import PlanningError, PushPart, WorkspaceError, prepare_part
 from planning.pushing.plan import Push, PushPlan
 from planning.pushing.planner import plan_pose
@@ -29,7 +30,7 @@ from planning.tumbling.reachability import lattice_count_bound, radius_for_count
 from planning.tumbling.trajectory import plan_trajectory, quiet_polyhedron, sample_reached_positions
 
 __all__ = [
-    "plan_pose", "plan_pose_batch", "prepare_part", "PushPart", "PushPlanBatch", "Push",
+    "plan_pose", "plan_pose_batch", "PushOptions", "prepare_part", "PushPart", "PushPlanBatch", "Push",
     "PushPlan", "PlanningError", "WorkspaceError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
     "Tumble", "TumblePlan",
     "stability", "PushStability", "development_poses", "face_footprint", "lattice_count_bound",

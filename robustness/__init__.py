@@ -24,7 +24,8 @@ from robustness.evaluation import MODELS, BoundViolation, Evaluation, evaluate
 from robustness.samplers import PerturbationParams, Sampler
 from robustness.stats import clopper_pearson, one_sided_lower, one_sided_upper
 from robustness.summary import summarise
-from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
+from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTolerance,
+                                   SuccessCriterion)
 
 # used by the layers above (the one boundary: tests/test_layers.py)
 from robustness import tables  # noqa: F401  (modules other layers use)
@@ -35,7 +36,7 @@ from robustness.summary import empty_summary
 from robustness.tables import FAILURE_MODES, to_arrow
 
 __all__ = [
-    "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "Sampler", "PerturbationParams",
+    "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Sampler", "PerturbationParams",
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
     "one_sided_upper", "certify", "Certificate", "summarise",

@@ -119,10 +119,11 @@ from robustness.replay import edge_pairs, push_nominal, run_push, run_tumble, tu
 from robustness.samplers import Sampler, parameter_columns
 from robustness.summary import summarise
 from robustness.summary import BoundViolation
+from robustness.tolerances import SuccessCriterion
 
-DEFAULT_POS_EPS = 1e-3      # m
-DEFAULT_THETA_EPS = math.radians(1.0)  # rad
-SLIP_FRACTION = 0.25
+DEFAULT_POS_EPS = SuccessCriterion.pos_eps_m          # m
+DEFAULT_THETA_EPS = SuccessCriterion.theta_eps_rad    # rad
+SLIP_FRACTION = SuccessCriterion.slip_fraction
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

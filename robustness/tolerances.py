@@ -175,3 +175,17 @@ class ExecutionTolerance:
                 check_nonneg(self, f.name)
         if self.distribution not in DISTRIBUTIONS:
             raise ValueError(f"distribution: expected one of {DISTRIBUTIONS}, got {self.distribution!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class SuccessCriterion:
+    """When a sample succeeds: its final pose within ``pos_eps_m`` (m) and
+    ``theta_eps_rad`` (rad) of the goal; a push sample whose fence slip reaches
+    ``slip_fraction`` of ``pos_eps_m`` is classed ``slip`` when it fails.  The
+    defaults' one home (:func:`robustness.evaluate`, the MuJoCo rollouts and a
+    study's ``eps:`` read them from here)."""
+
+    pos_eps_m: float = 1e-3
+    theta_eps_rad: float = math.radians(1.0)
+    slip_fraction: float = 0.25
+

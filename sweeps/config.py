@@ -20,10 +20,14 @@ from typing import Literal, Optional, Union
 from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, model_validator
 
 from robustness.physics import PhysicsSettings
-from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance
+from planning import PushOptions
+from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, SuccessCriterion
 from sweeps.errors import UserError
 from sweeps.plausible import wrap
 from sweeps.terminal import EFFORT_BOUNDS, angle_value
+
+#: The push planner's defaults (their one home is planning.PushOptions).
+PUSH_DEFAULTS = PushOptions()
 
 
 class ConfigError(UserError):
@@ -85,25 +89,29 @@ class Planner(Strict):
                              f"ymin < ymax (m), got {list(w)}")
         return self
 
-    def push_options(self) -> dict:
-        """The keyword arguments of :func:`planning.plan_pose` these settings give."""
-        return dict(margin_deg=self.margin_deg, safety_factor=self.safety_factor,
-                    objective=self.objective, strategy=self.strategy,
-                    support=self.support if self.support_c is None else {"c": list(self.support_c)},
-                    min_fence_mu=self.min_fence_mu, workspace=self.workspace,
-                    max_reorients=self.max_reorients, extra_steps=self.extra_steps)
+    def push_options(self):
+        """The :class:`planning.PushOptions` these settings give."""
+        from planning import PushOptions
 
-    margin_deg: float = Field(7.0, gt=0, lt=90)
-    safety_factor: float = Field(1.15, ge=1)
-    objective: Literal["distance", "pushes"] = "distance"
-    strategy: Literal["search", "paper"] = "search"
+        return PushOptions(margin_deg=self.margin_deg, safety_factor=self.safety_factor,
+                           objective=self.objective, strategy=self.strategy,
+                           support=(self.support if self.support_c is None
+                                    else {"c": list(self.support_c)}),
+                           min_fence_mu=self.min_fence_mu, workspace=self.workspace,
+                           max_reorients=self.max_reorients, extra_steps=self.extra_steps)
+
+    margin_deg: float = Field(PUSH_DEFAULTS.margin_deg, gt=0, lt=90)
+    safety_factor: float = Field(PUSH_DEFAULTS.safety_factor, ge=1)
+    objective: Literal["distance", "pushes"] = PUSH_DEFAULTS.objective
+    strategy: Literal["search", "paper"] = PUSH_DEFAULTS.strategy
     support_c: Optional[tuple[float, float]] = None
     support: Literal["any", "rigid", "uniform", "ring"] = "any"
     min_fence_mu: Optional[float] = Field(None, ge=0)
     workspace: Optional[tuple[float, float, float, float]] = None
-    max_reorients: StrictInt = Field(24, ge=EFFORT_BOUNDS["max_reorients"][0],
+    max_reorients: StrictInt = Field(PUSH_DEFAULTS.max_reorients,
+                                     ge=EFFORT_BOUNDS["max_reorients"][0],
                                      le=EFFORT_BOUNDS["max_reorients"][1])
-    extra_steps: StrictInt = Field(3, ge=EFFORT_BOUNDS["extra_steps"][0],
+    extra_steps: StrictInt = Field(PUSH_DEFAULTS.extra_steps, ge=EFFORT_BOUNDS["extra_steps"][0],
                                    le=EFFORT_BOUNDS["extra_steps"][1])
     tumble_eps: Optional[float] = Field(None, gt=0)
     tumble_tau_v: float = Field(0.0, ge=0)
@@ -113,8 +121,8 @@ class Planner(Strict):
 class Eps(Strict):
     """Success tolerances: position (m) and orientation (rad)."""
 
-    pos_eps_m: float = Field(0.001, gt=0)
-    theta_eps_rad: float = Field(math.radians(1.0), gt=0)
+    pos_eps_m: float = Field(SuccessCriterion.pos_eps_m, gt=0)
+    theta_eps_rad: float = Field(SuccessCriterion.theta_eps_rad, gt=0)
 
 
 class Required(Strict):

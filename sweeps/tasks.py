@@ -71,7 +71,8 @@ def plan_task(part, start, goal, planner: Planner, eps: Eps, caught: Optional[li
         warnings.simplefilter("always")
         try:
             if part.kind == "polygon":
-                plan = plan_pose(part.vertices, start, goal, com=part.com, **planner.push_options())
+                plan = plan_pose(part.vertices, start, goal, com=part.com,
+                                 options=planner.push_options())
             else:
                 # planned for the nominal part (tau_v = planner.tumble_tau_v, default 0): its
                 # robustness to the config's tolerances is what the Monte Carlo measures

@@ -49,3 +49,37 @@ def test_a_bug_is_exit_3_and_ctrl_c_130(capsys, monkeypatch):
 
     assert _run(interrupted, capsys)[0] == 130
     assert _run(lambda: Exit.NEGATIVE, capsys)[0] == 1
+
+
+def test_push_defaults_have_one_home():
+    """The planner's defaults live in planning.PushOptions; the study schema and
+    nudge plan-push's flags give the same values."""
+    from planning import PushOptions
+    from sweeps.config import Planner
+    from sweeps.plan_push import build_parser
+
+    d = PushOptions()
+    p = Planner()
+    for f in ("margin_deg", "safety_factor", "objective", "strategy", "max_reorients", "extra_steps",
+              "min_fence_mu", "workspace"):
+        assert getattr(p, f) == getattr(d, f), f
+    args = build_parser().parse_args(["rectangle", "--start", "0,0,0", "--goal", "0.1,0,0"])
+    for f in ("margin_deg", "safety_factor", "objective", "solver", "strategy", "max_reorients",
+              "extra_steps", "min_fence_mu", "workspace"):
+        assert getattr(args, f) == getattr(d, f), f
+
+
+def test_plan_pose_takes_options_or_keywords_not_both():
+    import numpy as np
+    import pytest
+
+    from planning import PushOptions, plan_pose
+
+    rect = np.array([[0, 0], [0.04, 0], [0.04, 0.02], [0, 0.02]], float)
+    a = plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0), margin_deg=9.0, strategy="paper")
+    b = plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0),
+                  options=PushOptions(margin_deg=9.0, strategy="paper"))
+    assert a.to_dict() == b.to_dict()
+    with pytest.raises(ValueError, match="options: give the planner's options as PushOptions or "
+                                         "as keywords, not both \\(margin_deg given"):
+        plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0), margin_deg=9.0, options=PushOptions())

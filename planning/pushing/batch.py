@@ -22,6 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import wrap_angle, float64, replay_pushes
+from planning.pushing.options import DEFAULTS, PushOptions, resolve
 from planning.pushing import batch_kernel as bk, planner as pp, sequences as sq, workspace as wsp
 from planning.pushing.part import ANG_TOL, PlanningError, PushPart, check_pose, prepare_part
 from planning.pushing.plan import Push, PushPlan
@@ -194,11 +195,14 @@ def _padded(arr: np.ndarray, size: int) -> np.ndarray:
 
 
 @float64
-def plan_pose_batch(vertices, starts, goals, com=None, margin_deg: float = 7.0,
-                    safety_factor: float = 1.15, objective: str = "distance",
-                    chunk: Optional[int] = 1024, *, strategy: str = "search", support=None,
-                    min_fence_mu: Optional[float] = None, workspace=None, max_reorients: int = 24,
-                    extra_steps: int = 3) -> PushPlanBatch:
+def plan_pose_batch(vertices, starts, goals, com=None, margin_deg: float = DEFAULTS.margin_deg,
+                    safety_factor: float = DEFAULTS.safety_factor,
+                    objective: str = DEFAULTS.objective, chunk: Optional[int] = 1024, *,
+                    strategy: str = DEFAULTS.strategy, support=DEFAULTS.support,
+                    min_fence_mu: Optional[float] = DEFAULTS.min_fence_mu,
+                    workspace=DEFAULTS.workspace, max_reorients: int = DEFAULTS.max_reorients,
+                    extra_steps: int = DEFAULTS.extra_steps,
+                    options: Optional[PushOptions] = None) -> PushPlanBatch:
     """Plan many start/goal pairs of one part at once (JAX, float64).
 
     Same rules, options and results as :func:`plan_pose` (closed-form LP).
@@ -209,7 +213,8 @@ def plan_pose_batch(vertices, starts, goals, com=None, margin_deg: float = 7.0,
 
     Args:
       vertices, com, margin_deg, safety_factor, objective, strategy, support,
-        min_fence_mu, workspace, max_reorients, extra_steps: as :func:`plan_pose`.
+        min_fence_mu, workspace, max_reorients, extra_steps, options: as
+        :func:`plan_pose` (``options.solver`` must be the closed form).
       starts, goals: (B, 3) poses ``(x, y, theta)`` (m, m, rad), world frame.
       chunk: pairs per compiled call (bounds memory; the last block is padded
         so one compilation serves every block).
@@ -218,7 +223,14 @@ def plan_pose_batch(vertices, starts, goals, com=None, margin_deg: float = 7.0,
       A :class:`PushPlanBatch`; ``ok[b]`` says whether plan ``b`` was found
       and verified (``plan(b)`` raises for one that was not).
     """
-    settings = pp.check_settings(objective, strategy, max_reorients, extra_steps, workspace)
+    o = resolve(options, margin_deg=margin_deg, safety_factor=safety_factor, objective=objective,
+                strategy=strategy, support=support, min_fence_mu=min_fence_mu,
+                workspace=workspace, max_reorients=max_reorients, extra_steps=extra_steps)
+    if o.solver != DEFAULTS.solver:
+        raise ValueError(f"options.solver: the batched planner solves every LP in closed form, "
+                         f"got {o.solver!r}")
+    settings = pp.check_settings(o.objective, o.strategy, o.max_reorients, o.extra_steps,
+                                 o.workspace)
     starts = np.atleast_2d(check_pose(starts, "starts"))
     goals = np.atleast_2d(check_pose(goals, "goals"))
     if starts.shape != goals.shape or starts.ndim != 2:
@@ -226,8 +238,8 @@ def plan_pose_batch(vertices, starts, goals, com=None, margin_deg: float = 7.0,
     B = len(starts)
     if B == 0:
         raise ValueError("starts: need at least one start/goal pair")
-    part = prepare_part(vertices, com, margin_deg, safety_factor, support=support,
-                        min_fence_mu=min_fence_mu)
+    part = prepare_part(vertices, com, o.margin_deg, o.safety_factor, support=o.support,
+                        min_fence_mu=o.min_fence_mu)
     if settings.workspace is not None:
         _check_all_inside(part, settings.workspace, starts, goals)
     size = min(B, int(chunk)) if chunk else B

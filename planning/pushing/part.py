@@ -32,6 +32,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import polygon as pg, reorient as ro, float64
+from planning.pushing.options import DEFAULTS
 
 POS_TOL = 1e-9   # x part size: a plan must reach the goal position this closely (replayed)
 ANG_TOL = 1e-9   # rad: and the goal orientation
@@ -106,7 +107,7 @@ class PushPart:
     object_class: int
     margin: float
     safety_factor: float
-    margin_deg: float = 7.0
+    margin_deg: float = DEFAULTS.margin_deg
     support_c: Optional[tuple[float, float]] = None
     support: str = "any"
     min_fence_mu: Optional[float] = None
@@ -317,7 +318,8 @@ def _part_geometry(body):
 
 
 @float64
-def prepare_part(vertices, com=None, margin_deg: float = 7.0, safety_factor: float = 1.15, *,
+def prepare_part(vertices, com=None, margin_deg: float = DEFAULTS.margin_deg,
+                 safety_factor: float = DEFAULTS.safety_factor, *,
                  support=None, min_fence_mu: Optional[float] = None) -> PushPart:
     """Validate a part and the planner settings and build the planner's tables.
 

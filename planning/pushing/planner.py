@@ -29,6 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import angle_distance, wrap_angle_np, float64, replay_pushes
+from planning.pushing.options import DEFAULTS, PushOptions, resolve
 from planning.pushing import pose_lp, sequences as sq, workspace as wsp
 from planning.pushing.part import (ANG_TOL, OBJECTIVES, SAME_ORIENTATION, PlanningError, PushPart,
                                    WorkspaceError, check_pose, prepare_part)
@@ -177,11 +178,13 @@ def verify(part: PushPart, start, goal, directions, distances, edges):
 # Single problem (numpy reference, closed form or cvxpy)
 # --------------------------------------------------------------------------
 @float64
-def plan_pose(vertices, start, goal, com=None, margin_deg: float = 7.0,
-              safety_factor: float = 1.15, objective: str = "distance",
-              solver: str = "closed_form", *, strategy: str = "search", support=None,
-              min_fence_mu: Optional[float] = None, workspace=None, max_reorients: int = 24,
-              extra_steps: int = 3) -> PushPlan:
+def plan_pose(vertices, start, goal, com=None, margin_deg: float = DEFAULTS.margin_deg,
+              safety_factor: float = DEFAULTS.safety_factor, objective: str = DEFAULTS.objective,
+              solver: str = DEFAULTS.solver, *, strategy: str = DEFAULTS.strategy,
+              support=DEFAULTS.support, min_fence_mu: Optional[float] = DEFAULTS.min_fence_mu,
+              workspace=DEFAULTS.workspace, max_reorients: int = DEFAULTS.max_reorients,
+              extra_steps: int = DEFAULTS.extra_steps,
+              options: Optional[PushOptions] = None) -> PushPlan:
     """Plan normal fence pushes taking the part from ``start`` to ``goal``.
 
     Args:
@@ -208,6 +211,8 @@ def plan_pose(vertices, start, goal, com=None, margin_deg: float = 7.0,
       extra_steps: the search tries ``n_min .. n_min + extra_steps`` steps per run
         (uni-stable parts also 2, 3 and 4 times ``extra_steps`` more;
         :mod:`planning.pushing.sequences`).
+      options: the same options as one :class:`~planning.PushOptions` value
+        (instead of the keywords; the defaults are ``planning.pushing.options.DEFAULTS``).
 
     Returns:
       A :class:`~planning.pushing.plan.PushPlan` whose exact replay reaches the
@@ -218,14 +223,17 @@ def plan_pose(vertices, start, goal, com=None, margin_deg: float = 7.0,
       PlanningError: no candidate is feasible (within the effort budget or the
         workspace: the message says which), or the replay disagrees.
     """
-    if solver not in SOLVERS:
-        raise ValueError(f"solver: expected one of {SOLVERS}, got {solver!r}")
-    settings = check_settings(objective, strategy, max_reorients, extra_steps, workspace)
+    o = resolve(options, margin_deg=margin_deg, safety_factor=safety_factor, objective=objective,
+                solver=solver, strategy=strategy, support=support, min_fence_mu=min_fence_mu,
+                workspace=workspace, max_reorients=max_reorients, extra_steps=extra_steps)
+    if o.solver not in SOLVERS:
+        raise ValueError(f"solver: expected one of {SOLVERS}, got {o.solver!r}")
+    settings = check_settings(o.objective, o.strategy, o.max_reorients, o.extra_steps, o.workspace)
     start = check_pose(start, "start")
     goal = check_pose(goal, "goal")
-    part = prepare_part(vertices, com, margin_deg, safety_factor, support=support,
-                        min_fence_mu=min_fence_mu)
-    return plan_one(part, settings, start, goal, solver)
+    part = prepare_part(vertices, com, o.margin_deg, o.safety_factor, support=o.support,
+                        min_fence_mu=o.min_fence_mu)
+    return plan_one(part, settings, start, goal, o.solver)
 
 
 def plan_one(part: PushPart, settings: Settings, start, goal, solver: str = "closed_form") -> PushPlan:

@@ -28,6 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import polygon as pg, float64, replay_push
+from planning.pushing.options import DEFAULTS
 from planning.pushing.part import PushPart, prepare_part
 
 
@@ -110,7 +111,7 @@ def _roll_off(part: PushPart, edge_theta: np.ndarray):
 
 
 @float64
-def push_stability(part_or_vertices, margin_deg: float = 7.0, com=None,
+def push_stability(part_or_vertices, margin_deg: float = DEFAULTS.margin_deg, com=None,
                    n_grid: int = 3600) -> PushStability:
     """Compute the push stability data of a polygonal part for normal pushes.
 

@@ -23,6 +23,7 @@ from robustness.physics.monitor import Recorder, flush_edge, planar_pose, yaw_qu
 from robustness.physics.pushing import FenceStrokes, PushTracker, nominal_polygon, push_parts
 from robustness.physics.runner import check_batch, make_engine, resolve_backend, run_schedule
 from robustness.physics.settings import STROKES, PhysicsSettings
+from robustness.tolerances import SuccessCriterion
 
 #: the centre of mass may lie this far (m) outside the support contacts' hull and
 #: still stand on them (a rigid rectangle's rests on a diagonal: on the hull's edge)
@@ -118,8 +119,10 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace, stroke):
 
 def rollout_push_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
                       settings: Optional[PhysicsSettings] = None, workspace=None,
-                      pos_eps_m: float = 1e-3, theta_eps_rad: float = math.radians(1.0),
-                      slip_fraction: float = 0.25, stroke: str = "planned") -> dict:
+                      pos_eps_m: float = SuccessCriterion.pos_eps_m,
+                      theta_eps_rad: float = SuccessCriterion.theta_eps_rad,
+                      slip_fraction: float = SuccessCriterion.slip_fraction,
+                      stroke: str = "planned") -> dict:
     """Roll a push plan out in MuJoCo on ``n`` sampled parts and executions.
 
     Args:

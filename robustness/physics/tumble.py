@@ -21,6 +21,7 @@ from robustness.physics import geometry as geo, scene, tumbling as tb
 from robustness.physics.monitor import Recorder, mat_to_quat
 from robustness.physics.runner import check_batch, make_engine, resolve_backend, run_schedule
 from robustness.physics.settings import PhysicsSettings
+from robustness.tolerances import SuccessCriterion
 
 #: failure modes of a physics row, in the order they are assigned
 TUMBLE_FAILURE_MODES = ("none", "combinatorics_changed", "left_workspace", "wrong_face", "slip",
@@ -110,7 +111,7 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace):
 def rollout_tumble_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
                         settings: Optional[PhysicsSettings] = None, workspace=None,
                         pos_eps_m: Optional[float] = None, theta_eps_rad: Optional[float] = None,
-                        slip_fraction: float = 0.25, merge_factor: float = 8.0,
+                        slip_fraction: float = SuccessCriterion.slip_fraction, merge_factor: float = 8.0,
                         tau_v: Optional[float] = None) -> dict:
     """Roll a tumble plan out in MuJoCo on ``n`` sampled parts and executions.
 

@@ -26,9 +26,9 @@ import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch, Polygon as PolyPatch  # noqa: E402
 
-from kernels import polygon as pg, rot2_np
-from planning import PushPart, PushPlan, prepare_part  # noqa: E402
-from planning import stability, PushStability
+from kernels import polygon as pg, rot2_np  # noqa: E402
+from planning import (PushOptions, PushPart, PushPlan, PushStability, prepare_part,  # noqa: E402
+                      stability)
 from sweeps.figures.plan_steps import mark_steps  # noqa: E402
 
 START_COLOR = "tab:blue"
@@ -189,7 +189,8 @@ def _as_part(part_or_vertices, margin_deg: float, com) -> tuple[PushPart, str]:
     return prepare_part(np.asarray(vertices, dtype=float), com, margin_deg), name
 
 
-def push_stability(part_or_vertices, margin_deg: float = 7.0, com=None, n_grid: int = 3600):
+def push_stability(part_or_vertices, margin_deg: float = PushOptions.margin_deg, com=None,
+                   n_grid: int = 3600):
     """:func:`planning.pushing.stability.push_stability` of a part given as a
     :class:`~planning.PushPart`, a :class:`~sweeps.partfile.PartFile`, a
     :class:`kernels.polygon.Polygon` or an (m, 2) vertex array (metres)."""
@@ -223,7 +224,7 @@ def _span(ax, a: float, b: float, y: float, color, lw: float, tick: float, alpha
         ax.plot([x, x], [y - tick, y + tick], color=color, lw=1.2, alpha=alpha)
 
 
-def plot_psd(part_or_vertices, path, margin_deg: float = 7.0, com=None, title: Optional[str] = None,
+def plot_psd(part_or_vertices, path, margin_deg: float = PushOptions.margin_deg, com=None, title: Optional[str] = None,
              name: Optional[str] = None, n_grid: int = 3600, dpi: int = 150,
              plan: Optional[PushPlan] = None) -> PushStability:
     """Draw the push stability diagram for normal pushes and save it to ``path``.
