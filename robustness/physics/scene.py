@@ -67,6 +67,12 @@ class Jaw:
     centre: tuple[float, float]
     half: tuple[float, float]
 
+    @property
+    def rectangle(self) -> tuple[float, float, float, float]:
+        """``(xmin, xmax, ymin, ymax)``, m, world frame."""
+        (cx, cy), (hx, hy) = self.centre, self.half
+        return (cx - hx, cx + hx, cy - hy, cy + hy)
+
 
 @dataclasses.dataclass(frozen=True)
 class Layout:
@@ -151,9 +157,11 @@ def _tool(spec, s: PhysicsSettings, half_size, kp_z: float) -> None:
         a.set_to_velocity(kv=2.0 * math.sqrt(kp * m))
 
 
-def _plane(spec) -> None:
+def _plane(spec, centre=(0.0, 0.0), half=(PLANE_HALF, PLANE_HALF)) -> None:
+    """The support plane ``support`` (collision infinite; ``half`` sizes its rendering)."""
     g = spec.worldbody.add_geom(name="support", type=mujoco.mjtGeom.mjGEOM_PLANE,
-                                size=[PLANE_HALF, PLANE_HALF, 0.1])
+                                pos=[float(centre[0]), float(centre[1]), 0.0],
+                                size=[float(half[0]), float(half[1]), 0.1])
     _no_collide(g)
 
 
@@ -253,7 +261,8 @@ def tumble_model(vertices: np.ndarray, com, mass: float, fullinertia, mu_f: floa
       com: (3,) centre of mass, body frame; mass, fullinertia about it.
       mu_f: upper plate-part coefficient; mu_s: lower plate (support)-part.
       plate_half: half-width of the square upper plate, m.
-      jaw: the lower jaw (the support the part rolls on; a box, not the floor).
+      jaw: the lower jaw (the support the part rolls on; a plane collider
+        of the jaw's size, whose edges the monitor enforces).
       grip: grasp force of the upper plate, N (sets its vertical spring:
         ``kp_z = grip / plate_compliance``).
     """
@@ -265,10 +274,7 @@ def tumble_model(vertices: np.ndarray, com, mass: float, fullinertia, mu_f: floa
     # slip 7.6-12.7 mm per roll with the same static contacts, on a 10 m box as
     # on a jaw-sized one.  The jaw's extent is enforced by the monitor instead
     # (a support contact outside it: ``left_workspace``).
-    g = spec.worldbody.add_geom(name="support", type=mujoco.mjtGeom.mjGEOM_PLANE,
-                                pos=[jaw.centre[0], jaw.centre[1], 0.0],
-                                size=[jaw.half[0], jaw.half[1], 0.1])
-    _no_collide(g)
+    _plane(spec, jaw.centre, jaw.half)
     _part_body(spec, vertices, mass, com, fullinertia)
     _tool(spec, s, (plate_half, plate_half, PLATE_HALF_THICKNESS), grip / s.plate_compliance)
     _pair(spec, "tool", "part", mu_f, "tool_part")

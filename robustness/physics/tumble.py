@@ -60,8 +60,8 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace):
         mass, inertia = geo.polyhedron_mass_properties(parts.vertices[i][hull], parts.com[i],
                                                        s.polyhedron_density)
         models.append(scene.tumble_model(parts.vertices[i][hull], parts.com[i], mass, inertia,
-                                         float(parts.mu_f[i]), float(parts.mu_s[i]), plate_half, jaw,
-                                         grip, s, impratio))
+                                         float(parts.mu_f[i]), float(parts.mu_s[i]), plate_half,
+                                         jaw, grip, s, impratio))
     lay = scene.layout(models[0])
     st0 = np.zeros((len(idx), lay.nstate))
     pq, tq = lay.part_qpos, lay.tool_qpos
@@ -73,11 +73,9 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace):
     dwell = [p for p, ph in enumerate(sched.phases) if ph.kind == "dwell"]
     holds = [p for p, ph in enumerate(sched.phases) if ph.kind == "hold"]
     lifts = [p for p, ph in enumerate(sched.phases) if ph.kind == "lift"]
-    rect = (jaw.centre[0] - jaw.half[0], jaw.centre[0] + jaw.half[0],
-            jaw.centre[1] - jaw.half[1], jaw.centre[1] + jaw.half[1])
     pts = np.stack([parts.vertices[i][hull] for i in idx])
     rec = Recorder(sched, lay, len(idx), workspace, keep=dwell + holds + lifts,
-                   support=(pts, rect))
+                   support=(pts, jaw.rectangle))
     L = plan.n_tumbles
     faces = np.full((len(idx), L), -1, np.int64)
 
@@ -111,7 +109,8 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace):
 def rollout_tumble_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
                         settings: Optional[PhysicsSettings] = None, workspace=None,
                         pos_eps_m: Optional[float] = None, theta_eps_rad: Optional[float] = None,
-                        slip_fraction: float = SuccessCriterion.slip_fraction, merge_factor: float = 8.0,
+                        slip_fraction: float = SuccessCriterion.slip_fraction,
+                        merge_factor: float = 8.0,
                         tau_v: Optional[float] = None) -> dict:
     """Roll a tumble plan out in MuJoCo on ``n`` sampled parts and executions.
 

@@ -58,17 +58,11 @@ def effect(frame: pd.DataFrame, column: str, value: str, weight: Optional[str] =
     return float(v.max() - v.min()) if v.size else 0.0
 
 
-def _panels(frame: pd.DataFrame, facet: Optional[str], max_panels: int = 4):
-    """``[(value or None, rows)]``: one panel per value of ``facet`` (at most
-    ``max_panels``; otherwise one panel of everything)."""
-    if facet is not None and 1 < frame[facet].nunique() <= max_panels:
-        return list(frame.groupby(facet, sort=True, observed=True))
-    return [(None, frame)]
-
-
-def _lines(frame: pd.DataFrame, by: Optional[str], max_lines: int = 6):
-    if by is not None and 1 < frame[by].nunique() <= max_lines:
-        return list(frame.groupby(by, sort=True, observed=True))
+def _groups(frame: pd.DataFrame, column: Optional[str], most: int):
+    """``[(value or None, rows)]``: one group per value of ``column`` (panels
+    or lines; at most ``most`` values, otherwise one group of everything)."""
+    if column is not None and 1 < frame[column].nunique() <= most:
+        return list(frame.groupby(column, sort=True, observed=True))
     return [(None, frame)]
 
 
@@ -82,13 +76,13 @@ def success_vs_param(summary: pd.DataFrame, column: str, label: str, confidence:
     s = summary[summary["n"] > 0]
     if s.empty:
         return None
-    panels = _panels(s, facet)
+    panels = _groups(s, facet, 4)
     fig, axs = plt.subplots(1, len(panels), figsize=(5.2 + 3.6 * (len(panels) - 1), 3.4),
                             sharey=True, squeeze=False)
     num = _numeric(s[column])
     cats = sorted(s[column].unique(), key=str)
     for ax, (fval, panel) in zip(axs[0], panels):
-        for i, (val, part) in enumerate(_lines(panel, by)):
+        for i, (val, part) in enumerate(_groups(panel, by, 6)):
             g = part.groupby(column, sort=True, observed=True).agg(
                 n=("n", "sum"), k=("n_success", "sum")).reset_index()
             lo, hi = zip(*(clopper_pearson(int(k), int(n), confidence) for k, n in zip(g["k"], g["n"])))
@@ -184,7 +178,7 @@ def plan_shape(plans: pd.DataFrame, column: Optional[str], label: str, kind: str
     n_ax = 2 if kind == "push" else 1
     fig, axs = plt.subplots(1, n_ax, figsize=(5.2 + 3.6 * (n_ax - 1), 3.4), squeeze=False)
     ax_len = axs[0][0]
-    for i, (val, part) in enumerate(_lines(p, by)):
+    for i, (val, part) in enumerate(_groups(p, by, 6)):
         g = part.groupby(key, sort=True, observed=True)
         xs = np.asarray(list(g.groups)) if num else np.array([cats.index(v) for v in g.groups])
         color = f"C{i}"
