@@ -212,12 +212,17 @@ def main(argv=None, prog: str = "nudge certify") -> int:
 def run(cfg: CertifyConfig, text: str, part, tasks, out: pathlib.Path, run_id: str,
         quiet: bool = False) -> tuple[int, list]:
     """Certify every task into the run folder ``out``; returns ``(status, certificate rows)``."""
+    from sweeps.executors import compilation_cache
+
+    with compilation_cache():
+        return _run(cfg, text, part, tasks, out, run_id, quiet)
+
+
+def _run(cfg, text, part, tasks, out, run_id, quiet):
     from robustness import tables
-    from sweeps.executors import enable_compilation_cache
     from sweeps.progress import StopFlag
     from sweeps.store import RunStore, manifest_for
 
-    enable_compilation_cache()
     store = RunStore.open(out, manifest_for(run_id, f"certify-{part.name}", text, cfg.seed,
                                             {"tasks": [t[0] for t in tasks]}))
     done = store.done()

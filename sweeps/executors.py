@@ -11,10 +11,12 @@ then at http://127.0.0.1:8787), or the cluster at ``address``
 seconds at most): a scheduler that cannot be reached is bad input
 (:class:`ExecutorError`), not a 30 s wait.  Workers use JAX's persistent compilation cache
 (:func:`enable_compilation_cache`), so each worker process compiles a kernel
-once per machine and later runs start warm.
+once per machine and later runs start warm; a local run uses it for the run's
+duration only (:func:`compilation_cache`).
 """
 from __future__ import annotations
 
+import contextlib
 import os
 import pathlib
 import socket
@@ -72,8 +74,10 @@ def cache_dir() -> str:
 
 
 def enable_compilation_cache(folder: str | None = None) -> None:
-    """Persist compiled kernels across processes and runs (an optimisation:
-    any failure leaves JAX as it was)."""
+    """Persist compiled kernels across processes and runs, for the rest of this
+    process (a Dask worker's: nudge owns it).  An optimisation: any failure
+    leaves JAX as it was.  In a caller's process use :func:`compilation_cache`,
+    which puts JAX's settings back afterwards."""
     d = cache_dir() if folder is None else folder
     if not d:
         return
@@ -87,16 +91,44 @@ def enable_compilation_cache(folder: str | None = None) -> None:
         pass
 
 
+@contextlib.contextmanager
+def compilation_cache(folder: str | None = None):
+    """The persistent compilation cache for the duration of a ``with`` block
+    (a local run, a certification), then JAX's settings as they were: a run
+    called from Python does not leave the caller's process writing every later
+    compilation into nudge's cache."""
+    import jax
+
+    keys = ("jax_compilation_cache_dir", "jax_persistent_cache_min_compile_time_secs")
+    before = {k: getattr(jax.config, k) for k in keys}
+    enable_compilation_cache(folder)
+    changed = any(getattr(jax.config, k) != v for k, v in before.items())
+    try:
+        yield
+    finally:
+        if changed:
+            try:
+                from jax.experimental.compilation_cache import compilation_cache as cc
+
+                for k, v in before.items():
+                    jax.config.update(k, v)
+                cc.reset_cache()   # forget the opened folder: the next compile re-reads the settings
+            except Exception:  # noqa: BLE001 - as above
+                pass
+
+
 class LocalExecutor:
     """Runs units one after the other in this process."""
 
     name = "local"
 
     def __enter__(self):
-        enable_compilation_cache()
+        self._cache = compilation_cache()
+        self._cache.__enter__()
         return self
 
     def __exit__(self, *exc):
+        self._cache.__exit__(*exc)
         return False
 
     def run(self, fn: Callable, ctx, units: Iterable) -> Iterator:
@@ -120,10 +152,13 @@ class DaskExecutor:
         from distributed import Client, LocalCluster
 
         d = cache_dir()
+        env = {"JAX_PLATFORMS": "cpu"}
         if d:  # worker processes inherit the environment, and JAX reads its flags from it
-            os.environ.setdefault("JAX_COMPILATION_CACHE_DIR", d)
-            os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0.5")
-        os.environ.setdefault("JAX_PLATFORMS", "cpu")
+            env.update(JAX_COMPILATION_CACHE_DIR=d, JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0.5")
+        # set for the workers only: put back on exit (a caller's later subprocesses do not inherit them)
+        self._env = [k for k in env if k not in os.environ]
+        for k, v in env.items():
+            os.environ.setdefault(k, v)
         if self.address:
             check_scheduler(self.address)
             try:
@@ -150,6 +185,8 @@ class DaskExecutor:
             self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+        for k in getattr(self, "_env", {}):
+            os.environ.pop(k, None)
         return False
 
     def run(self, fn: Callable, ctx, units: Iterable) -> Iterator:

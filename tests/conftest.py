@@ -6,8 +6,15 @@
   ``pytestmark``), which runs each of them inside ``jax.enable_x64(True)``.
 * Every hypothesis test is derandomized (fixed seed: the same examples on every
   run, no flaky CI) with no per-example deadline (JAX compiles on first use).
+* No persistent compilation cache (``NUDGE_JAX_CACHE`` empty, inherited by the
+  commands the tests start): the tests neither read a user's cache nor write
+  one; the tests of the cache name their own folder.
 """
-import jax
+import os
+
+os.environ["NUDGE_JAX_CACHE"] = ""
+
+import jax  # noqa: E402
 import pytest
 from hypothesis import settings
 

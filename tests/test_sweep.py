@@ -255,11 +255,44 @@ def test_rerun_of_a_finished_run_changes_nothing_and_changed_config_is_refused(r
 
 
 def test_dask_executor_matches_local(reference, tmp_path):
+    """Dask workers with the persistent compilation cache (the suite runs without
+    one: conftest) give the local run's tables."""
     p, _, ref, _ = reference
-    out = tmp_path / "out"
-    r = nudge("sweep", p, "--out", out, "--executor", "dask", "--quiet")
+    out, cache = tmp_path / "out", tmp_path / "jax-cache"
+    r = nudge("sweep", p, "--out", out, "--executor", "dask", "--quiet",
+              env={"NUDGE_JAX_CACHE": str(cache)})
     assert r.returncode == 0, r.stderr
     _same(_tables(out), ref)
+    assert any(cache.iterdir()), "the workers wrote no compiled kernel"
+
+
+def test_local_run_uses_the_cache_cold_and_warm_and_gives_the_same_tables(reference, tmp_path):
+    p, _, ref, _ = reference
+    cache = tmp_path / "jax-cache"
+    for run in ("cold", "warm"):
+        out = tmp_path / run
+        r = nudge("sweep", p, "--out", out, "--quiet", env={"NUDGE_JAX_CACHE": str(cache)})
+        assert r.returncode == 0, r.stderr
+        _same(_tables(out), ref)
+        assert any(cache.iterdir())
+
+
+def test_the_cache_is_scoped_to_the_run(tmp_path, monkeypatch):
+    """A run called from Python leaves JAX's cache settings (and the environment
+    its subprocesses inherit) as it found them."""
+    import jax
+
+    from sweeps.executors import DaskExecutor, LocalExecutor
+
+    monkeypatch.setenv("NUDGE_JAX_CACHE", str(tmp_path))
+    before, env = jax.config.jax_compilation_cache_dir, dict(os.environ)   # Dask sets its own (OMP_NUM_THREADS)
+    with LocalExecutor():
+        assert jax.config.jax_compilation_cache_dir == str(tmp_path)
+    assert jax.config.jax_compilation_cache_dir == before
+    with DaskExecutor(workers=1):
+        assert os.environ["JAX_COMPILATION_CACHE_DIR"] == str(tmp_path)
+    ours = ("JAX_COMPILATION_CACHE_DIR", "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "JAX_PLATFORMS")
+    assert {k: os.environ.get(k) for k in ours} == {k: env.get(k) for k in ours}
 
 
 def test_a_killed_dask_worker_loses_and_duplicates_nothing(reference, tmp_path):
