@@ -32,7 +32,7 @@ from robustness import tables  # noqa: F401  (modules other layers use)
 from robustness.certificates import (Schedule, auto_schedule, decide, first_certifying, grow,
                                      no_plan, perturbed_sources)
 from robustness.models import model_for
-from robustness.summary import empty_summary
+from robustness.summary import STAT_COLUMNS, empty_summary
 from robustness.tables import FAILURE_MODES, to_arrow
 
 __all__ = [
@@ -40,6 +40,6 @@ __all__ = [
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
     "one_sided_upper", "certify", "Certificate", "summarise",
-    "tables", "FAILURE_MODES", "Schedule", "auto_schedule", "decide", "empty_summary",
+    "tables", "FAILURE_MODES", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
     "first_certifying", "grow", "model_for", "no_plan", "perturbed_sources", "to_arrow",
 ]

@@ -116,7 +116,7 @@ from kernels import polygon as pg, wrap_angle_np, float64
 from robustness.hulls import face_merge_tol
 from robustness.models import MODELS, model_for
 from robustness.replay import edge_pairs, push_nominal, run_push, run_tumble, tumble_nominal
-from robustness.samplers import Sampler, parameter_columns
+from robustness.samplers import Sampler, parameter_columns, parameter_lists
 from robustness.summary import summarise
 from robustness.summary import BoundViolation
 from robustness.tolerances import SuccessCriterion
@@ -136,6 +136,9 @@ class Evaluation:
       summary: dict, the ``summary`` table's row.
       param_columns: names of the sampled-parameter columns of ``samples``.
       kind: ``"push"`` or ``"tumble"``; model: the model used.
+      lists: the per-vertex and per-push draws as ``(n, k)`` arrays, one per
+        list column of the ``samples`` table
+        (:func:`robustness.samplers.parameter_lists`).
     """
 
     samples: pd.DataFrame
@@ -143,6 +146,7 @@ class Evaluation:
     param_columns: tuple
     kind: str
     model: str
+    lists: dict = dataclasses.field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------
@@ -256,7 +260,9 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
         rows = _push_rows(plan, params64, in_axes, n, model, dtype, chunk, task)
     else:
         rows = _tumble_rows(plan, params64, in_axes, n, dtype, chunk, sampler, merge_factor)
-    cols = parameter_columns(_cast(params64, dtype), in_axes, n, **shape)
+    cast = _cast(params64, dtype)
+    cols = parameter_columns(cast, in_axes, n, **shape)
+    lists = parameter_lists(cast, in_axes, n, **shape)
     df = _frame(rows, cols, plan, kind, model, dtype, task, pe, te, slip_fraction)
     if model == "mujoco":
         _compare_with_kinematics(df, plan, kind, params64, in_axes, n, chunk, task, sampler,
@@ -265,7 +271,7 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
                         pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, task=task,
                         bound=bound and model != "mujoco", warn_stacklevel=5)
     return Evaluation(samples=df, summary=summary, param_columns=tuple(cols), kind=kind,
-                      model=model)
+                      model=model, lists=lists)
 
 
 def _push_rows(plan, params64, in_axes, n, model, dtype, chunk, task) -> dict:

@@ -506,6 +506,27 @@ def support_names(family, n: int, has_support) -> np.ndarray:
     return np.where(np.broadcast_to(has_support, (n,)), names, None)
 
 
+#: The per-vertex and per-push draws, stored as list columns of the ``samples`` table.
+LIST_COLUMNS = ("dv_m", "fence_angle_err_rad", "push_dist_rel_err", "push_dist_abs_err_m")
+
+
+def parameter_lists(params: PerturbationParams, in_axes: PerturbationParams, n: int, *,
+                    n_vertices: int, dim: int, n_pushes: int = 0, **_) -> dict:
+    """The per-vertex and per-push draws as ``(n, k)`` float64 arrays, one per
+    list column of the ``samples`` table (:data:`LIST_COLUMNS`): ``dv_m`` holds
+    each sample's vertex offsets x, y (, z) vertex after vertex (m); the
+    per-push columns one value per push (rad, relative, m).  The same numbers as
+    :func:`parameter_columns`' flat columns, without names to parse."""
+    p = broadcast(params, in_axes, n)
+    g, e = p.geometry, p.execution
+    dv = np.asarray(g.vertex_offset, dtype=np.float64)[:, :n_vertices, :dim]
+    out = {"dv_m": dv.reshape(n, n_vertices * dim)}
+    for name, arr in (("fence_angle_err_rad", e.fence_angle), ("push_dist_rel_err", e.distance_rel),
+                      ("push_dist_abs_err_m", e.distance_abs)):
+        out[name] = np.asarray(arr, dtype=np.float64)[:, :n_pushes]
+    return out
+
+
 def parameter_columns(params: PerturbationParams, in_axes: PerturbationParams, n: int, *,
                       n_vertices: int, dim: int, n_pushes: int = 0, n_tumbles: int = 0,
                       max_pushes: Optional[int] = None, max_tumbles: Optional[int] = None,

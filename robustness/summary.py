@@ -20,6 +20,13 @@ from robustness.tables import FAILURE_MODES
 
 BOUND_RTOL = 1e-9
 
+#: The per-sample columns a summary is computed from (:func:`summarise`): what a
+#: block of samples hands to its task's summary, so that the summary never reads
+#: the samples back from disk.
+STAT_COLUMNS = ("sample_id", "err_pos_m", "err_x_m", "err_y_m", "err_theta_rad", "slip_m",
+                "success", "failure_mode", "in_bound_model", "final_x_m", "final_y_m",
+                "final_theta_rad")
+
 
 class BoundViolation(UserWarning):
     """A Monte-Carlo sample exceeded an analytic bound: a finding, not noise."""

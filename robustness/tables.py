@@ -26,8 +26,10 @@ The edge (:mod:`sweeps.store`) writes them, atomically, with provenance.
 """
 from __future__ import annotations
 
+import functools
+import json
 import re
-from typing import Iterable, Sequence, Union
+from typing import Any, Iterable, Mapping, Optional, Sequence, Union
 
 import numpy as np
 import pandas as pd
@@ -312,7 +314,10 @@ def to_arrow(df_or_table: Union[pd.DataFrame, pa.Table], schema: pa.Schema) -> p
     if missing or extra:
         raise ValueError(f"columns do not match the schema: missing {missing}, unexpected {extra}")
     if isinstance(df_or_table, pa.Table):
-        return df_or_table.select(schema.names).cast(schema)
+        t = df_or_table.select(schema.names)
+        if t.schema.equals(schema, check_metadata=False):
+            return t          # as built (arrow_table: with its pandas metadata)
+        return t.cast(schema)
     df = df_or_table.reset_index(drop=True)[schema.names].copy()
     required = [f.name for f in schema if not f.nullable]
     nulls = df[required].isna().any().to_numpy()
@@ -350,3 +355,108 @@ def frame(rows: Iterable[dict], schema: pa.Schema) -> pd.DataFrame:
     (a key missing in a row is null)."""
     rows = list(rows)
     return pd.DataFrame({f.name: [r.get(f.name) for r in rows] for f in schema})
+
+
+# --------------------------------------------------------------------------
+# Tables built from arrays (the runner's path: no pandas frame)
+# --------------------------------------------------------------------------
+def _prototype_value(f: pa.Field):
+    return {F64: 0.0, I64: 0, STR: "x", BOOL: False}.get(f.type, None)
+
+
+@functools.lru_cache(maxsize=64)
+def _pandas_metadata(schema: pa.Schema) -> dict:
+    """The pandas metadata :func:`to_arrow` writes for a frame of ``schema``
+    (from a one-row prototype), so that ``pd.read_parquet`` reads a table built by
+    :func:`arrow_table` back with the same dtypes (nullable booleans as
+    ``boolean``)."""
+    proto = pd.DataFrame({f.name: ([np.zeros(1)] if f.type == F64_LIST else [_prototype_value(f)])
+                          for f in schema})
+    return dict(to_arrow(proto, schema).schema.metadata or {})
+
+
+def _column(v, f: pa.Field, n: int) -> pa.Array:
+    if f.type == F64_LIST:
+        a = np.asarray(v, np.float64)
+        if a.ndim != 2 or a.shape[0] != n:
+            raise ValueError(f"column {f.name!r}: expected an (n, k) float array for a list "
+                             f"column, got shape {a.shape}")
+        offsets = np.arange(n + 1, dtype=np.int32) * a.shape[1]
+        return pa.ListArray.from_arrays(pa.array(offsets, pa.int32()), pa.array(a.reshape(-1), F64))
+    if np.ndim(v) == 0 and not isinstance(v, (list, tuple)):
+        v = [v] * n
+    arr = pa.array(v, type=f.type, from_pandas=True)      # NaN / None / pd.NA are null
+    if len(arr) != n:
+        raise ValueError(f"column {f.name!r}: {len(arr)} values for {n} rows")
+    return arr
+
+
+def arrow_table(columns: Mapping[str, Any], schema: pa.Schema, n: Optional[int] = None) -> pa.Table:
+    """A table of ``schema`` built directly from arrays (no pandas frame).
+
+    Args:
+      columns: one entry per field of the schema (a missing or an unexpected
+        name is an error naming it): a 1-d array or list of ``n`` values, a
+        scalar (repeated), or for a list field (``dv_m``...) an ``(n, k)``
+        float array (row i is sample i's list).  NaN in a non-float column is
+        null.
+      schema: the table's schema; n: the row count (default: from the first
+        sized column).
+
+    Returns:
+      The table, with the pandas metadata :func:`to_arrow` gives the same
+      data: the file reads back with ``pd.read_parquet`` to the same frame.
+
+    Raises:
+      ValueError: a column that does not fit its type, or a null in a
+        not-null field.
+    """
+    missing = [f.name for f in schema if f.name not in columns]
+    extra = [c for c in columns if c not in schema.names]
+    if missing or extra:
+        raise ValueError(f"columns do not match the schema: missing {missing}, unexpected {extra}")
+    if n is None:
+        n = next((len(v) for v in columns.values() if np.ndim(v) >= 1 or isinstance(v, (list, tuple))), 1)
+    arrays = []
+    for f in schema:
+        try:
+            arr = _column(columns[f.name], f, n)
+        except (pa.ArrowInvalid, pa.ArrowTypeError, TypeError) as exc:
+            raise ValueError(f"column {f.name!r}: cannot be stored as {f.type} ({exc})") from None
+        if not f.nullable and arr.null_count:
+            raise ValueError(f"column {f.name!r}: holds nulls but may not (schema {f.type} not null)")
+        arrays.append(arr)
+    return pa.Table.from_arrays(arrays, schema=schema.with_metadata(
+        {**(schema.metadata or {}), **_pandas_metadata(schema)}))
+
+
+def samples_columns(ev, sample_offset: int = 0) -> dict:
+    """The ``samples`` table's columns of an :class:`~robustness.Evaluation`
+    (every field but ``run_id`` and a study's swept columns) as arrays for
+    :func:`arrow_table`: the per-sample results and scalar draws from its frame,
+    ``sample_id`` shifted by ``sample_offset`` (a block's first sample), the
+    per-vertex / per-push draws from ``ev.lists``; scalars a part does not
+    have (``dcom_z_m`` of a polygon) NaN.  The same table as
+    ``to_arrow(pack_samples(ev.samples, ev.param_columns))``."""
+    df = ev.samples
+    n = len(df)
+    out = {}
+    for f in SAMPLES_SCHEMA:
+        if f.name == "run_id":
+            continue
+        if f.type == F64_LIST:
+            out[f.name] = ev.lists[f.name]
+        elif f.name in df:
+            col = df[f.name]
+            out[f.name] = col.array if isinstance(col.dtype, pd.api.extensions.ExtensionDtype) \
+                else col.to_numpy()
+        else:
+            out[f.name] = np.full(n, np.nan) if f.type == F64 else [None] * n
+    out["sample_id"] = out["sample_id"] + sample_offset
+    return out
+
+
+def rows_table(rows: Iterable[dict], schema: pa.Schema) -> pa.Table:
+    """:func:`arrow_table` of a list of row dicts (a key missing in a row is null)."""
+    rows = list(rows)
+    return arrow_table({f.name: [r.get(f.name) for r in rows] for f in schema}, schema, len(rows))

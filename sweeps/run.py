@@ -155,7 +155,7 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
     from sweeps.executors import make_executor
     from sweeps.progress import Progress, StopFlag
     from sweeps.store import RunStore, manifest_for
-    from sweeps.work import Context, plan_units, run_block, run_summary
+    from sweeps.work import Context, plan_units, run_block, run_summary, with_stats
 
     manifest = manifest_for(design.run_id, design.name, design.identity, design.top.seed,
                             {"paths": design.paths, "points": design.points},
@@ -174,12 +174,17 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
     findings: dict = {}
     try:
         with StopFlag(resume) as flag, make_executor(spec) as ex:
+            records: dict = {}      # this run's block records: their statistics feed the summaries
             for phase, fn, units in (("samples", run_block, blocks),
                                      ("summary", run_summary, summaries)):
                 if flag.stop:
                     break
+                if phase == "summary":
+                    units = with_stats(design, store, units, records)
                 for unit, rec in ex.run(fn, ctx, units):
                     store.mark_done(rec["key"], rec["files"], rows=rec["rows"])
+                    if phase == "samples":
+                        records[rec["key"]] = rec
                     for kind, line in rec.get("findings", ()):
                         findings.setdefault(kind, []).append(line)
                     for w in rec.get("warnings", ()):

@@ -10,8 +10,10 @@ Two kinds of unit, each idempotent (deterministic inputs, keys and file names):
   configuration: configurations see the same perturbation draws wherever the
   draws have the same shape (common random numbers, so that a swept parameter's
   effect is not drowned in sampling noise);
-* a **summary** ``(config_id, task)``: after all of a task's blocks, reads them
-  back and writes its ``summary`` row.
+* a **summary** ``(config_id, task)``: after all of a task's blocks, merges
+  the per-sample statistics the blocks returned (:data:`robustness.STAT_COLUMNS`;
+  the blocks of an earlier, interrupted run are read back from their files, those
+  columns only) and writes its ``summary`` row.
 
 A unit runs in this process or on a Dask worker: it receives a small picklable
 :class:`Context`, rebuilds the study's :class:`~sweeps.study.Design` once per
@@ -26,9 +28,11 @@ import pathlib
 import time
 from typing import Optional
 
+import numpy as np
 import pyarrow as pa
+import pyarrow.parquet as pq
 
-from robustness import tables, model_for
+from robustness import STAT_COLUMNS, tables, model_for
 
 CONTEXTS: dict = {}
 
@@ -52,6 +56,8 @@ class Unit:
     block: int = -1
     lo: int = 0
     hi: int = 0
+    #: a summary's input: its blocks' statistics (:func:`block_stats`), in block order
+    stats: Optional[tuple] = dataclasses.field(default=None, compare=False, repr=False)
 
     @property
     def key(self) -> str:
@@ -208,6 +214,19 @@ def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:
     return blocks, summaries
 
 
+def with_stats(design, store, summaries: list, records: dict) -> list:
+    """The summary units with their blocks' statistics attached (in block order):
+    from ``records`` (``{unit key: record}`` of the blocks this run finished),
+    else read back from the blocks' files (:func:`block_stats`)."""
+    blocks, _ = plan_units(design, {})
+    of: dict = {}
+    for b in blocks:
+        of.setdefault((b.config_id, b.task_index), []).append(b)
+    return [dataclasses.replace(u, stats=tuple(block_stats(store, b, records)
+                                               for b in of.get((u.config_id, u.task_index), ())))
+            for u in summaries]
+
+
 def _recording(fn):
     """Run a unit with its warnings recorded (returned in the record's
     ``warnings``, one line each) instead of printed by the worker.  A
@@ -248,14 +267,14 @@ def run_block(ctx: Context, unit: Unit) -> dict:
     part = design.part(unit.config_id)
     name, start, goal = design.tasks(unit.config_id)[unit.task_index]
     plan, reason, warns = L.plan(unit.config_id, unit.task_index)
-    files = []
+    files, stats = [], None
     cols = L.columns(unit.config_id)
     if unit.block == 0:
         from sweeps.tasks import plan_row
 
         row = {"run_id": store.run_id, **cols, **plan_row(part, name, start, goal, plan, reason)}
         files.append(store.write("plans", unit.config_id, f"t{unit.task_index:04d}",
-                                 tables.frame([row], L.schema("plans")), L.schema("plans")))
+                                 tables.rows_table([row], L.schema("plans")), L.schema("plans")))
     rows = 0
     if plan is not None:
         key = jax.random.fold_in(jax.random.fold_in(jax.random.key(cfg.seed), unit.task_index),
@@ -265,18 +284,33 @@ def run_block(ctx: Context, unit: Unit) -> dict:
                       pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
                       confidence=cfg.required.confidence, physics=cfg.physics_run(part), task=name,
                       bound=False)
-        df = tables.pack_samples(ev.samples, ev.param_columns)
-        df["sample_id"] = df["sample_id"] + unit.lo
-        df.insert(0, "run_id", store.run_id)
-        for c, v in cols.items():
-            df[c] = v
+        data = {"run_id": store.run_id, **cols, **tables.samples_columns(ev, unit.lo)}
         schema = L.schema("samples")
-        files.append(store.write("samples", unit.config_id,
-                                 f"t{unit.task_index:04d}-b{unit.block:04d}", df[schema.names],
-                                 schema))
-        rows = len(df)
+        files.append(store.write("samples", unit.config_id, block_name(unit),
+                                 tables.arrow_table(data, schema, unit.samples), schema))
+        rows = unit.samples
+        stats = {c: np.asarray(data[c]) for c in STAT_COLUMNS}
     return {"key": unit.key, "files": files, "rows": rows, "seconds": time.perf_counter() - t0,
-            "warnings": list(warns), "no_plan": plan is None}
+            "warnings": list(warns), "no_plan": plan is None, "stats": stats}
+
+
+def block_name(unit: Unit) -> str:
+    """The file stem of a sample block in its configuration's folder."""
+    return f"t{unit.task_index:04d}-b{unit.block:04d}"
+
+
+def block_stats(store, unit: Unit, done: dict) -> Optional[dict]:
+    """The statistics (:data:`robustness.STAT_COLUMNS`) of a finished block: the
+    record it returned in this run, else (a block of an earlier run) read from
+    its file; ``None`` without a plan (no samples file)."""
+    rec = done.get(unit.key)
+    if rec is not None and "stats" in rec:
+        return rec["stats"]
+    path = store.table_path("samples", unit.config_id, block_name(unit))
+    if not path.exists():
+        return None
+    t = pq.read_table(path, columns=list(STAT_COLUMNS))
+    return {c: t.column(c).to_numpy(zero_copy_only=False) for c in STAT_COLUMNS}
 
 
 @_recording
@@ -298,16 +332,15 @@ def run_summary(ctx: Context, unit: Unit) -> dict:
         s = empty_summary(name, kind, model, cfg.dtype, cfg.eps.pos_eps_m, cfg.eps.theta_eps_rad,
                           cfg.required.confidence)
     else:
-        folder = store.table_path("samples", unit.config_id, "x").parent
-        parts = sorted(folder.glob(f"part-t{unit.task_index:04d}-b*.parquet"))
-        df = pd.concat([pd.read_parquet(p) for p in parts], ignore_index=True)
+        blocks = [b for b in unit.stats or () if b is not None]
+        df = pd.DataFrame({c: np.concatenate([b[c] for b in blocks]) for c in STAT_COLUMNS})
         s = summarise(df, plan, cfg.sampler(), kind=kind, model=model, dtype=cfg.dtype,
                       pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
                       confidence=cfg.required.confidence, task=name, bound=cfg.bounds)
     row = {"run_id": store.run_id, **L.columns(unit.config_id), **s}
     schema = L.schema("summary")
     path = store.write("summary", unit.config_id, f"t{unit.task_index:04d}",
-                       tables.frame([row], schema), schema)
+                       tables.rows_table([row], schema), schema)
     return {"key": unit.key, "files": [path], "rows": 1, "seconds": time.perf_counter() - t0,
             "success_rate": _finite(s.get("success_rate")), "n": int(s.get("n", 0)),
             "findings": findings(s)}
