@@ -27,7 +27,6 @@ The edge (:mod:`sweeps.store`) writes them, atomically, with provenance.
 from __future__ import annotations
 
 import functools
-import json
 import re
 from typing import Any, Iterable, Mapping, Optional, Sequence, Union
 

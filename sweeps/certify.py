@@ -59,6 +59,7 @@ import sys
 import warnings
 from typing import Literal, Optional, Union
 
+import numpy as np
 from pydantic import Field, StrictBool, field_validator
 
 from robustness import model_for
@@ -245,7 +246,7 @@ def _run(cfg, text, part, tasks, out, run_id, quiet):
                 continue
             row = {"run_id": store.run_id, **row}
             schema = tables.CERTIFICATES_SCHEMA
-            path = store.write("certificates", 0, f"t{ti:04d}", tables.frame([row], schema), schema)
+            path = store.write("certificates", 0, f"t{ti:04d}", tables.rows_table([row], schema), schema)
             store.mark_done(key, [path])
             certs.append(row)
     status = Exit.OK if all(c["verdict"] == "certified" for c in certs) else Exit.NEGATIVE
@@ -270,7 +271,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         raise ConfigError(f"tasks[{ti}] ({name}): {exc}") from None
     report_warnings(caught)
     prow = {"run_id": store.run_id, **plan_row(part, name, start, goal, plan, reason)}
-    store.write("plans", 0, f"t{ti:04d}", tables.frame([prow], tables.PLANS_SCHEMA),
+    store.write("plans", 0, f"t{ti:04d}", tables.rows_table([prow], tables.PLANS_SCHEMA),
                 tables.PLANS_SCHEMA)
     row = _task_row(cfg, part, name, start, goal, plan)
     schedule = (auto_schedule(p, conf, cfg.max_samples) if cfg.n_samples == "auto"
@@ -284,7 +285,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         _write_summary(store, ti, s)
         return {**row, **no_plan(reason, p, conf, model, schedule).to_row()}
     key = jax.random.fold_in(jax.random.key(cfg.seed), ti)
-    blocks = Blocks(cfg, store, plan, name, ti, key, schedule.counts[0], model, done, flag)
+    blocks = Blocks(cfg, store, plan, part, name, ti, key, schedule.counts[0], model, done, flag)
     grow(blocks.extend, schedule, p)
     if flag.stop:
         return None
@@ -311,69 +312,57 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
 
 class Blocks:
     """A task's samples as resumable blocks of ``size`` (block ``b`` drawn with
-    ``fold_in(key, b)``: growing the count keeps the samples drawn before)."""
+    ``fold_in(key, b)``: growing the count keeps the samples drawn before), run
+    by the block runner of studies (:mod:`sweeps.blocks`); each block's
+    statistics are kept for the summary (read back from the file for a block of
+    an earlier run)."""
 
-    def __init__(self, cfg, store, plan, name, ti, key, size, model, done, flag):
-        self.cfg, self.store, self.plan, self.name, self.ti = cfg, store, plan, name, ti
+    def __init__(self, cfg, store, plan, part, name, ti, key, size, model, done, flag):
+        self.cfg, self.store, self.plan, self.part, self.name, self.ti = cfg, store, plan, part, name, ti
         self.key, self.size, self.model, self.done, self.flag = key, size, model, done, flag
         self.n = self.k = 0
-        self.b = 0
+        self.stats: list = []
 
     def extend(self, total: int) -> tuple[int, int]:
         import jax
-        import jax.numpy as jnp
-        import pandas as pd
 
-        from robustness import tables, evaluate
+        from robustness import tables
+        from sweeps.blocks import block_stats, sample_block
 
         while self.n < total and not self.flag.stop:
             m = min(self.size, total - self.n)
-            unit = f"t{self.ti:04d}-b{self.b:04d}"
+            unit = f"t{self.ti:04d}-b{len(self.stats):04d}"
             path = self.store.table_path("samples", 0, unit)
-            if f"{unit}" in self.done:
-                df = pd.read_parquet(path, columns=["success"])
-                if len(df) != m:
+            if unit in self.done:
+                st = block_stats(path)
+                if len(st["success"]) != m:
                     from sweeps.store import RunError
 
-                    raise RunError(f"{path}: holds {len(df)} samples, the schedule of this run "
-                                   f"draws {m} in this block (drawn by another version of nudge"
-                                   f"?): certify into a new --out folder")
+                    raise RunError(f"{path}: holds {len(st['success'])} samples, the schedule of "
+                                   f"this run draws {m} in this block (drawn by another version of"
+                                   f" nudge?): certify into a new --out folder")
             else:
-                cfg = self.cfg
                 with warnings.catch_warnings(record=True) as caught:
                     warnings.simplefilter("always")
-                    ev = evaluate(self.plan, cfg.sampler(), m, jax.random.fold_in(self.key, self.b),
-                                  model=self.model,
-                                  dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                                  pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                                  confidence=cfg.required.confidence, physics=cfg.physics_run(),
-                                  task=self.name, bound=False)
+                    b = sample_block(self.plan, self.cfg, self.part, self.name, m,
+                                     jax.random.fold_in(self.key, len(self.stats)), lo=self.n,
+                                     run_id=self.store.run_id, schema=tables.SAMPLES_SCHEMA,
+                                     model=self.model)
                 report_warnings(caught)
-                df = tables.pack_samples(ev.samples, ev.param_columns)
-                df["sample_id"] = df["sample_id"] + self.n
-                df.insert(0, "run_id", self.store.run_id)
-                self.store.write("samples", 0, unit, df, tables.SAMPLES_SCHEMA)
-                self.store.mark_done(unit, [path], rows=len(df))
-            self.n += len(df)
-            self.k += int(df["success"].sum())
-            self.b += 1
+                self.store.write("samples", 0, unit, b.table, tables.SAMPLES_SCHEMA)
+                self.store.mark_done(unit, [path], rows=b.n)
+                st = b.stats
+            self.stats.append(st)
+            self.n += len(st["success"])
+            self.k += int(np.sum(st["success"]))
         return self.n, self.k
 
     def summary(self) -> dict:
-        import pandas as pd
+        from sweeps.blocks import summarise_blocks
 
-        from robustness import summarise
-
-        folder = self.store.table_path("samples", 0, "x").parent
-        files = [folder / f"part-t{self.ti:04d}-b{b:04d}.parquet" for b in range(self.b)]
-        df = pd.concat([pd.read_parquet(f) for f in files], ignore_index=True)
-        cfg = self.cfg
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            s = summarise(df, self.plan, cfg.sampler(), kind="push" if hasattr(self.plan, "pushes")
-                          else "tumble", model=self.model, dtype=cfg.dtype,
-                          pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                          confidence=cfg.required.confidence, task=self.name)
+            s = summarise_blocks(self.stats, self.plan, self.cfg, self.name, model=self.model)
         report_warnings(caught)
         return s
 
@@ -382,7 +371,7 @@ def _write_summary(store, ti, s: dict) -> None:
     from robustness import tables
 
     row = {"run_id": store.run_id, **s}
-    store.write("summary", 0, f"t{ti:04d}", tables.frame([row], tables.SUMMARY_SCHEMA),
+    store.write("summary", 0, f"t{ti:04d}", tables.rows_table([row], tables.SUMMARY_SCHEMA),
                 tables.SUMMARY_SCHEMA)
 
 
@@ -424,7 +413,7 @@ def margin_search(part, start, goal, cfg, key, model):
             ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, model=model,
                           dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
                           pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                          confidence=cfg.required.confidence, physics=cfg.physics_run(), bound=False)
+                          confidence=cfg.required.confidence, physics=cfg.physics_run(part), bound=False)
         s = ev.summary
         return one_sided_lower(int(s["n_success"]), int(s["n"]),
                                cfg.required.confidence) >= cfg.required.probability

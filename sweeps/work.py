@@ -28,11 +28,9 @@ import pathlib
 import time
 from typing import Optional
 
-import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
 
-from robustness import STAT_COLUMNS, tables, model_for
+from robustness import tables, model_for
 
 CONTEXTS: dict = {}
 
@@ -217,12 +215,12 @@ def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:
 def with_stats(design, store, summaries: list, records: dict) -> list:
     """The summary units with their blocks' statistics attached (in block order):
     from ``records`` (``{unit key: record}`` of the blocks this run finished),
-    else read back from the blocks' files (:func:`block_stats`)."""
+    else read back from the blocks' files (:func:`sweeps.blocks.block_stats`)."""
     blocks, _ = plan_units(design, {})
     of: dict = {}
     for b in blocks:
         of.setdefault((b.config_id, b.task_index), []).append(b)
-    return [dataclasses.replace(u, stats=tuple(block_stats(store, b, records)
+    return [dataclasses.replace(u, stats=tuple(_block_stats(store, b, records)
                                                for b in of.get((u.config_id, u.task_index), ())))
             for u in summaries]
 
@@ -254,11 +252,9 @@ def _recording(fn):
 
 @_recording
 def run_block(ctx: Context, unit: Unit) -> dict:
-    """Evaluate one sample block and write its files; returns the log record."""
+    """Evaluate one sample block and write its files; returns the log record
+    (its ``stats`` feed the task's summary, :func:`with_stats`)."""
     import jax
-    import jax.numpy as jnp
-
-    from robustness import evaluate
 
     t0 = time.perf_counter()
     L = loaded(ctx)
@@ -277,19 +273,15 @@ def run_block(ctx: Context, unit: Unit) -> dict:
                                  tables.rows_table([row], L.schema("plans")), L.schema("plans")))
     rows = 0
     if plan is not None:
+        from sweeps.blocks import sample_block
+
         key = jax.random.fold_in(jax.random.fold_in(jax.random.key(cfg.seed), unit.task_index),
                                  unit.block)
-        ev = evaluate(plan, cfg.sampler(), unit.samples, key, model=cfg.model,
-                      dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                      pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                      confidence=cfg.required.confidence, physics=cfg.physics_run(part), task=name,
-                      bound=False)
-        data = {"run_id": store.run_id, **cols, **tables.samples_columns(ev, unit.lo)}
         schema = L.schema("samples")
-        files.append(store.write("samples", unit.config_id, block_name(unit),
-                                 tables.arrow_table(data, schema, unit.samples), schema))
-        rows = unit.samples
-        stats = {c: np.asarray(data[c]) for c in STAT_COLUMNS}
+        b = sample_block(plan, cfg, part, name, unit.samples, key, lo=unit.lo,
+                         run_id=store.run_id, schema=schema, columns=cols)
+        files.append(store.write("samples", unit.config_id, block_name(unit), b.table, schema))
+        rows, stats = b.n, b.stats
     return {"key": unit.key, "files": files, "rows": rows, "seconds": time.perf_counter() - t0,
             "warnings": list(warns), "no_plan": plan is None, "stats": stats}
 
@@ -299,26 +291,23 @@ def block_name(unit: Unit) -> str:
     return f"t{unit.task_index:04d}-b{unit.block:04d}"
 
 
-def block_stats(store, unit: Unit, done: dict) -> Optional[dict]:
-    """The statistics (:data:`robustness.STAT_COLUMNS`) of a finished block: the
-    record it returned in this run, else (a block of an earlier run) read from
-    its file; ``None`` without a plan (no samples file)."""
-    rec = done.get(unit.key)
-    if rec is not None and "stats" in rec:
+def _block_stats(store, unit: Unit, records: dict) -> Optional[dict]:
+    """The statistics of a finished block: the record it returned in this run,
+    else (a block of an earlier run) read from its file; ``None`` without a plan."""
+    from sweeps.blocks import block_stats
+
+    rec = records.get(unit.key)
+    if rec is not None:
         return rec["stats"]
     path = store.table_path("samples", unit.config_id, block_name(unit))
-    if not path.exists():
-        return None
-    t = pq.read_table(path, columns=list(STAT_COLUMNS))
-    return {c: t.column(c).to_numpy(zero_copy_only=False) for c in STAT_COLUMNS}
+    return block_stats(path) if path.exists() else None
 
 
 @_recording
 def run_summary(ctx: Context, unit: Unit) -> dict:
-    """Summarise a task's blocks (all finished) and write its summary row."""
-    import pandas as pd
-
-    from robustness import empty_summary, summarise
+    """Summarise a task's blocks (all finished; their statistics in ``unit.stats``)
+    and write its summary row."""
+    from robustness import empty_summary
 
     t0 = time.perf_counter()
     L = loaded(ctx)
@@ -332,11 +321,10 @@ def run_summary(ctx: Context, unit: Unit) -> dict:
         s = empty_summary(name, kind, model, cfg.dtype, cfg.eps.pos_eps_m, cfg.eps.theta_eps_rad,
                           cfg.required.confidence)
     else:
-        blocks = [b for b in unit.stats or () if b is not None]
-        df = pd.DataFrame({c: np.concatenate([b[c] for b in blocks]) for c in STAT_COLUMNS})
-        s = summarise(df, plan, cfg.sampler(), kind=kind, model=model, dtype=cfg.dtype,
-                      pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                      confidence=cfg.required.confidence, task=name, bound=cfg.bounds)
+        from sweeps.blocks import summarise_blocks
+
+        s = summarise_blocks([b for b in unit.stats or () if b is not None], plan, cfg, name,
+                             bound=cfg.bounds)
     row = {"run_id": store.run_id, **L.columns(unit.config_id), **s}
     schema = L.schema("summary")
     path = store.write("summary", unit.config_id, f"t{unit.task_index:04d}",

@@ -12,7 +12,6 @@ in this process and tiny (a push study with two configurations, two tasks, three
 blocks each; a tumble study with a vertex tolerance).
 """
 import math
-import pathlib
 
 import jax
 import jax.numpy as jnp

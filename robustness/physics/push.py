@@ -11,7 +11,6 @@ the plan: :mod:`robustness.physics.pushing`.
 """
 from __future__ import annotations
 
-import math
 import time
 from typing import Optional
 
