@@ -60,8 +60,8 @@ def direct(design) -> int:
                               model=cfg.model, dtype=jnp.float64 if cfg.dtype == "float64"
                               else jnp.float32, pos_eps_m=cfg.eps.pos_eps_m,
                               theta_eps_rad=cfg.eps.theta_eps_rad,
-                              confidence=cfg.required.confidence, physics=cfg.physics_run(), task=name,
-                              bound=False)
+                              confidence=cfg.required.confidence, physics=cfg.physics_run(part),
+                              task=name, summary=False)
                 frames.append(ev.samples)
             df = pd.concat(frames, ignore_index=True)
             summarise(df, plan, cfg.sampler(), kind=cfg.kind, model=cfg.model, dtype=cfg.dtype,

@@ -133,7 +133,7 @@ class Evaluation:
     Attributes:
       samples: one row per sample (columns: ``results/README.md``, table
         ``samples``; parameter columns in ``param_columns``).
-      summary: dict, the ``summary`` table's row.
+      summary: dict, the ``summary`` table's row (None when not asked for).
       param_columns: names of the sampled-parameter columns of ``samples``.
       kind: ``"push"`` or ``"tumble"``; model: the model used.
       lists: the per-vertex and per-push draws as ``(n, k)`` arrays, one per
@@ -184,7 +184,7 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
              theta_eps_rad: Optional[float] = None, confidence: float = 0.95,
              chunk: int = 4096, task: str = "task", bound: bool = True,
              slip_fraction: float = SLIP_FRACTION, merge_factor: float = 8.0,
-             physics=None) -> Evaluation:
+             physics=None, summary: bool = True) -> Evaluation:
     """Evaluate a plan on ``n`` perturbed samples.
 
     Args:
@@ -213,6 +213,9 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
         combinatorics check (:func:`robustness.samplers.face_merge_tol`).
       physics: ``model="mujoco"`` only: a :class:`robustness.physics.PhysicsRun`
         (backend, stroke, cell settings); default ``PhysicsRun()``.
+      summary: summarise the samples (``Evaluation.summary``); False for a
+        caller that summarises several evaluations together (a task's blocks:
+        :func:`robustness.summarise`), then ``summary`` is None.
 
     Returns:
       :class:`Evaluation`.
@@ -267,9 +270,12 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
     if model == "mujoco":
         _compare_with_kinematics(df, plan, kind, params64, in_axes, n, chunk, task, sampler,
                                  merge_factor, pe, te, slip_fraction)
-    summary = summarise(df, plan, sampler, kind=kind, model=model, dtype=dtype.name,
-                        pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, task=task,
-                        bound=bound and model != "mujoco", warn_stacklevel=5)
+    if summary:
+        summary = summarise(df, plan, sampler, kind=kind, model=model, dtype=dtype.name,
+                            pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, task=task,
+                            bound=bound and model != "mujoco", warn_stacklevel=5)
+    else:
+        summary = None
     return Evaluation(samples=df, summary=summary, param_columns=tuple(cols), kind=kind,
                       model=model, lists=lists)
 

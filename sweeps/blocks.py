@@ -71,7 +71,7 @@ def sample_block(plan, cfg, part, task: str, n: int, key, *, lo: int, run_id: st
     ev = evaluate(plan, cfg.sampler(), n, key, model=model or cfg.model, dtype=_dtype(cfg),
                   pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
                   confidence=cfg.required.confidence, physics=cfg.physics_run(part), task=task,
-                  bound=False)
+                  summary=False)
     data = {"run_id": run_id, **dict(columns), **tables.samples_columns(ev, lo)}
     return Block(tables.arrow_table(data, schema, n),
                  {c: np.asarray(data[c]) for c in STAT_COLUMNS})

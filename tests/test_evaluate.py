@@ -4,6 +4,7 @@ import warnings
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pandas as pd
 import pytest
 
 from kernels.polyhedron import PartWarning, make_polyhedron
@@ -95,6 +96,23 @@ def test_tolerances_success_rate_and_interval(plan):
     # success is exactly "within eps on both"
     ok = (df["err_pos_m"] <= 4e-4) & (df["err_theta_rad"].abs() <= 2e-3) & df["model_valid"]
     assert (ok == df["success"]).all()
+
+
+def test_without_summary_the_samples_are_the_same(plan):
+    """``summary=False`` (a caller that summarises blocks together) changes nothing
+    but the summary; the list draws are the flat columns, in vertex / push order."""
+    key = jax.random.key(1)
+    ev = evaluate(plan, TOL, N, key, model="exact", pos_eps_m=4e-4, theta_eps_rad=2e-3)
+    bare = evaluate(plan, TOL, N, key, model="exact", pos_eps_m=4e-4, theta_eps_rad=2e-3,
+                    summary=False)
+    assert bare.summary is None
+    pd.testing.assert_frame_equal(bare.samples, ev.samples, check_exact=True)
+    df, m, P = ev.samples, len(plan.vertices), len(plan.pushes)
+    flat = np.stack([df[f"dv{i}_{a}_m"] for i in range(m) for a in "xy"], axis=1)
+    assert np.array_equal(ev.lists["dv_m"], flat)
+    for stem in ("fence_angle_err_rad", "push_dist_rel_err", "push_dist_abs_err_m"):
+        assert ev.lists[stem].shape == (N, P)
+        assert np.array_equal(ev.lists[stem], np.stack([df[f"{stem}_p{k}"] for k in range(P)], 1))
 
 
 def test_exact_and_quasistatic_agree_when_sticking(plan):
