@@ -267,7 +267,10 @@ def pack_samples(samples: pd.DataFrame, param_columns: Sequence[str]) -> pd.Data
     """An evaluation's per-sample frame (flat parameter columns ``dv{i}_{x,y,z}_m``,
     ``fence_angle_err_rad_p{k}``...) in the table layout: scalars as they are,
     per-vertex and per-push draws gathered into list columns (in vertex / push
-    order), missing scalars (``dcom_z_m`` of a polygon) NaN."""
+    order), missing scalars (``dcom_z_m`` of a polygon) NaN.  For a caller that
+    holds only the frame; the runner builds its tables from the evaluation's
+    arrays (:func:`samples_columns`), and a test holds the two to the same
+    files."""
     n = len(samples)
     out = {c: samples[c] for c in samples.columns if c not in set(param_columns)}
     for f in SAMPLED_FIELDS:
