@@ -50,15 +50,17 @@ def _dtype(cfg):
     return jnp.float64 if cfg.dtype == "float64" else jnp.float32
 
 
-def sample_block(plan, cfg, part, task: str, n: int, key, *, lo: int, run_id: str,
+def sample_block(plan, cfg, physics, task: str, n: int, key, *, lo: int, run_id: str,
                  schema: pa.Schema, columns: Mapping = (), model: Optional[str] = None) -> Block:
     """Evaluate ``plan`` on one block of ``n`` samples of ``cfg``'s sampler.
 
     Args:
       plan: the task's plan; cfg: the validated configuration (a study's or a
         certification's: sampler, model, dtype, eps, confidence, physics);
-      part: the :class:`~sweeps.partfile.PartFile` (its material for
-        ``model: mujoco``); task: the task's name.
+      physics: the :class:`~robustness.physics.PhysicsRun` of ``model: mujoco``
+        with the part's material (``cfg.physics_run(part)`` for a study; a
+        certification's config holds the material already), else None;
+        task: the task's name.
       n: samples in the block; key: the block's ``jax.random`` key;
         lo: its first sample's id.
       run_id, columns: the ``run_id`` and a study's swept columns (constant);
@@ -70,7 +72,7 @@ def sample_block(plan, cfg, part, task: str, n: int, key, *, lo: int, run_id: st
     """
     ev = evaluate(plan, cfg.sampler(), n, key, model=model or cfg.model, dtype=_dtype(cfg),
                   pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                  confidence=cfg.required.confidence, physics=cfg.physics_run(part), task=task,
+                  confidence=cfg.required.confidence, physics=physics, task=task,
                   summary=False)
     data = {"run_id": run_id, **dict(columns), **tables.samples_columns(ev, lo)}
     return Block(tables.arrow_table(data, schema, n),

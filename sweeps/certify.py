@@ -285,7 +285,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         _write_summary(store, ti, s)
         return {**row, **no_plan(reason, p, conf, model, schedule).to_row()}
     key = jax.random.fold_in(jax.random.key(cfg.seed), ti)
-    blocks = Blocks(cfg, store, plan, part, name, ti, key, schedule.counts[0], model, done, flag)
+    blocks = Blocks(cfg, store, plan, name, ti, key, schedule.counts[0], model, done, flag)
     grow(blocks.extend, schedule, p)
     if flag.stop:
         return None
@@ -317,8 +317,8 @@ class Blocks:
     statistics are kept for the summary (read back from the file for a block of
     an earlier run)."""
 
-    def __init__(self, cfg, store, plan, part, name, ti, key, size, model, done, flag):
-        self.cfg, self.store, self.plan, self.part, self.name, self.ti = cfg, store, plan, part, name, ti
+    def __init__(self, cfg, store, plan, name, ti, key, size, model, done, flag):
+        self.cfg, self.store, self.plan, self.name, self.ti = cfg, store, plan, name, ti
         self.key, self.size, self.model, self.done, self.flag = key, size, model, done, flag
         self.n = self.k = 0
         self.stats: list = []
@@ -344,7 +344,7 @@ class Blocks:
             else:
                 with warnings.catch_warnings(record=True) as caught:
                     warnings.simplefilter("always")
-                    b = sample_block(self.plan, self.cfg, self.part, self.name, m,
+                    b = sample_block(self.plan, self.cfg, self.cfg.physics_run(), self.name, m,
                                      jax.random.fold_in(self.key, len(self.stats)), lo=self.n,
                                      run_id=self.store.run_id, schema=tables.SAMPLES_SCHEMA,
                                      model=self.model)
@@ -413,7 +413,7 @@ def margin_search(part, start, goal, cfg, key, model):
             ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, model=model,
                           dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
                           pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                          confidence=cfg.required.confidence, physics=cfg.physics_run(part), bound=False)
+                          confidence=cfg.required.confidence, physics=cfg.physics_run(), bound=False)
         s = ev.summary
         return one_sided_lower(int(s["n_success"]), int(s["n"]),
                                cfg.required.confidence) >= cfg.required.probability

@@ -278,7 +278,7 @@ def run_block(ctx: Context, unit: Unit) -> dict:
         key = jax.random.fold_in(jax.random.fold_in(jax.random.key(cfg.seed), unit.task_index),
                                  unit.block)
         schema = L.schema("samples")
-        b = sample_block(plan, cfg, part, name, unit.samples, key, lo=unit.lo,
+        b = sample_block(plan, cfg, cfg.physics_run(part), name, unit.samples, key, lo=unit.lo,
                          run_id=store.run_id, schema=schema, columns=cols)
         files.append(store.write("samples", unit.config_id, block_name(unit), b.table, schema))
         rows, stats = b.n, b.stats

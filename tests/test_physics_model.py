@@ -80,8 +80,14 @@ report: false
 
 @pytest.mark.slow
 def test_certify_in_mujoco_says_which_model(tmp_path):
+    """... with a part file's own material (thickness, density: taken into the cell
+    once, when the config is read)."""
     cfg = tmp_path / "cert.yaml"
-    cfg.write_text("""part: rectangle
+    cfg.write_text("""part:
+  name: plate
+  vertices: [[0, 0], [0.06, 0], [0.06, 0.03], [0, 0.03]]
+  thickness: 0.005
+  density: 2700
 friction: {mu_f: [0.8, 0.8], mu_s: [0.5, 0.5]}
 eps: {pos_eps_m: 0.002, theta_eps_rad: 0.05}
 required: {probability: 0.5, confidence: 0.5}
