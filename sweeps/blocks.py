@@ -44,6 +44,11 @@ class Block:
         return int(np.sum(self.stats["success"]))
 
 
+def block_stem(task_index: int, block: int) -> str:
+    """The file stem (and unit key) of a task's sample block: ``t<task>-b<block>``."""
+    return f"t{task_index:04d}-b{block:04d}"
+
+
 def _dtype(cfg):
     import jax.numpy as jnp
 

@@ -327,11 +327,11 @@ class Blocks:
         import jax
 
         from robustness import tables
-        from sweeps.blocks import block_stats, sample_block
+        from sweeps.blocks import block_stats, block_stem, sample_block
 
         while self.n < total and not self.flag.stop:
             m = min(self.size, total - self.n)
-            unit = f"t{self.ti:04d}-b{len(self.stats):04d}"
+            unit = block_stem(self.ti, len(self.stats))
             path = self.store.table_path("samples", 0, unit)
             if unit in self.done:
                 st = block_stats(path)

@@ -54,7 +54,7 @@ class Unit:
     block: int = -1
     lo: int = 0
     hi: int = 0
-    #: a summary's input: its blocks' statistics (:func:`block_stats`), in block order
+    #: a summary's input: its blocks' statistics (:func:`with_stats`), in block order
     stats: Optional[tuple] = dataclasses.field(default=None, compare=False, repr=False)
 
     @property
@@ -288,7 +288,9 @@ def run_block(ctx: Context, unit: Unit) -> dict:
 
 def block_name(unit: Unit) -> str:
     """The file stem of a sample block in its configuration's folder."""
-    return f"t{unit.task_index:04d}-b{unit.block:04d}"
+    from sweeps.blocks import block_stem
+
+    return block_stem(unit.task_index, unit.block)
 
 
 def _block_stats(store, unit: Unit, records: dict) -> Optional[dict]:
