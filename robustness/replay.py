@@ -59,6 +59,8 @@ def _pad_axis(x, k: int, axis: int = 1):
 def _run_chunks(fn, nom, rows: dict, n: int, chunk: int, *args) -> dict:
     """``fn(nom, rows_chunk, *args)`` over chunks of the per-sample ``rows``
     (each padded by repeating its first sample); returns numpy arrays of n rows."""
+    if n == chunk or (n < chunk and _bucket(n, 8) == n):   # one call, no padding: as they are
+        return {k: np.asarray(x) for k, x in fn(nom, rows, *args).items()}
     outs = []
     # sliced on the host: numpy slices are views, where eager jax slices of the
     # (n, L, 3) slips cost a third of a 200-tumble evaluation
@@ -347,12 +349,20 @@ def _tumble_batch(nom, q, merge_tol, topology, check, slip_series):
 
 
 def tumble_nominal(plan):
+    """The plan's nominal polyhedron (its faces as the planner merged them at
+    the plan's ``tau_v``); built once per part (a Qhull call and the face
+    merging cost a few ms, paid twice per evaluation before)."""
+    return _nominal_polyhedron(tuple(map(tuple, np.asarray(plan.vertices, np.float64).tolist())),
+                               tuple(np.asarray(plan.com, np.float64).tolist()), plan.tau_v)
+
+
+@functools.lru_cache(maxsize=64)
+def _nominal_polyhedron(vertices: tuple, com: tuple, tau_v):
     from kernels import PartWarning, make_polyhedron
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PartWarning)
-        return make_polyhedron(np.asarray(plan.vertices), np.asarray(plan.com),
-                               tau_v=plan.tau_v)  # the plan's faces
+        return make_polyhedron(np.asarray(vertices), np.asarray(com), tau_v=tau_v)
 
 
 def run_tumble(plan, params, in_axes, n, dtype, chunk, merge_tol=None, slip_theta=math.inf):
