@@ -163,7 +163,7 @@ class PerturbationParams:
 # Compiled once per STRUCTURE, not per value: the tolerance values are traced
 # arguments (``values`` dicts of scalars), so a study that sweeps tau_v or a
 # friction range reuses one compiled sampler; what changes array shapes or
-# vmap axes is static (:func:`_structure`: distributions, which tolerances
+# vmap axes is static (:class:`Structure`: distributions, which tolerances
 # are zero, point counts).  The sample count is padded to a bucket
 # (:func:`sample_bucket`) and the draws cut back to ``n``: JAX's threefry
 # draws are prefix-stable (the first ``n`` rows of an ``(N, w)`` block do not
@@ -205,19 +205,58 @@ def _batched(x, n: int, half_is_zero: bool, shape: tuple, dtype):
     return x, 0
 
 
-def _structure(sampler: "Sampler") -> tuple:
-    """What changes the shapes, axes or code of the draws (static, hashable)."""
-    g, f, e = sampler.geometry, sampler.friction, sampler.execution
-    gauss = g.distribution == "gaussian"
-    return (g.distribution, g.com_shape, g.tau_v == 0.0 or (gauss and g.sigma == 0.0),
-            gauss and g.sigma_v is not None, g.tau_com == 0.0,
-            int(f.support_points), int(f.weight_concentration), f.c is not None,
-            f.mu_f[0] == f.mu_f[1], f.mu_s[0] == f.mu_s[1],
-            f.c is not None and f.c[0] == f.c[1],
-            e.distribution, e.start_xy == 0.0 and e.start_theta == 0.0, e.start_xy == 0.0,
-            e.start_theta == 0.0, e.fence_angle == 0.0, e.distance_rel == 0.0,
-            e.distance_abs == 0.0, e.tumble_slip_xy == 0.0 and e.tumble_slip_theta == 0.0,
-            e.tumble_slip_xy == 0.0, e.tumble_slip_theta == 0.0, f.support)
+@dataclasses.dataclass(frozen=True)
+class Structure:
+    """What changes the shapes, vmap axes or code of the draws (static and
+    hashable: the compiled sampler's key; the tolerance values are traced).
+    ``*_zero``: the tolerance is zero (the field is not drawn: unbatched
+    nominal value); ``*_const``: a range of zero width."""
+
+    # geometry
+    geometry_distribution: str
+    com_shape: str
+    vertex_zero: bool
+    has_sigma_v: bool
+    com_zero: bool
+    # friction
+    support_points: int
+    weight_concentration: int
+    c_given: bool
+    mu_f_const: bool
+    mu_s_const: bool
+    c_const: bool
+    support: str
+    # execution
+    execution_distribution: str
+    start_zero: bool
+    start_xy_zero: bool
+    start_theta_zero: bool
+    fence_zero: bool
+    rel_zero: bool
+    abs_zero: bool
+    slip_zero: bool
+    slip_xy_zero: bool
+    slip_theta_zero: bool
+
+    @classmethod
+    def of(cls, sampler: "Sampler") -> "Structure":
+        """The structure of ``sampler``'s draws."""
+        g, f, e = sampler.geometry, sampler.friction, sampler.execution
+        gauss = g.distribution == "gaussian"
+        return cls(
+            geometry_distribution=g.distribution, com_shape=g.com_shape,
+            vertex_zero=g.tau_v == 0.0 or (gauss and g.sigma == 0.0),
+            has_sigma_v=gauss and g.sigma_v is not None, com_zero=g.tau_com == 0.0,
+            support_points=int(f.support_points), weight_concentration=int(f.weight_concentration),
+            c_given=f.c is not None, mu_f_const=f.mu_f[0] == f.mu_f[1],
+            mu_s_const=f.mu_s[0] == f.mu_s[1], c_const=f.c is not None and f.c[0] == f.c[1],
+            support=f.support,
+            execution_distribution=e.distribution,
+            start_zero=e.start_xy == 0.0 and e.start_theta == 0.0, start_xy_zero=e.start_xy == 0.0,
+            start_theta_zero=e.start_theta == 0.0, fence_zero=e.fence_angle == 0.0,
+            rel_zero=e.distance_rel == 0.0, abs_zero=e.distance_abs == 0.0,
+            slip_zero=e.tumble_slip_xy == 0.0 and e.tumble_slip_theta == 0.0,
+            slip_xy_zero=e.tumble_slip_xy == 0.0, slip_theta_zero=e.tumble_slip_theta == 0.0)
 
 
 def _values(sampler: "Sampler") -> dict:
@@ -232,9 +271,10 @@ def _values(sampler: "Sampler") -> dict:
         tumble_slip_theta=e.tumble_slip_theta).items()}
 
 
-def _sample_geometry(key, n: int, st: tuple, val: dict, n_vertices: int, dim: int,
+def _sample_geometry(key, n: int, st: Structure, val: dict, n_vertices: int, dim: int,
                      dtype=jnp.float64):
-    distribution, com_shape, v_zero, has_sigma, com_zero = st[:5]
+    distribution, com_shape, v_zero = st.geometry_distribution, st.com_shape, st.vertex_zero
+    has_sigma, com_zero = st.has_sigma_v, st.com_zero
     mv = n_vertices * dim
     u = jax.random.uniform(key, (n, mv + dim + 1), dtype)
     dv = _box_from_u(u[:, :mv], val["tau_v"], v_zero, distribution,
@@ -292,12 +332,12 @@ def _family_c(key, body, n: int, family: str, dtype):
     return c, 0, codes, 0, lift, 0
 
 
-def _sample_friction(key, body, n: int, st: tuple, val: dict, has_body: bool,
+def _sample_friction(key, body, n: int, st: Structure, val: dict, has_body: bool,
                      dtype=jnp.float64, keep_support: bool = True):
     from kernels import support as ks
 
-    S, k, c_given, mu_f_const, mu_s_const, c_const = st[5:11]
-    family = st[21]
+    S, k, c_given = st.support_points, st.weight_concentration, st.c_given
+    mu_f_const, mu_s_const, c_const, family = st.mu_f_const, st.mu_s_const, st.c_const, st.support
     u = jax.random.uniform(key, (n, 3 + S * (3 + k)), dtype)
     mu_f, a_f = _range_from_u(u[:, 0], n, val["mu_f_lo"], val["mu_f_hi"], mu_f_const, dtype)
     mu_s, a_s = _range_from_u(u[:, 1], n, val["mu_s_lo"], val["mu_s_hi"], mu_s_const, dtype)
@@ -328,10 +368,12 @@ def _sample_friction(key, body, n: int, st: tuple, val: dict, has_body: bool,
             FrictionParams(a_f, a_s, a_c, a_p, a_w, a_code, a_lift))
 
 
-def _sample_execution(key, n: int, st: tuple, val: dict, n_pushes: int = 0,
+def _sample_execution(key, n: int, st: Structure, val: dict, n_pushes: int = 0,
                       n_tumbles: int = 0, dtype=jnp.float64):
-    (dist, start_zero, xy_zero, th_zero, fence_zero, rel_zero, abs_zero, slip_zero, sxy_zero,
-     sth_zero) = st[11:21]
+    dist, start_zero, xy_zero, th_zero = (st.execution_distribution, st.start_zero,
+                                          st.start_xy_zero, st.start_theta_zero)
+    fence_zero, rel_zero, abs_zero = st.fence_zero, st.rel_zero, st.abs_zero
+    slip_zero, sxy_zero, sth_zero = st.slip_zero, st.slip_xy_zero, st.slip_theta_zero
     P, L = int(n_pushes), int(n_tumbles)   # bucketed (steps_bucket): cut to the plan's after
     u = jax.random.uniform(key, (n, 3 + 3 * P + 3 * L), dtype)
 
@@ -444,7 +486,7 @@ class Sampler:
         n, P, L = int(n), int(n_pushes), int(n_tumbles)
         N, Pb, Lb = sample_bucket(n), steps_bucket(P), steps_bucket(L)
         # one compiled call for the three groups, per structure (values are traced)
-        jitted, box = _staged((N, _structure(self), int(n_vertices), int(dim), Pb, Lb, has_body,
+        jitted, box = _staged((N, Structure.of(self), int(n_vertices), int(dim), Pb, Lb, has_body,
                                dt, bool(keep_support)))
         vals = {k: jnp.asarray(v, dt) for k, v in _values(self).items()}
         params = jitted(key, b, vals)

@@ -63,7 +63,7 @@ import numpy as np
 from pydantic import Field, StrictBool, field_validator
 
 from robustness import model_for
-from sweeps.errors import Exit
+from sweeps.errors import Exit, UserError
 from sweeps.config import (ConfigError, Evaluation, PartInline, Strict, Task, explicit_tasks,
                           validate)
 from sweeps.terminal import Parser, fail, report_warnings, run_main
@@ -140,18 +140,15 @@ def load(path, n_samples=None, max_samples=None, seed=None):
       ``(config, document as run, its YAML text, part, tasks)``.
 
     Raises:
-      ConfigError: one line per mistake.
+      UserError: one line per mistake (``lines``), each naming the file.
     """
     from robustness.physics import check_pad_friction
     from sweeps.plausible import screen_config
     from sweeps.study import load_part_ref, part_polyhedron
-    from sweeps.yamlio import YamlError, dump_yaml, read_yaml
+    from sweeps.yamlio import dump_yaml, read_yaml
 
     path = pathlib.Path(path)
-    try:
-        doc, _ = read_yaml(path, "config")
-    except YamlError as exc:
-        raise ConfigError(str(exc)) from None
+    doc, _ = read_yaml(path, "config")   # a YamlError names the file
     if not isinstance(doc, dict):
         raise ConfigError(f"{path}: expected a mapping with keys "
                           f"{', '.join(CertifyConfig.model_fields)}")
@@ -179,9 +176,10 @@ def load(path, n_samples=None, max_samples=None, seed=None):
             cell = cfg.physics.run(part, cfg.friction).settings
             cfg = cfg.model_copy(update={"physics": cfg.physics.model_copy(update={"cell": cell})})
         screen_config(cfg, part)   # implausible values (sweeps.plausible), before any work
-    except ValueError as exc:   # ConfigError, or a friction the MuJoCo tumble device cannot use
-        exc = exc if isinstance(exc, ConfigError) else ConfigError(str(exc))
-        raise ConfigError(f"{path}: {exc.lines[0]}", [f"{path}: {ln}" for ln in exc.lines]) from None
+    except UserError as exc:
+        raise exc.within(path) from None
+    except ValueError as exc:   # a friction the MuJoCo tumble device cannot use, a part the cell refuses
+        raise ConfigError(f"{path}: {exc}") from None
     return cfg, doc, dump_yaml(doc), part, tasks
 
 
@@ -193,7 +191,7 @@ def main(argv=None, prog: str = "nudge certify") -> int:
     path = pathlib.Path(args.config)
     try:
         cfg, doc, text, part, tasks = load(path, args.n_samples, args.max_samples, args.seed)
-    except ConfigError as exc:
+    except UserError as exc:
         for line in exc.lines:
             fail(line)
         return Exit.INPUT

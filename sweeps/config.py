@@ -31,12 +31,8 @@ PUSH_DEFAULTS = PushOptions()
 
 
 class ConfigError(UserError):
-    """A config that cannot be used.  ``lines`` holds one message per mistake
-    (each names the field and the fix); ``str()`` is the first."""
-
-    def __init__(self, message: str, lines: Optional[list] = None):
-        super().__init__(message)
-        self.lines = list(lines) if lines else [message]
+    """A config that cannot be used (``lines``: one message per mistake, each
+    names the field and the fix)."""
 
 
 class Strict(BaseModel):

@@ -9,6 +9,7 @@ before any work, and exit status :attr:`Exit.INPUT`.
 from __future__ import annotations
 
 import enum
+from typing import Optional
 
 
 class Exit(enum.IntEnum):
@@ -23,7 +24,17 @@ class Exit(enum.IntEnum):
 
 class UserError(ValueError):
     """Bad input at the edge (exit status 2); the message names the field and
-    the fix."""
+    the fix.  ``lines`` holds one message per mistake (a config can have
+    several); ``str()`` is the first."""
+
+    def __init__(self, message: str, lines: Optional[list] = None):
+        super().__init__(message)
+        self.lines = list(lines) if lines else [message]
+
+    def within(self, where) -> "UserError":
+        """The same mistakes, of the same type, each line prefixed with
+        ``where: `` (the file or option they were found in)."""
+        return type(self)(f"{where}: {self.lines[0]}", [f"{where}: {ln}" for ln in self.lines])
 
 
 __all__ = ["Exit", "UserError"]

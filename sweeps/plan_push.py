@@ -44,7 +44,7 @@ import sys
 import warnings
 from typing import Optional, Sequence
 
-from sweeps.errors import Exit
+from sweeps.errors import Exit, UserError
 from sweeps.terminal import (EFFORT_BOUNDS, InputError, Parser, check_figure_path, fail,
                              join_negative_values, load_part_of_kind, report_warnings)
 from sweeps.terminal import parse_pose as _parse_pose
@@ -192,7 +192,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
 
     try:
         part = load_part_of_kind(args.part, "polygon", "nudge plan-tumble for polyhedra")
-    except InputError as exc:
+    except UserError as exc:
         return fail(str(exc))
     from sweeps import plausible
 

@@ -39,7 +39,7 @@ import warnings
 from fractions import Fraction
 from typing import Optional, Sequence
 
-from sweeps.errors import Exit
+from sweeps.errors import Exit, UserError
 from sweeps.terminal import (InputError, Parser, check_figure_path, fail, join_negative_values,
                              load_part_of_kind, parse_pose, report_warnings)
 
@@ -168,7 +168,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
 
     try:
         part = load_part_of_kind(args.part, "polyhedron", "nudge plan-push for polygons")
-    except InputError as exc:
+    except UserError as exc:
         return fail(str(exc))
     from sweeps import plausible
 

@@ -33,7 +33,7 @@ import pathlib
 import sys
 from typing import Optional, Sequence
 
-from sweeps.errors import Exit
+from sweeps.errors import Exit, UserError
 from sweeps.terminal import Parser, fail, run_main
 
 
@@ -68,12 +68,10 @@ def build_parser(prog: str = "python -m sweeps.run") -> Parser:
 
 def main(argv: Optional[Sequence[str]] = None, prog: str = "python -m sweeps.run") -> int:
     """Run the command line; returns the exit status."""
-    from sweeps.config import ConfigError
-
     args = build_parser(prog).parse_args(sys.argv[1:] if argv is None else argv)
     try:
         design, out, spec = _prepare(args)
-    except ConfigError as exc:
+    except UserError as exc:   # a ConfigError (one line per mistake) or the file's YamlError
         for line in exc.lines:
             fail(line)
         return Exit.INPUT

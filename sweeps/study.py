@@ -47,7 +47,7 @@ from sweeps.config import (Angle, ConfigError, Evaluation, PartInline, Strict, T
                            parse_angle, parse_pose, validate)
 from sweeps.design import expand, parse_overrides, set_path
 from sweeps.plausible import check_design, wrap
-from sweeps.yamlio import YamlError, dump_yaml, read_yaml
+from sweeps.yamlio import dump_yaml, read_yaml
 
 KIND_OF_PART = {"polygon": "push", "polyhedron": "tumble"}
 
@@ -285,16 +285,14 @@ def load_design(ref, overrides=()) -> Design:
     in ``design.warnings``, for the caller to show).
 
     Raises:
-      ConfigError: one line per mistake, naming the field path and the fix.
+      UserError: one line per mistake (``lines``: a ``ConfigError``, or the
+        file's ``YamlError``), naming the field path and the fix.
     """
     try:
         path = catalog.find_study(ref)
     except FileNotFoundError as exc:
         raise ConfigError(f"{ref}: {exc}") from None
-    try:
-        doc, _ = read_yaml(path, "study config")
-    except YamlError as exc:
-        raise ConfigError(str(exc)) from None
+    doc, _ = read_yaml(path, "study config")   # a YamlError names the file
     if not isinstance(doc, dict):
         raise ConfigError(f"{path}: expected a mapping with keys {', '.join(Study.model_fields)}")
     doc = copy.deepcopy(doc)
@@ -313,7 +311,7 @@ def load_design(ref, overrides=()) -> Design:
     try:
         design = Design(path, doc)
     except ConfigError as exc:
-        raise ConfigError(f"{path}: {exc.lines[0]}", [f"{path}: {ln}" for ln in exc.lines]) from None
+        raise exc.within(path) from None
     for cid in range(len(design.configs)):
         try:
             part = design.part(cid)
@@ -335,7 +333,7 @@ def load_design(ref, overrides=()) -> Design:
     try:
         design.warnings = check_design(design)
     except ConfigError as exc:
-        raise ConfigError(f"{path}: {exc.lines[0]}", [f"{path}: {ln}" for ln in exc.lines]) from None
+        raise exc.within(path) from None
     return design
 
 

@@ -169,21 +169,19 @@ def load_part_of_kind(path, kind: str, other_tool: str):
     (``polygon`` or ``polyhedron``).
 
     Raises:
-      InputError: a bad file (the message names the field), or the other kind
-        (the message names ``other_tool``, the command for that kind).
+      UserError: a bad file (a ``PartFileError``: the message names the field),
+        or the other kind (the message names ``other_tool``, the command for
+        that kind).
     """
     from sweeps.catalog import find_part
-    from sweeps.partfile import PartFileError, load_part
+    from sweeps.partfile import load_part
 
     try:
-        try:
-            path = find_part(path)
-        except FileNotFoundError as exc:
-            if not str(path).endswith((".yaml", ".yml")) and "/" not in str(path):
-                raise InputError(f"{path}: {exc}") from None
-        part = load_part(path)
-    except PartFileError as exc:
-        raise InputError(str(exc)) from None
+        path = find_part(path)
+    except FileNotFoundError as exc:
+        if not str(path).endswith((".yaml", ".yml")) and "/" not in str(path):
+            raise InputError(f"{path}: {exc}") from None
+    part = load_part(path)
     if part.kind != kind:
         raise InputError(f"{part.path}: kind: this planner takes {kind} parts, this file holds a "
                          f"{part.kind} (use {other_tool})")

@@ -83,3 +83,24 @@ def test_plan_pose_takes_options_or_keywords_not_both():
     with pytest.raises(ValueError, match="options: give the planner's options as PushOptions or "
                                          "as keywords, not both \\(margin_deg given"):
         plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0), margin_deg=9.0, options=PushOptions())
+
+
+def test_within_prefixes_every_line_and_keeps_the_type():
+    err = ConfigError("a: bad", ["a: bad", "b: worse"]).within("study.yaml")
+    assert type(err) is ConfigError and str(err) == "study.yaml: a: bad"
+    assert err.lines == ["study.yaml: a: bad", "study.yaml: b: worse"]
+    assert YamlError("x").within("p").lines == ["p: x"] and type(YamlError("x").within("p")) is YamlError
+
+
+@pytest.mark.parametrize("command", ["sweep", "certify"])
+def test_a_yaml_syntax_error_in_a_config_is_one_line_exit_2(tmp_path, command):
+    """The file's YamlError reaches the user as it is (no translation into another error type)."""
+    from tests.commandline import nudge
+
+    p = tmp_path / "broken.yaml"
+    p.write_text("kind: push\nsamples: [1, 2\n")
+    r = nudge(command, p, "--out", tmp_path / "out")
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1, r.stderr
+    assert lines[0].startswith("error: ") and "YAML syntax error" in lines[0] and str(p) in lines[0]
+    assert not (tmp_path / "out").exists()
