@@ -64,7 +64,7 @@ import numpy as np  # noqa: E402
 from kernels import polygon as pg  # noqa: E402
 from kernels.planar import wrap_angle_np  # noqa: E402
 from planning import plan_pose, plan_tumble  # noqa: E402
-from robustness import FrictionRange, Sampler  # noqa: E402
+from robustness import Draws, FrictionRange, Sampler  # noqa: E402
 from robustness.replay import run_push as _run_push  # noqa: E402  (the evaluation's own kernels)
 from robustness.physics import PhysicsSettings, rollout_push_plan, rollout_tumble_plan  # noqa: E402
 from robustness.physics.settings import SOFT_IMPRATIO  # noqa: E402
@@ -95,12 +95,13 @@ def _params(plan, seed, support):
     fr = (FrictionRange(mu_f=(0.5, 1.5), mu_s=(0.5, 0.5), support="tripod", c=(0.004, 0.004))
           if support == "tripod" else FrictionRange(mu_f=(0.5, 1.5), mu_s=(0.5, 0.5),
                                                     support=support))
-    p, ax = Sampler(friction=fr).sample(jax.random.key(seed), 1, n_vertices=len(plan.vertices),
+    draws = Sampler(friction=fr).sample(jax.random.key(seed), 1, n_vertices=len(plan.vertices),
                                          dim=2, n_pushes=plan.n_pushes, body=body)
+    p, ax = draws.params, draws.in_axes
     p3 = jax.tree_util.tree_map(lambda x, a: x if a is None else jnp.repeat(x, 3, axis=0), p, ax,
                                 is_leaf=lambda x: x is None)
     f = dataclasses.replace(p3.friction, mu_f=jnp.asarray(MU_F))
-    return dataclasses.replace(p3, friction=f), ax
+    return Draws(dataclasses.replace(p3, friction=f), ax, 3)
 
 
 KINDS = {"default": {}, "rigid": {"support": "rigid"},
@@ -108,9 +109,9 @@ KINDS = {"default": {}, "rigid": {"support": "rigid"},
          "c4-8": {"support": {"c": [0.004, 0.008]}}}
 
 
-def _model_rows(plan, params, axes, model):
+def _model_rows(plan, draws, model):
     with jax.enable_x64(True):
-        _, _, r = _run_push(plan, params, axes, 3, model, jnp.float64, 3)
+        _, _, r = _run_push(plan, draws, model, jnp.float64, 3)
     return {k: np.asarray(v) for k, v in r.items()}
 
 
@@ -141,15 +142,15 @@ def run_pushes(args):
 
 
 def _run_one(args, support, kind, name, gi, goal, plan):
-    params, axes = _params(plan, args.seed + gi, support)
+    draws = _params(plan, args.seed + gi, support)
     straight = math.hypot(goal[0], goal[1])
     t0 = time.perf_counter()
-    cell = rollout_push_plan(plan, params, axes, 3, backend="c", settings=args.settings)
-    con = rollout_push_plan(plan, params, axes, 3, backend="c", stroke="contact",
+    cell = rollout_push_plan(plan, draws, backend="c", settings=args.settings)
+    con = rollout_push_plan(plan, draws, backend="c", stroke="contact",
                             settings=args.settings)
     secs = time.perf_counter() - t0
-    qs = _model_rows(plan, params, axes, "quasistatic")
-    ex = _model_rows(plan, params, axes, "exact")
+    qs = _model_rows(plan, draws, "quasistatic")
+    ex = _model_rows(plan, draws, "exact")
     g = np.asarray(plan.goal)
     cell_ok = _ok(cell["x"], cell["y"], cell["theta"], g, 0.01 * straight, EPS_TH)
     ph_s = _ok(con["x"], con["y"], con["theta"], g, EPS_POS, EPS_TH)
@@ -239,9 +240,9 @@ def c_vs_mjx():
         sam = Sampler(friction=FrictionRange(mu_f=(0.8, 0.8), mu_s=(0.5, 0.5), support=fam, c=c))
         params = sam.sample(jax.random.key(0), 1, n_vertices=4, dim=2, n_pushes=plan.n_pushes,
                             body=body)
-        m = rollout_push_plan(plan, *params, 1, backend="mjx", settings=soft)
-        cs = rollout_push_plan(plan, *params, 1, backend="c", settings=soft)
-        cn = rollout_push_plan(plan, *params, 1, backend="c")
+        m = rollout_push_plan(plan, params, backend="mjx", settings=soft)
+        cs = rollout_push_plan(plan, params, backend="c", settings=soft)
+        cn = rollout_push_plan(plan, params, backend="c")
         d = math.hypot(m["x"][0] - cs["x"][0], m["y"][0] - cs["y"][0]) * 1e3
         dn = math.hypot(m["x"][0] - cn["x"][0], m["y"][0] - cn["y"][0]) * 1e3
         worst = max(worst, d)
@@ -279,10 +280,10 @@ def run_tumbles(args):
             if plan.verdict != "solved" or plan.n_tumbles == 0:
                 print(f"  {name:<20} goal {gi}: {plan.verdict} ({plan.n_tumbles} tumbles), skipped")
                 continue
-            params, axes = sam.sample(jax.random.key(gi), 1, n_vertices=len(part.vertices), dim=3,
-                                      n_tumbles=plan.n_tumbles)
+            draws = sam.sample(jax.random.key(gi), 1, n_vertices=len(part.vertices), dim=3,
+                               n_tumbles=plan.n_tumbles)
             t0 = time.perf_counter()
-            r = rollout_tumble_plan(plan, params, axes, 1, backend="c")
+            r = rollout_tumble_plan(plan, draws, backend="c")
             rows.append(dict(part=name, goal=gi, n=plan.n_tumbles, ok=bool(r["faces_ok"][0]),
                              wrong=int(r["n_wrong_faces"][0]), err=float(r["err_pos"][0]),
                              eth=float(r["err_theta"][0]), pred=plan.error,

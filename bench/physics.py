@@ -60,7 +60,6 @@ from robustness.physics import scene  # noqa: E402
 from robustness.physics.c_engine import cpu_threads  # noqa: E402
 from robustness.physics.pushing import FenceStrokes, nominal_polygon, push_parts  # noqa: E402
 from robustness.physics.settings import SOFT_IMPRATIO  # noqa: E402
-from robustness.samplers import slice_batch  # noqa: E402
 from sweeps.partfile import load_part  # noqa: E402
 
 import mujoco  # noqa: E402
@@ -82,10 +81,10 @@ def _params(plan, sampler, n, seed=0):
                           n_pushes=plan.n_pushes, body=body)
 
 
-def raw_rollout(plan, params, axes, n, s):
+def raw_rollout(plan, draws, s):
     """Time ONE ``mujoco.rollout`` over the layer's models and controls."""
     poly, _ = nominal_polygon(plan)
-    parts = push_parts(plan, poly, params, axes, n)
+    parts = push_parts(plan, poly, draws)
     idx = np.flatnonzero(parts.valid)
     models = push_mod._models(parts, idx, s, s.impratio)
     lay = scene.layout(models[0])
@@ -103,27 +102,26 @@ def raw_rollout(plan, params, axes, n, s):
 
 def layer_vs_raw(plan, n, s, repeat):
     """Best of ``repeat`` interleaved runs of each (the machine is shared)."""
-    params, axes = _params(plan, _sampler(), n)
-    warm = slice_batch(params, axes, 0, 1)
-    rollout_push_plan(plan, warm, axes, 1, backend="c", settings=s)     # warm the caches
+    draws = _params(plan, _sampler(), n)
+    rollout_push_plan(plan, draws.slice(0, 1), backend="c", settings=s)     # warm the caches
     ours = raw = math.inf
     for _ in range(repeat):
         t0 = time.perf_counter()
-        r = rollout_push_plan(plan, params, axes, n, backend="c", settings=s)
+        r = rollout_push_plan(plan, draws, backend="c", settings=s)
         ours = min(ours, time.perf_counter() - t0)
-        t_raw, steps = raw_rollout(plan, params, axes, n, s)
+        t_raw, steps = raw_rollout(plan, draws, s)
         raw = min(raw, t_raw)
     return ours, raw, steps, r
 
 
 def mjx_cpu(plan, n, s):
     one = dataclasses.replace(plan, pushes=plan.pushes[:1], goal=plan.pushes[0].pose_after)
-    params, axes = _params(one, _sampler(), n, seed=1)   # rigid support: MJX mesh-plane contacts
+    draws = _params(one, _sampler(), n, seed=1)   # rigid support: MJX mesh-plane contacts
     t0 = time.perf_counter()
-    rollout_push_plan(one, params, axes, n, backend="mjx", settings=s)
+    rollout_push_plan(one, draws, backend="mjx", settings=s)
     first = time.perf_counter() - t0
     t0 = time.perf_counter()
-    r = rollout_push_plan(one, params, axes, n, backend="mjx", settings=s)
+    r = rollout_push_plan(one, draws, backend="mjx", settings=s)
     second = time.perf_counter() - t0
     return first - second, second, n * r["steps"]
 
@@ -152,10 +150,10 @@ def creep(backends_settings):
                     objective_value=0.15, total_distance=0.15, margin_deg=7.0,
                     safety_factor=1.15, final_error=(0.0, 0.0))
     sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(0.5, 0.5), c=(0.008, 0.008)))
-    params, axes = _params(plan, sam, 1, seed=2)
+    draws = _params(plan, sam, 1, seed=2)
     rows = []
     for label, backend, s in backends_settings:
-        r = rollout_push_plan(plan, params, axes, 1, backend=backend, settings=s, stroke="contact")
+        r = rollout_push_plan(plan, draws, backend=backend, settings=s, stroke="contact")
         rows.append((label, float(r["slip"][0]) * 1e3, float(r["err_pos"][0]) * 1e3))
     return rows
 

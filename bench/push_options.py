@@ -56,7 +56,7 @@ import jax.numpy as jnp  # noqa: E402
 from planning import WorkspaceError, plan_pose, plan_pose_batch, prepare_part  # noqa: E402
 from planning.pushing.workspace import part_extent  # noqa: E402
 from push_planning import bundled_polygons, near_goals  # noqa: E402
-from robustness import FrictionRange, Sampler, evaluate  # noqa: E402
+from robustness import Draws, FrictionRange, Sampler, evaluate  # noqa: E402
 
 WORKSPACE = (-0.15, 0.15, -0.15, 0.15)
 MU_LO = 0.5
@@ -67,8 +67,9 @@ def support_range(verts, com, q=(0.05, 0.95), n=4096):
     """The ``q`` quantiles (m) of the default sampler's limit-surface ratio."""
     part = prepare_part(verts, com)
     s = Sampler(friction=FrictionRange(mu_f=MU_F))
-    par, _ = s.sample(jax.random.key(1), n, n_vertices=len(verts), dim=2, n_pushes=1,
-                      body=part.body, keep_support=False)
+    draws = s.sample(jax.random.key(1), n, n_vertices=len(verts), dim=2, n_pushes=1,
+                     body=part.body, keep_support=False)
+    par = draws.params
     lo, hi = np.quantile(np.asarray(par.friction.c), q)
     return float(lo), float(hi)
 
@@ -166,8 +167,9 @@ def physics_rows(srows, goals_per_part, seed):
             plan = batch.plan(int(i))
             body = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com)).body
             sam = Sampler(friction=FrictionRange(mu_f=MU_F))
-            p, ax = sam.sample(jax.random.key(seed + int(i)), 64, n_vertices=len(plan.vertices), dim=2,
+            draws = sam.sample(jax.random.key(seed + int(i)), 64, n_vertices=len(plan.vertices), dim=2,
                                n_pushes=plan.n_pushes, body=body)
+            p, ax = draws.params, draws.in_axes
             cs = np.asarray(p.friction.c)
             j = int(np.flatnonzero((cs >= lo) & (cs <= hi))[0])   # a support whose c is in the range
             f = p.friction
@@ -177,7 +179,7 @@ def physics_rows(srows, goals_per_part, seed):
             f2 = dataclasses.replace(f2, mu_f=jnp.asarray(MU_F))
             params = dataclasses.replace(p, friction=f2)   # nominal part: only friction is batched
             t0 = time.perf_counter()
-            res = rollout_push_plan(plan, params, ax, 2, backend="c")
+            res = rollout_push_plan(plan, Draws(params, ax, 2), backend="c")
             straight = math.hypot(plan.goal[0] - plan.start[0], plan.goal[1] - plan.start[1])
             ok = (res["err_pos"] <= 0.01 * straight) & (np.abs(res["err_theta"]) <= math.radians(1.0))
             out.append(dict(part=r["part"], goal=int(i), ok=ok.tolist(), err_mm=(res["err_pos"] * 1e3).tolist(),

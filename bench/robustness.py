@@ -73,7 +73,6 @@ from planning import plan_pose  # noqa: E402
 from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler  # noqa: E402
 from robustness import evaluation as ev_mod  # noqa: E402
 from robustness import replay  # noqa: E402
-from robustness.samplers import broadcast  # noqa: E402
 from sweeps.partfile import load_part  # noqa: E402
 from timing import best_of  # noqa: E402
 
@@ -132,14 +131,14 @@ def push_bench(n: int, n_np: int, repeat: int) -> dict:
     P = plan.n_pushes
     poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
     rows, finals = [], {}
-    params64, ax64 = PUSH_SAMPLER.sample(jax.random.key(0), n, n_vertices=len(plan.vertices),
-                                         dim=2, n_pushes=P, body=poly.body)
-    jax.block_until_ready(params64)
+    draws = PUSH_SAMPLER.sample(jax.random.key(0), n, n_vertices=len(plan.vertices),
+                                dim=2, n_pushes=P, body=poly.body)
+    jax.block_until_ready(draws.params)
     for dtype in (jnp.float64, jnp.float32):
         name = jnp.dtype(dtype).name
 
         def kernel():
-            return replay.run_push(plan, params64, ax64, n, "quasistatic", dtype, 4096)
+            return replay.run_push(plan, draws, "quasistatic", dtype, 4096)
 
         t0 = time.perf_counter()
         _, _, res = kernel()
@@ -159,7 +158,7 @@ def push_bench(n: int, n_np: int, repeat: int) -> dict:
         rows.append(dict(method=f"jax evaluate() {name}", n=n, seconds=t, rate=n / t, first=first))
     from oracles import quasistatic_numpy as oracle
 
-    p = broadcast(params64, ax64, n)
+    p = draws.broadcast()
     angles = [math.atan2(q.direction[1], q.direction[0]) for q in plan.pushes]
     dists = [q.distance for q in plan.pushes]
     k = min(n_np, n)
@@ -232,10 +231,10 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
     P, plan = tumble_plan_200()
     rows = []
     steps = n * TUMBLE_LEN
-    params64, ax = TUMBLE_SAMPLER.sample(jax.random.key(0), n, n_vertices=len(plan.vertices),
-                                         dim=3, n_tumbles=TUMBLE_LEN)
-    jax.block_until_ready(params64)
-    V = np.asarray(P.vertices)[None] + np.asarray(params64.geometry.vertex_offset)
+    draws = TUMBLE_SAMPLER.sample(jax.random.key(0), n, n_vertices=len(plan.vertices),
+                                  dim=3, n_tumbles=TUMBLE_LEN)
+    jax.block_until_ready(draws.params)
+    V = np.asarray(P.vertices)[None] + np.asarray(draws.params.geometry.vertex_offset)
     diam = float(np.max(np.linalg.norm(P.vertices[:, None] - P.vertices[None], axis=-1)))
     tol = face_merge_tol(TUMBLE_SAMPLER.geometry.tau_v, diam)
     seq = jnp.asarray(np.asarray(plan.faces, np.int32).reshape(-1))
@@ -255,7 +254,7 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
                          rate=steps / t, first=first))
         for check in (False, True):
             def inside():
-                return replay.run_tumble(plan, params64, ax, n, dtype, 4096,
+                return replay.run_tumble(plan, draws, dtype, 4096,
                                           merge_tol=tol if check else None,
                                           slip_theta=TUMBLE_SAMPLER.execution.tumble_slip_theta)
 
@@ -282,12 +281,12 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
     # the draws alone (the sampler's compiled call: vertex offsets and 3 x 256 slip
     # uniforms per sample, threefry): a floor under evaluate() as long as the
     # random stream (and so every table) stays what it is
-    def draws():
+    def draw_only():
         return jax.block_until_ready(TUMBLE_SAMPLER.sample(
-            jax.random.key(1), n, n_vertices=len(plan.vertices), dim=3, n_tumbles=TUMBLE_LEN)[0])
+            jax.random.key(1), n, n_vertices=len(plan.vertices), dim=3, n_tumbles=TUMBLE_LEN).params)
 
-    draws()
-    full["draws_rate"] = n / best_of(draws, repeat)
+    draw_only()
+    full["draws_rate"] = n / best_of(draw_only, repeat)
     # numpy oracle (no slip) on a subset
     k = min(n_np, n)
     t0 = time.perf_counter()
@@ -306,7 +305,7 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
     t_jax = best_of(lambda: polyhedra_changed(V, P, tol), repeat)
     jx = polyhedra_changed(V[:kh], P, tol)
     # a harder set for the agreement: 13x the tolerance, where about half the samples change
-    V2 = np.asarray(P.vertices)[None] + 13.0 * np.asarray(params64.geometry.vertex_offset[:kh])
+    V2 = np.asarray(P.vertices)[None] + 13.0 * np.asarray(draws.params.geometry.vertex_offset[:kh])
     tol2 = face_merge_tol(13 * TUMBLE_SAMPLER.geometry.tau_v, diam)
     ref2, jx2 = polyhedron_combinatorics_changed(V2, P, tol2), polyhedra_changed(V2, P, tol2)
     return dict(rows=rows, full=full,

@@ -129,7 +129,6 @@ def worker(cfg: dict) -> dict:
     import numpy as np
 
     from robustness import evaluation as ev_mod
-    from robustness.samplers import broadcast
 
     br = _bench_robustness()
     n = int(cfg["n"])
@@ -163,9 +162,9 @@ def worker(cfg: dict) -> dict:
         from oracles import quasistatic_numpy as oracle
 
         poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
-        p, ax = sampler.sample(jax.random.key(0), k, n_vertices=len(plan.vertices), dim=2,
+        draws = sampler.sample(jax.random.key(0), k, n_vertices=len(plan.vertices), dim=2,
                                n_pushes=steps, body=poly.body)
-        p = broadcast(p, ax, k)
+        p = draws.broadcast()
         angles = [math.atan2(q.direction[1], q.direction[0]) for q in plan.pushes]
         dists = [q.distance for q in plan.pushes]
         t0 = time.perf_counter()

@@ -2,7 +2,7 @@
 
 * Tolerance models (:class:`GeometryTolerance`, :class:`FrictionRange`,
   :class:`ExecutionTolerance`) and the :class:`Sampler` that draws them with
-  explicit ``jax.random`` keys.
+  explicit ``jax.random`` keys, as :class:`Draws`.
 * :func:`evaluate`: Monte-Carlo replay of a push or tumble plan on perturbed
   parts, friction and robot errors, returning an :class:`Evaluation`
   (per-sample frame and summary).
@@ -21,7 +21,7 @@ Units: metres, radians.  Nothing here reads or writes files; the edge
 from robustness.certificates import Certificate, certify
 from robustness.bounds import push_plan_bound, tumble_first_order_bound, tumble_plan_paper_bounds
 from robustness.evaluation import MODELS, BoundViolation, Evaluation, evaluate
-from robustness.samplers import PerturbationParams, Sampler
+from robustness.samplers import Draws, PerturbationParams, Sampler
 from robustness.stats import clopper_pearson, one_sided_lower, one_sided_upper
 from robustness.summary import summarise
 from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTolerance,
@@ -36,7 +36,8 @@ from robustness.summary import STAT_COLUMNS, empty_summary
 from robustness.tables import FAILURE_MODES, to_arrow
 
 __all__ = [
-    "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Sampler", "PerturbationParams",
+    "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Sampler",
+    "Draws", "PerturbationParams",
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
     "one_sided_upper", "certify", "Certificate", "summarise",

@@ -107,7 +107,6 @@ import math
 import warnings
 from typing import Optional
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import pandas as pd
@@ -152,14 +151,6 @@ class Evaluation:
 # --------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------
-def _cast(params, dtype):
-    """The float64 draws in the kernels' dtype: a float32 evaluation sees the same
-    samples as a float64 one (drawing in float32 would give other numbers)."""
-    if dtype == jnp.dtype(jnp.float64):
-        return params
-    return jax.tree_util.tree_map(lambda x: jnp.asarray(x, dtype), params)
-
-
 def _warn_truncated(r: dict, task) -> None:
     """A push still moving at the kernel's phase cap is reported, never silently kept."""
     k = int(np.sum(np.asarray(r.get("truncated", False))))
@@ -243,11 +234,11 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
             warnings.simplefilter("ignore", pg.PartWarning)
             poly0 = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
         shape = dict(n_vertices=m, dim=2, n_pushes=len(plan.pushes))
-        params64, in_axes = sampler.sample(key, n, body=poly0.body, dtype=jnp.float64,
-                                           keep_support=model == "mujoco", **shape)
+        draws = sampler.sample(key, n, body=poly0.body, dtype=jnp.float64,
+                               keep_support=model == "mujoco", **shape)
     else:
         shape = dict(n_vertices=m, dim=3, n_tumbles=plan.n_tumbles)
-        params64, in_axes = sampler.sample(key, n, dtype=jnp.float64, **shape)
+        draws = sampler.sample(key, n, dtype=jnp.float64, **shape)
     if model == "mujoco":
         from robustness.physics.settings import check_pad_friction
 
@@ -256,20 +247,20 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
 
             grip = (physics.settings.grip_ratio if physics is not None else 2.0)
             check_pad_friction(sampler.friction, kind, nominal_polyhedron(plan), grip)
-        rows = _physics_rows(plan, kind, params64, in_axes, n, sampler, pe, te, slip_fraction,
-                             merge_factor, physics)
+        rows = _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction, merge_factor,
+                             physics)
         dtype = jnp.dtype(rows.pop("dtype"))
     elif kind == "push":
-        rows = _push_rows(plan, params64, in_axes, n, model, dtype, chunk, task)
+        rows = _push_rows(plan, draws, model, dtype, chunk, task)
     else:
-        rows = _tumble_rows(plan, params64, in_axes, n, dtype, chunk, sampler, merge_factor)
-    cast = _cast(params64, dtype)
-    cols = parameter_columns(cast, in_axes, n, **shape)
-    lists = parameter_lists(cast, in_axes, n, **shape)
+        rows = _tumble_rows(plan, draws, dtype, chunk, sampler, merge_factor)
+    cast = draws.astype(dtype)   # a float32 evaluation sees the float64 one's samples
+    cols = parameter_columns(cast, **shape)
+    lists = parameter_lists(cast, **shape)
     df = _frame(rows, cols, plan, kind, model, dtype, task, pe, te, slip_fraction)
     if model == "mujoco":
-        _compare_with_kinematics(df, plan, kind, params64, in_axes, n, chunk, task, sampler,
-                                 merge_factor, pe, te, slip_fraction)
+        _compare_with_kinematics(df, plan, kind, draws, chunk, task, sampler, merge_factor, pe,
+                                 te, slip_fraction)
     if summary:
         summary = summarise(df, plan, sampler, kind=kind, model=model, dtype=dtype.name,
                             pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, task=task,
@@ -280,10 +271,10 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
                       model=model, lists=lists)
 
 
-def _push_rows(plan, params64, in_axes, n, model, dtype, chunk, task) -> dict:
+def _push_rows(plan, draws, model, dtype, chunk, task) -> dict:
     """Per-sample outcomes of a push plan under the quasi-static or exact kernel."""
-    P = len(plan.pushes)
-    poly, planned, r = run_push(plan, params64, in_axes, n, model, dtype, chunk)
+    P, n = len(plan.pushes), draws.n
+    poly, planned, r = run_push(plan, draws, model, dtype, chunk)
     _warn_truncated(r, task)
     edges = np.asarray(r["edges"]).reshape(n, P)
     complete = np.asarray(r["complete"]).reshape(n, P).astype(bool)
@@ -307,7 +298,7 @@ def _push_rows(plan, params64, in_axes, n, model, dtype, chunk, task) -> dict:
                              default=""))
 
 
-def _tumble_rows(plan, params64, in_axes, n, dtype, chunk, sampler, merge_factor) -> dict:
+def _tumble_rows(plan, draws, dtype, chunk, sampler, merge_factor) -> dict:
     """Per-sample outcomes of a tumble plan under the exact tumble kinematics."""
     poly = tumble_nominal(plan)
     tol = None
@@ -315,7 +306,8 @@ def _tumble_rows(plan, params64, in_axes, n, dtype, chunk, sampler, merge_factor
         v = np.asarray(poly.vertices)
         diam = float(np.max(np.linalg.norm(v[:, None] - v[None], axis=-1)))
         tol = face_merge_tol(sampler.geometry.tau_v, diam, merge_factor)
-    poly, r = run_tumble(plan, params64, in_axes, n, dtype, chunk, merge_tol=tol,
+    n = draws.n
+    poly, r = run_tumble(plan, draws, dtype, chunk, merge_tol=tol,
                          slip_theta=sampler.execution.tumble_slip_theta)
     changed = np.asarray(r["changed"]).astype(bool)
     face = np.asarray(r["face"], np.int64)
@@ -333,8 +325,8 @@ def _tumble_rows(plan, params64, in_axes, n, dtype, chunk, sampler, merge_factor
                              default=""))
 
 
-def _physics_rows(plan, kind, params64, in_axes, n, sampler, pe, te, slip_fraction,
-                  merge_factor, physics) -> dict:
+def _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction, merge_factor,
+                  physics) -> dict:
     """Per-sample outcomes of a plan rolled out in MuJoCo (:mod:`robustness.physics`):
     the physics layer classifies every sample itself (tipping, toppling, a fence
     strike, leaving the workspace come on top of the kernels' failure modes);
@@ -347,9 +339,10 @@ def _physics_rows(plan, kind, params64, in_axes, n, sampler, pe, te, slip_fracti
         raise ValueError(f"physics: expected a robustness.physics.PhysicsRun, got {run!r}")
     common = dict(backend=run.backend, settings=run.settings, pos_eps_m=pe, theta_eps_rad=te,
                   slip_fraction=slip_fraction)
+    n = draws.n
     none = np.full(n, -1, np.int64)
     if kind == "push":
-        r = rollout_push_plan(plan, params64, in_axes, n, stroke=run.stroke, **common)
+        r = rollout_push_plan(plan, draws, stroke=run.stroke, **common)
         poly, planned = push_nominal(plan)
         edges = np.asarray(r["edges"])
         complete = np.asarray(r["complete"], bool)
@@ -361,7 +354,7 @@ def _physics_rows(plan, kind, params64, in_axes, n, sampler, pe, te, slip_fracti
                      first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
                      hull_changed=np.asarray(r["hull_changed"], bool))
     else:
-        r = rollout_tumble_plan(plan, params64, in_axes, n, merge_factor=merge_factor,
+        r = rollout_tumble_plan(plan, draws, merge_factor=merge_factor,
                                 tau_v=sampler.geometry.tau_v, **common)
         extra = dict(final_edge_a=none, final_edge_b=none, planned_edge_a=none,
                      planned_edge_b=none, final_face=np.asarray(r["face"], np.int64),
@@ -375,8 +368,8 @@ def _physics_rows(plan, kind, params64, in_axes, n, sampler, pe, te, slip_fracti
                 dtype="float32" if r["backend"] == "mjx" else "float64", **extra)
 
 
-def _compare_with_kinematics(df, plan, kind, params64, in_axes, n, chunk, task, sampler,
-                             merge_factor, pe, te, slip_fraction) -> None:
+def _compare_with_kinematics(df, plan, kind, draws, chunk, task, sampler, merge_factor, pe, te,
+                             slip_fraction) -> None:
     """Physics rows get the kinematic models' answers on the same draws beside them
     (float64): ``dpos_vs_<model>_m`` (m) and ``dtheta_vs_<model>_rad`` (rad, wrapped),
     the physics final pose minus the model's, and ``success_<model>``; push rows
@@ -384,9 +377,9 @@ def _compare_with_kinematics(df, plan, kind, params64, in_axes, n, chunk, task, 
     f64 = jnp.dtype(jnp.float64)
     for ref in ("quasistatic", "exact") if kind == "push" else ("exact",):
         if kind == "push":
-            rr = _push_rows(plan, params64, in_axes, n, ref, f64, chunk, task)
+            rr = _push_rows(plan, draws, ref, f64, chunk, task)
         else:
-            rr = _tumble_rows(plan, params64, in_axes, n, f64, chunk, sampler, merge_factor)
+            rr = _tumble_rows(plan, draws, f64, chunk, sampler, merge_factor)
         other = _frame(rr, {}, plan, kind, ref, f64, task, pe, te, slip_fraction)
         df[f"dpos_vs_{ref}_m"] = np.hypot(df["final_x_m"] - other["final_x_m"],
                                           df["final_y_m"] - other["final_y_m"])

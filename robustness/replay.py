@@ -43,12 +43,6 @@ def _chunks(n: int, chunk: int):
     return out
 
 
-def _rows(x, axis, n: int):
-    """Per-sample array: ``x`` itself (batched) or ``x`` broadcast to ``n`` rows."""
-    x = jnp.asarray(x)
-    return x if axis == 0 else jnp.broadcast_to(x, (n,) + x.shape)
-
-
 def _pad_axis(x, k: int, axis: int = 1):
     """Zero-pad ``x`` along ``axis`` to length ``k``."""
     widths = [(0, 0)] * x.ndim
@@ -140,8 +134,9 @@ def push_nominal(plan):
     return poly, planned
 
 
-def run_push(plan, params, in_axes, n, model, dtype, chunk):
-    """Replay a push plan on ``n`` samples; returns ``(poly, planned, results)``."""
+def run_push(plan, draws, model, dtype, chunk):
+    """Replay a push plan on the samples ``draws`` (:class:`robustness.samplers.Draws`);
+    returns ``(poly, planned, results)``."""
     poly, planned = push_nominal(plan)
     P, m = len(plan.pushes), len(plan.vertices)
     Pp, mp = _bucket(P, 2), _bucket(m, 4)
@@ -161,15 +156,16 @@ def run_push(plan, params, in_axes, n, model, dtype, chunk):
                dist=jnp.asarray(dist, dtype), planned=jnp.asarray(plan_e),
                active=jnp.asarray(np.arange(Pp) < P),
                hull=jnp.asarray(np.asarray(poly.hull_index, np.int32)))
-    g, f, e = params.geometry, params.friction, params.execution
-    ga, fa, ea = in_axes.geometry, in_axes.friction, in_axes.execution
-    rows = dict(dv=_pad_axis(_rows(g.vertex_offset, ga.vertex_offset, n), mp),
-                dc=_rows(g.com_offset, ga.com_offset, n),
-                start=_rows(e.start_offset, ea.start_offset, n),
-                fence=_pad_axis(_rows(e.fence_angle, ea.fence_angle, n), Pp),
-                rel=_pad_axis(_rows(e.distance_rel, ea.distance_rel, n), Pp),
-                abs=_pad_axis(_rows(e.distance_abs, ea.distance_abs, n), Pp),
-                c=_rows(f.c, fa.c, n), mu=_rows(f.mu_f, fa.mu_f, n))
+    n, p, a, rows_of = draws.n, draws.params, draws.in_axes, draws.rows
+    g, f, e = p.geometry, p.friction, p.execution
+    ga, fa, ea = a.geometry, a.friction, a.execution
+    rows = dict(dv=_pad_axis(rows_of(g.vertex_offset, ga.vertex_offset), mp),
+                dc=rows_of(g.com_offset, ga.com_offset),
+                start=rows_of(e.start_offset, ea.start_offset),
+                fence=_pad_axis(rows_of(e.fence_angle, ea.fence_angle), Pp),
+                rel=_pad_axis(rows_of(e.distance_rel, ea.distance_rel), Pp),
+                abs=_pad_axis(rows_of(e.distance_abs, ea.distance_abs), Pp),
+                c=rows_of(f.c, fa.c), mu=rows_of(f.mu_f, fa.mu_f))
     rows = {k: v.astype(dtype) for k, v in rows.items()}
     res = _run_chunks(_push_batch, nom, rows, n, chunk, model)
     res["edges"] = res["edges"][:, :P]
@@ -365,8 +361,8 @@ def _nominal_polyhedron(vertices: tuple, com: tuple, tau_v):
         return make_polyhedron(np.asarray(vertices), np.asarray(com), tau_v=tau_v)
 
 
-def run_tumble(plan, params, in_axes, n, dtype, chunk, merge_tol=None, slip_theta=math.inf):
-    """Replay a tumble plan on ``n`` samples (and, with ``merge_tol``, check
+def run_tumble(plan, draws, dtype, chunk, merge_tol=None, slip_theta=math.inf):
+    """Replay a tumble plan on the samples ``draws`` (and, with ``merge_tol``, check
     every perturbed hull); returns ``(poly, results)``; ``results`` holds
     ``face`` and ``ok`` (the same for every sample) beside the poses.
     ``slip_theta``: a bound on the rotational slips (rad; the tolerance)."""
@@ -384,12 +380,13 @@ def run_tumble(plan, params, in_axes, n, dtype, chunk, merge_tol=None, slip_thet
                start_face=jnp.asarray(int(plan.start[3]), jnp.int32),
                final_face=jnp.asarray(final_face, jnp.int32), idx=jnp.asarray(seq),
                V64=jnp.asarray(poly.vertices, jnp.float64))
-    g, e = params.geometry, params.execution
-    ga, ea = in_axes.geometry, in_axes.execution
-    dv64 = _rows(g.vertex_offset, ga.vertex_offset, n).astype(jnp.float64)
-    rows = dict(dv=dv64.astype(dtype), dc=_rows(g.com_offset, ga.com_offset, n).astype(dtype),
-                start=_rows(e.start_offset, ea.start_offset, n).astype(dtype),
-                slip=_pad_axis(_rows(e.tumble_slip, ea.tumble_slip, n), Lp).astype(dtype),
+    n, rows_of = draws.n, draws.rows
+    g, e = draws.params.geometry, draws.params.execution
+    ga, ea = draws.in_axes.geometry, draws.in_axes.execution
+    dv64 = rows_of(g.vertex_offset, ga.vertex_offset).astype(jnp.float64)
+    rows = dict(dv=dv64.astype(dtype), dc=rows_of(g.com_offset, ga.com_offset).astype(dtype),
+                start=rows_of(e.start_offset, ea.start_offset).astype(dtype),
+                slip=_pad_axis(rows_of(e.tumble_slip, ea.tumble_slip), Lp).astype(dtype),
                 dv64=dv64)
     check = merge_tol is not None
     tol = jnp.asarray(0.0 if merge_tol is None else merge_tol, jnp.float64)

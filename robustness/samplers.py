@@ -1,12 +1,12 @@
 """Perturbation samplers: what the supplier makes and what the robot does.
 
 Each sampler draws ``n`` perturbations from an explicit ``jax.random`` key and
-returns ``(batched_params, in_axes)``, the way mujoco_playground's domain
-randomizers do: ``batched_params`` is a frozen pytree dataclass whose sampled
-fields have a leading axis of length ``n``; ``in_axes`` is the same dataclass
-holding ``0`` on those fields and ``None`` on the fields that were not sampled
-(a zero tolerance leaves the nominal value, unbatched), ready for
-``jax.vmap(f, in_axes=(in_axes,))(batched_params)``.  All functions are pure:
+returns them as :class:`Draws`, the way mujoco_playground's domain randomizers
+do: ``draws.params`` is a frozen pytree dataclass whose sampled fields have a
+leading axis of length ``n``; ``draws.in_axes`` is the same dataclass holding
+``0`` on those fields and ``None`` on the fields that were not sampled (a zero
+tolerance leaves the nominal value, unbatched), ready for
+``jax.vmap(f, in_axes=(draws.in_axes,))(draws.params)``.  All functions are pure:
 the same key gives the same draws, bit for bit on the same machine.
 
 Three groups, each drawn from its own sub-key (``jax.random.fold_in(key, g)``,
@@ -149,6 +149,58 @@ class PerturbationParams:
     geometry: GeometryParams
     friction: FrictionParams
     execution: ExecutionParams
+
+
+@functools.partial(jax.tree_util.register_dataclass, data_fields=["params"],
+                   meta_fields=["in_axes", "n"])
+@dataclasses.dataclass(frozen=True)
+class Draws:
+    """``n`` Monte-Carlo samples of a :class:`Sampler` (mjx's rule: the arrays
+    traced, the layout static).
+
+    Attributes:
+      params: :class:`PerturbationParams`; the sampled fields have a leading
+        axis of length ``n``, the others hold the nominal value, unbatched.
+      in_axes: the same dataclass holding ``0`` on the sampled fields and
+        ``None`` on the others, ready for
+        ``jax.vmap(f, in_axes=(draws.in_axes,))(draws.params)``.
+      n: the number of samples.
+    """
+
+    params: PerturbationParams
+    in_axes: PerturbationParams
+    n: int
+
+    def _map(self, fn):
+        return jax.tree_util.tree_map(fn, self.params, self.in_axes, is_leaf=lambda x: x is None)
+
+    def broadcast(self) -> PerturbationParams:
+        """Every field with a leading axis of length ``n`` (unbatched ones repeated)."""
+        n = self.n
+        return self._map(lambda x, a: x if a == 0 else jnp.broadcast_to(x, (n,) + jnp.shape(x)))
+
+    def take(self, i) -> PerturbationParams:
+        """Sample ``i`` (or the samples of an index array); unbatched fields as they are."""
+        return self._map(lambda x, a: x if a is None else x[i])
+
+    def slice(self, start: int, stop: int) -> "Draws":
+        """Samples ``start:stop`` (within ``0..n``)."""
+        start, stop = max(0, int(start)), min(self.n, int(stop))
+        return Draws(self._map(lambda x, a: x if a is None else x[start:stop]), self.in_axes,
+                     max(0, stop - start))
+
+    def astype(self, dtype) -> "Draws":
+        """Floating fields cast to ``dtype`` (integer codes kept)."""
+        def cast(x):
+            x = jnp.asarray(x)
+            return x.astype(dtype) if jnp.issubdtype(x.dtype, jnp.floating) else x
+
+        return Draws(jax.tree_util.tree_map(cast, self.params), self.in_axes, self.n)
+
+    def rows(self, x, axis):
+        """One field of :attr:`params` (with its axis in :attr:`in_axes`) as ``n`` rows."""
+        x = jnp.asarray(x)
+        return x if axis == 0 else jnp.broadcast_to(x, (self.n,) + x.shape)
 
 
 # --------------------------------------------------------------------------
@@ -472,7 +524,7 @@ class Sampler:
     @float64
     def sample(self, key, n: int, *, n_vertices: int, dim: int, n_pushes: int = 0,
                n_tumbles: int = 0, body=None, dtype=jnp.float64, keep_support: bool = True):
-        """Draw ``n`` perturbations; returns ``(PerturbationParams, in_axes)``.
+        """Draw ``n`` perturbations (:class:`Draws`).
 
         ``body``: the nominal body-frame polygon for the support points (push
         parts), ``None`` for tumbled polyhedra.  ``keep_support=False``: return
@@ -489,21 +541,20 @@ class Sampler:
         jitted, box = _staged((N, Structure.of(self), int(n_vertices), int(dim), Pb, Lb, has_body,
                                dt, bool(keep_support)))
         vals = {k: jnp.asarray(v, dt) for k, v in _values(self).items()}
-        params = jitted(key, b, vals)
-        axes = box["axes"]
+        draws = Draws(jitted(key, b, vals), box["axes"], N)
         if N != n:
-            params = slice_batch(params, axes, 0, n)
+            draws = draws.slice(0, n)
         if (Pb, Lb) != (P, L):
-            params = _cut_steps(params, axes, P, L)
-        return params, axes
+            draws = _cut_steps(draws, P, L)
+        return draws
 
 
 # --------------------------------------------------------------------------
 # Batch helpers
 # --------------------------------------------------------------------------
-def _cut_steps(params: PerturbationParams, in_axes: PerturbationParams, P: int, L: int):
+def _cut_steps(draws: Draws, P: int, L: int) -> Draws:
     """Per-push fields cut to ``P`` pushes, per-tumble fields to ``L`` tumbles."""
-    e, ea = params.execution, in_axes.execution
+    e, ea = draws.params.execution, draws.in_axes.execution
 
     def cut(x, axis, k):
         return x[:, :k] if axis == 0 else x[:k]
@@ -513,26 +564,7 @@ def _cut_steps(params: PerturbationParams, in_axes: PerturbationParams, P: int, 
                         distance_rel=cut(e.distance_rel, ea.distance_rel, P),
                         distance_abs=cut(e.distance_abs, ea.distance_abs, P),
                         tumble_slip=cut(e.tumble_slip, ea.tumble_slip, L))
-    return dataclasses.replace(params, execution=e)
-
-
-def broadcast(params, in_axes, n: int):
-    """Give every unbatched field (axis ``None``) a leading axis of length n."""
-    return jax.tree_util.tree_map(
-        lambda x, a: x if a == 0 else jnp.broadcast_to(x, (n,) + jnp.shape(x)),
-        params, in_axes, is_leaf=lambda x: x is None)
-
-
-def take(params, in_axes, i):
-    """Sample ``i`` (or an index array) of a batch."""
-    return jax.tree_util.tree_map(lambda x, a: x if a is None else x[i], params, in_axes,
-                                  is_leaf=lambda x: x is None)
-
-
-def slice_batch(params, in_axes, start: int, stop: int):
-    """Samples ``start:stop`` of a batch (unbatched fields stay as they are)."""
-    return jax.tree_util.tree_map(lambda x, a: x if a is None else x[start:stop], params, in_axes,
-                                  is_leaf=lambda x: x is None)
+    return dataclasses.replace(draws, params=dataclasses.replace(draws.params, execution=e))
 
 
 # --------------------------------------------------------------------------
@@ -552,14 +584,14 @@ def support_names(family, n: int, has_support) -> np.ndarray:
 LIST_COLUMNS = ("dv_m", "fence_angle_err_rad", "push_dist_rel_err", "push_dist_abs_err_m")
 
 
-def parameter_lists(params: PerturbationParams, in_axes: PerturbationParams, n: int, *,
-                    n_vertices: int, dim: int, n_pushes: int = 0, **_) -> dict:
+def parameter_lists(draws: Draws, *, n_vertices: int, dim: int, n_pushes: int = 0,
+                    **_) -> dict:
     """The per-vertex and per-push draws as ``(n, k)`` float64 arrays, one per
     list column of the ``samples`` table (:data:`LIST_COLUMNS`): ``dv_m`` holds
     each sample's vertex offsets x, y (, z) vertex after vertex (m); the
     per-push columns one value per push (rad, relative, m).  The same numbers as
     :func:`parameter_columns`' flat columns, without names to parse."""
-    p = broadcast(params, in_axes, n)
+    p, n = draws.broadcast(), draws.n
     g, e = p.geometry, p.execution
     dv = np.asarray(g.vertex_offset, dtype=np.float64)[:, :n_vertices, :dim]
     out = {"dv_m": dv.reshape(n, n_vertices * dim)}
@@ -569,8 +601,8 @@ def parameter_lists(params: PerturbationParams, in_axes: PerturbationParams, n: 
     return out
 
 
-def parameter_columns(params: PerturbationParams, in_axes: PerturbationParams, n: int, *,
-                      n_vertices: int, dim: int, n_pushes: int = 0, n_tumbles: int = 0,
+def parameter_columns(draws: Draws, *, n_vertices: int, dim: int, n_pushes: int = 0,
+                      n_tumbles: int = 0,
                       max_pushes: Optional[int] = None, max_tumbles: Optional[int] = None,
                       vertex_names: Optional[Sequence[int]] = None) -> dict:
     """Flatten sampled parameters to named columns (numpy float64, length n).
@@ -585,7 +617,7 @@ def parameter_columns(params: PerturbationParams, in_axes: PerturbationParams, n
     more than ``max_tumbles`` tumbles; ``max_tumbles`` defaults to 0: sums
     only).  Per-push columns are padded with NaN up to ``max_pushes``.
     """
-    p = broadcast(params, in_axes, n)
+    p, n = draws.broadcast(), draws.n
     g, f, e = p.geometry, p.friction, p.execution
     axes = "xyz"[:dim]
     cols: dict = {}

@@ -202,16 +202,15 @@ def test_tumble_combinatorics_change_is_a_failure(tumble_plan):
 # --------------------------------------------------------------------------
 # the batched replays: same numbers as the kernels, compiled once per shape
 # --------------------------------------------------------------------------
-def _kernel_tumble_replay(plan, params, in_axes, n):
+def _kernel_tumble_replay(plan, draws):
     """Reference: the tumble kernel (:func:`kernels.tumble.tumble`) step by step on each
     perturbed part, slip after every tumble, nominal-frame conversions (float64)."""
     from kernels.tumble_geometry import tumble_geometry
     from kernels.planar import rot2, wrap_angle
     from kernels.tumble import TumbleConfig, tumble
-    from robustness.samplers import broadcast
 
     poly = batches.tumble_nominal(plan)
-    p = broadcast(params, in_axes, n)
+    p = draws.broadcast()
     V0, com0 = jnp.asarray(poly.vertices), jnp.asarray(poly.com)
     origins = jnp.asarray(poly.face_origins)
     xaxes = jnp.asarray(poly.face_rotations[:, 0, :])
@@ -249,11 +248,11 @@ def test_tumble_replay_is_the_kernels(tumble_plan, series):
                 execution=ExecutionTolerance(start_xy=1e-3, start_theta=0.05, tumble_slip_xy=2e-4,
                                              tumble_slip_theta=0.05))
     n = N
-    params, ax = s.sample(jax.random.key(7), n, n_vertices=len(tumble_plan.vertices), dim=3,
-                          n_tumbles=tumble_plan.n_tumbles)
-    _, r = batches.run_tumble(tumble_plan, params, ax, n, jnp.float64, 16,
+    draws = s.sample(jax.random.key(7), n, n_vertices=len(tumble_plan.vertices), dim=3,
+                     n_tumbles=tumble_plan.n_tumbles)
+    _, r = batches.run_tumble(tumble_plan, draws, jnp.float64, 16,
                               slip_theta=0.05 if series else np.inf)
-    want, face = _kernel_tumble_replay(tumble_plan, params, ax, n)
+    want, face = _kernel_tumble_replay(tumble_plan, draws)
     got = np.stack([r["x"], r["y"], r["theta"]], axis=1)
     assert np.all(np.asarray(face) == r["face"]) and r["ok"].all()
     dth = np.abs((got[:, 2] - np.asarray(want)[:, 2] + np.pi) % (2 * np.pi) - np.pi)
@@ -265,13 +264,12 @@ def test_tumble_hull_check_is_the_host_reference(tumble_plan):
     """The combinatorics check inside the compiled evaluation (kernels.hulls) flags exactly
     the samples the host-side Qhull reference flags."""
     from robustness.hulls import face_merge_tol, polyhedron_combinatorics_changed
-    from robustness.samplers import broadcast
 
     s = Sampler(GeometryTolerance(tau_v=1.2e-3))
     ev = evaluate(tumble_plan, s, N, jax.random.key(11), bound=False)
-    p, ax = s.sample(jax.random.key(11), N, n_vertices=len(tumble_plan.vertices), dim=3,
+    draws = s.sample(jax.random.key(11), N, n_vertices=len(tumble_plan.vertices), dim=3,
                      n_tumbles=tumble_plan.n_tumbles)
-    V = np.asarray(tumble_plan.vertices)[None] + np.asarray(broadcast(p, ax, N).geometry.vertex_offset)
+    V = np.asarray(tumble_plan.vertices)[None] + np.asarray(draws.broadcast().geometry.vertex_offset)
     v = np.asarray(tumble_plan.vertices)
     tol = face_merge_tol(1.2e-3, float(np.max(np.linalg.norm(v[:, None] - v[None], axis=-1))))
     want = polyhedron_combinatorics_changed(V, batches.tumble_nominal(tumble_plan), tol)

@@ -65,7 +65,7 @@ def test_translating_box_neither_turns_nor_walks(rectangle):
     plan = plan_pose(rectangle.vertices, (0.0, 0.0, 0.0), (0.1, 0.0, 0.0), com=rectangle.com)
     assert [p.kind for p in plan.pushes] == ["translate"]
     sam = Sampler(friction=FrictionRange(mu_f=(0.8, 0.8), mu_s=(0.5, 0.5)))
-    r = rollout_push_plan(plan, *_push_params(plan, sam), 1, backend="c")
+    r = rollout_push_plan(plan, _push_params(plan, sam), backend="c")
     d = np.asarray(plan.pushes[0].direction)
     sideways = abs(-d[1] * r["x"][0] + d[0] * r["y"][0])
     assert sideways < 1e-4                       # < 0.1 mm over 10 cm
@@ -77,7 +77,7 @@ def test_translating_box_neither_turns_nor_walks(rectangle):
 
 def test_reorient_push_ends_flush_on_planned_edge(reorient_plan):
     sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(0.5, 0.5)))
-    r = rollout_push_plan(reorient_plan, *_push_params(reorient_plan, sam), 1, backend="c")
+    r = rollout_push_plan(reorient_plan, _push_params(reorient_plan, sam), backend="c")
     assert r["complete"][0, 0] and r["edges"][0, 0] == r["planned_edges"][0]
     assert abs(r["err_theta"][0]) < math.radians(0.2)
     assert r["err_pos"][0] < 1e-3
@@ -90,7 +90,7 @@ def test_push_shorter_than_half_peshkin_stays_incomplete(reorient_plan):
     body = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com)).body
     a = float(np.max(np.linalg.norm(body, axis=1)))
     sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), c=(a, a)))   # the slowest rotation
-    r = rollout_push_plan(plan, *_push_params(plan, sam), 1, backend="c")
+    r = rollout_push_plan(plan, _push_params(plan, sam), backend="c")
     assert not r["complete"][0, 0] and r["edges"][0, 0] == -1
     assert r["failure_mode"][0] == "incomplete_reorientation"
     qs = evaluate(plan, sam, 1, jax.random.key(0), model="quasistatic", bound=False).samples
@@ -103,7 +103,7 @@ def test_sticking_push_agrees_with_quasistatic_model(reorient_plan):
     qs = evaluate(reorient_plan, sam, 1, key, model="quasistatic", bound=False).samples
     assert qs["slip_m"].iloc[0] == 0.0               # the model predicts sticking
     params = _push_params(reorient_plan, sam, seed=3)
-    r = rollout_push_plan(reorient_plan, *params, 1, backend="c", stroke="contact")
+    r = rollout_push_plan(reorient_plan, params, backend="c", stroke="contact")
     dpos = math.hypot(r["x"][0] - qs["final_x_m"].iloc[0], r["y"][0] - qs["final_y_m"].iloc[0])
     assert dpos < 2e-4
     assert abs(r["theta"][0] - qs["final_theta_rad"].iloc[0]) < math.radians(0.2)
@@ -121,7 +121,7 @@ def test_row_semantics_match_the_exact_model(rectangle):
     ex = evaluate(plan, sam, 2, key, model="exact", bound=False).samples
     params = sam.sample(key, 2, n_vertices=4, dim=2, n_pushes=1,
                         body=pg.make_polygon(rectangle.vertices, rectangle.com).body)
-    r = rollout_push_plan(plan, *params, 2, backend="c", stroke="contact")
+    r = rollout_push_plan(plan, params, backend="c", stroke="contact")
     np.testing.assert_allclose(r["x"], ex["final_x_m"], atol=3e-4)
     np.testing.assert_allclose(r["y"], ex["final_y_m"], atol=3e-4)
     np.testing.assert_allclose(r["theta"], ex["final_theta_rad"], atol=math.radians(0.2))
@@ -141,7 +141,7 @@ def cube_plan():
 def test_cube_tumbles_land_the_planned_faces(cube_plan):
     sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(1.5, 1.5)))
     params = sam.sample(jax.random.key(0), 1, n_vertices=8, dim=3, n_tumbles=cube_plan.n_tumbles)
-    r = rollout_tumble_plan(cube_plan, *params, 1, backend="c")
+    r = rollout_tumble_plan(cube_plan, params, backend="c")
     assert r["faces_ok"][0] and list(r["faces"][0]) == list(cube_plan.faces)
     assert r["face"][0] == cube_plan.goal[3]
     assert r["err_pos"][0] < 1.5e-3 and abs(r["err_theta"][0]) < math.radians(0.2)
@@ -158,7 +158,7 @@ def test_tumble_rows_match_the_exact_model(cube_plan):
     key = jax.random.key(5)
     ex = evaluate(cube_plan, sam, 1, key, bound=False).samples
     params = sam.sample(key, 1, n_vertices=8, dim=3, n_tumbles=cube_plan.n_tumbles)
-    r = rollout_tumble_plan(cube_plan, *params, 1, backend="c")
+    r = rollout_tumble_plan(cube_plan, params, backend="c")
     assert r["face"][0] == ex["final_face"].iloc[0]
     dpos = math.hypot(r["x"][0] - ex["final_x_m"].iloc[0], r["y"][0] - ex["final_y_m"].iloc[0])
     assert dpos <= 1.5e-3
@@ -174,7 +174,7 @@ def test_rolling_plate_squares_a_yawed_cube(cube_plan):
     key = jax.random.key(5)
     ex = evaluate(cube_plan, sam, 1, key, bound=False).samples
     params = sam.sample(key, 1, n_vertices=8, dim=3, n_tumbles=cube_plan.n_tumbles)
-    r = rollout_tumble_plan(cube_plan, *params, 1, backend="c")
+    r = rollout_tumble_plan(cube_plan, params, backend="c")
     assert abs(ex["err_theta_rad"].iloc[0]) > math.radians(0.3)
     assert abs(r["err_theta"][0]) < 0.25 * abs(ex["err_theta_rad"].iloc[0])
 
@@ -232,9 +232,9 @@ def test_tumble_slipped_off_the_jaw_is_reported(cube_plan):
     sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(1.5, 1.5)),
                   execution=ExecutionTolerance(tumble_slip_xy=0.4))
     params = sam.sample(jax.random.key(3), 2, n_vertices=8, dim=3, n_tumbles=cube_plan.n_tumbles)
-    slip = np.broadcast_to(np.asarray(params[0].execution.tumble_slip), (2, cube_plan.n_tumbles, 3))
+    slip = np.broadcast_to(np.asarray(params.params.execution.tumble_slip), (2, cube_plan.n_tumbles, 3))
     assert np.all(np.abs(slip[:, 0, :2]).max(axis=1) > 0.08)   # past the jaw's 1.7 cm margin
-    r = rollout_tumble_plan(cube_plan, *params, 2, backend="c", workspace=(-10, 10, -10, 10))
+    r = rollout_tumble_plan(cube_plan, params, backend="c", workspace=(-10, 10, -10, 10))
     assert r["left_workspace"].all() and list(r["failure_mode"]) == ["left_workspace"] * 2
 
 
@@ -245,21 +245,23 @@ def test_bad_input_is_named(reorient_plan, cube_plan):
     sam = Sampler()
     params = _push_params(reorient_plan, sam)
     with pytest.raises(ValueError, match="backend"):
-        rollout_push_plan(reorient_plan, *params, 1, backend="gpu")
+        rollout_push_plan(reorient_plan, params, backend="gpu")
     with pytest.raises(ValueError, match="stroke"):
-        rollout_push_plan(reorient_plan, *params, 1, stroke="closed")
-    with pytest.raises(ValueError, match="n:"):
-        rollout_push_plan(reorient_plan, *params, 0)
+        rollout_push_plan(reorient_plan, params, stroke="closed")
+    with pytest.raises(ValueError, match="draws: expected at least one sample"):
+        rollout_push_plan(reorient_plan, params.slice(0, 0))
+    with pytest.raises(ValueError, match="draws: expected the Draws of Sampler.sample"):
+        rollout_push_plan(reorient_plan, params.params)
     with pytest.raises(ValueError, match="plan: has no pushes"):
-        rollout_push_plan(dataclasses.replace(reorient_plan, pushes=()), *params, 1)
+        rollout_push_plan(dataclasses.replace(reorient_plan, pushes=()), params)
     with pytest.raises(ValueError, match="plan: has no tumbles"):
-        rollout_tumble_plan(dataclasses.replace(cube_plan, tumbles=()), *params, 1)
+        rollout_tumble_plan(dataclasses.replace(cube_plan, tumbles=()), params)
     with pytest.raises(ValueError, match="timestep"):
         PhysicsSettings(timestep=0.0)
     with pytest.raises(ValueError, match="foot_radius"):
         PhysicsSettings(foot_radius=0.002)
     with pytest.raises(ValueError, match="noslip_iterations: 0"):
-        rollout_push_plan(reorient_plan, *params, 1, backend="mjx")
+        rollout_push_plan(reorient_plan, params, backend="mjx")
 
 
 # --------------------------------------------------------------------------
@@ -309,12 +311,12 @@ def test_batches_do_not_change_the_rows(rectangle):
     sam = Sampler(friction=FrictionRange(mu_f=(0.5, 1.0), mu_s=(0.4, 0.6)),
                   execution=ExecutionTolerance(start_xy=5e-4))
     params = _push_params(plan, sam, n=2)
-    a = rollout_push_plan(plan, *params, 2, backend="c")
-    b = rollout_push_plan(plan, *params, 2, backend="c", settings=PhysicsSettings(batch=1))
+    a = rollout_push_plan(plan, params, backend="c")
+    b = rollout_push_plan(plan, params, backend="c", settings=PhysicsSettings(batch=1))
     for k in ("x", "y", "theta", "slip", "edges"):
         np.testing.assert_array_equal(a[k], b[k])
-    with pytest.raises(ValueError, match="n: the sampled params hold"):
-        rollout_push_plan(plan, *params, 3, backend="c")
+    with pytest.raises(ValueError, match=r"draws: the sampled params hold \[2\] samples, not n=3"):
+        rollout_push_plan(plan, dataclasses.replace(params, n=3), backend="c")
 
 
 def test_auto_never_changes_the_contact_model():
@@ -356,5 +358,5 @@ def test_pads_below_the_derived_friction_drag_the_cube(cube_plan):
         sam = Sampler(friction=FrictionRange(mu_f=(mu, mu), mu_s=(1.5, 1.5)))
         params = sam.sample(jax.random.key(0), 1, n_vertices=8, dim=3,
                             n_tumbles=cube_plan.n_tumbles)
-        ok[mu] = bool(rollout_tumble_plan(cube_plan, *params, 1, backend="c")["faces_ok"][0])
+        ok[mu] = bool(rollout_tumble_plan(cube_plan, params, backend="c")["faces_ok"][0])
     assert ok == {1.2: False, 1.3: True}

@@ -43,8 +43,8 @@ def test_mjx_smoke_on_cpu_agrees_with_the_c_engine():
     sam = Sampler(friction=FrictionRange(mu_f=(0.8, 0.8), mu_s=(0.5, 0.5), c=(0.008, 0.008)))
     params = sam.sample(jax.random.key(0), 1, n_vertices=4, dim=2, n_pushes=1, body=body)
     with jax.enable_x64(True):            # a caller inside a float64 scope is safe
-        m = rollout_push_plan(plan, *params, 1, backend="mjx", settings=SOFT)
-    c = rollout_push_plan(plan, *params, 1, backend="c", settings=SOFT)
+        m = rollout_push_plan(plan, params, backend="mjx", settings=SOFT)
+    c = rollout_push_plan(plan, params, backend="c", settings=SOFT)
     assert m["backend"] == "mjx" and m["steps"] == c["steps"]
     assert m["edges"][0, 0] == m["planned_edges"][0]
     assert math.hypot(m["x"][0] - c["x"][0], m["y"][0] - c["y"][0]) < 5e-4
@@ -58,8 +58,8 @@ def test_mjx_batch_agrees_with_the_c_engine_on_an_accelerator():
     plan, body = _translate_plan(0.1)
     sam = Sampler(friction=FrictionRange(mu_f=(0.5, 1.0), mu_s=(0.3, 0.6)))
     params = sam.sample(jax.random.key(1), 64, n_vertices=4, dim=2, n_pushes=1, body=body)
-    m = rollout_push_plan(plan, *params, 64, backend="mjx", settings=SOFT)
-    c = rollout_push_plan(plan, *params, 64, backend="c", settings=SOFT)
+    m = rollout_push_plan(plan, params, backend="mjx", settings=SOFT)
+    c = rollout_push_plan(plan, params, backend="c", settings=SOFT)
     np.testing.assert_array_equal(m["edges"], c["edges"])
     assert np.max(np.hypot(m["x"] - c["x"], m["y"] - c["y"])) < 1e-3
     assert m["success"].mean() >= c["success"].mean() - 0.05

@@ -12,7 +12,7 @@ from kernels import polygon as pg
 from kernels.hulls import polygon_hull_changed
 from kernels.polyhedron import PartWarning, make_polyhedron
 from robustness.hulls import face_merge_tol, polyhedron_combinatorics_changed
-from robustness.samplers import Sampler, broadcast, parameter_columns, take
+from robustness.samplers import Draws, Sampler, parameter_columns
 from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
 
 pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
@@ -41,7 +41,7 @@ def drawn(poly):
 
 
 def test_shapes_and_in_axes(drawn):
-    p, ax = drawn
+    p, ax = drawn.params, drawn.in_axes
     assert p.geometry.vertex_offset.shape == (N, 5, 2) and ax.geometry.vertex_offset == 0
     assert p.geometry.com_offset.shape == (N, 2) and ax.geometry.com_offset == 0
     assert p.friction.mu_f.shape == (N,) and p.friction.c.shape == (N,)
@@ -55,26 +55,56 @@ def test_shapes_and_in_axes(drawn):
     assert out.shape == (N,)
 
 
+
+def test_draws_are_one_value(drawn):
+    """Draws: the arrays traced (a pytree through jit), the layout static; slices and
+    casts keep the layout and the sample count with it."""
+    assert isinstance(drawn, Draws) and drawn.n == N
+    leaves, tree = jax.tree_util.tree_flatten(drawn)
+    assert len(leaves) == len(jax.tree_util.tree_leaves(drawn.params))
+    assert jax.tree_util.tree_unflatten(tree, leaves).in_axes == drawn.in_axes
+    total = jax.jit(lambda d: d.params.geometry.vertex_offset.sum(axis=(1, 2)) * d.n)(drawn)
+    np.testing.assert_allclose(np.asarray(total),
+                               np.asarray(drawn.params.geometry.vertex_offset).sum(axis=(1, 2)) * N)
+    part = drawn.slice(10, 20)
+    assert part.n == 10 and part.in_axes == drawn.in_axes
+    np.testing.assert_array_equal(np.asarray(part.params.friction.mu_f),
+                                  np.asarray(drawn.params.friction.mu_f)[10:20])
+    assert drawn.slice(250, 300).n == 6
+    one = drawn.take(3)
+    assert float(one.friction.c) == float(drawn.params.friction.c[3])
+    f32 = drawn.astype(jnp.float32)
+    assert f32.params.friction.c.dtype == jnp.float32 and f32.n == N
+    assert f32.params.friction.family.dtype == drawn.params.friction.family.dtype   # codes kept
+    # the first n of a larger draw are the draws of n (what the padded bucket relies on)
+    few = FULL.sample(jax.random.key(3), 5, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
+                      body=pg.make_polygon(PENT).body)
+    np.testing.assert_array_equal(np.asarray(few.params.geometry.vertex_offset),
+                                  np.asarray(drawn.params.geometry.vertex_offset)[:5])
+
 def test_zero_tolerances_are_unbatched(poly):
-    p, ax = Sampler(friction=FrictionRange(mu_f=(0.5, 0.5))).sample(
+    draws = Sampler(friction=FrictionRange(mu_f=(0.5, 0.5))).sample(
         jax.random.key(0), 8, n_vertices=5, dim=2, n_pushes=2, body=poly.body)
+    p, ax = draws.params, draws.in_axes
     assert ax.geometry.vertex_offset is None and p.geometry.vertex_offset.shape == (5, 2)
     assert ax.friction.mu_f is None and float(p.friction.mu_f) == 0.5
     assert ax.execution.fence_angle is None and ax.execution.start_offset is None
     assert ax.friction.c == 0  # c still comes from a sampled pressure distribution
-    full = broadcast(p, ax, 8)
+    full = draws.broadcast()
     assert full.geometry.vertex_offset.shape == (8, 5, 2)
     assert np.all(np.asarray(full.geometry.vertex_offset) == 0)
-    one = take(p, ax, 3)
+    one = draws.take(3)
     assert one.friction.c.shape == ()
 
 
 def test_deterministic_by_key(poly, drawn):
-    p, _ = drawn
-    q, _ = FULL.sample(jax.random.key(3), N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
-                       body=poly.body)
-    r, _ = FULL.sample(jax.random.key(4), N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
-                       body=poly.body)
+    p = drawn.params
+    draws = FULL.sample(jax.random.key(3), N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
+                        body=poly.body)
+    q = draws.params
+    draws = FULL.sample(jax.random.key(4), N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
+                        body=poly.body)
+    r = draws.params
     for a, b, c in zip(jax.tree_util.tree_leaves(p), jax.tree_util.tree_leaves(q),
                        jax.tree_util.tree_leaves(r)):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
@@ -82,14 +112,15 @@ def test_deterministic_by_key(poly, drawn):
     # groups draw from their own sub-keys: other friction settings leave the geometry draws alone
     s2 = dataclasses.replace(FULL, friction=FrictionRange(mu_f=(0.1, 0.2), support_points=4,
                                                                        support="points"))
-    q2, _ = s2.sample(jax.random.key(3), N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
+    draws = s2.sample(jax.random.key(3), N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
                       body=poly.body)
+    q2 = draws.params
     np.testing.assert_array_equal(np.asarray(p.geometry.vertex_offset),
                                   np.asarray(q2.geometry.vertex_offset))
 
 
 def test_bounds_respected(poly, drawn):
-    p, _ = drawn
+    p = drawn.params
     g, f, e = p.geometry, p.friction, p.execution
     assert np.max(np.abs(np.asarray(g.vertex_offset))) <= 1e-4
     assert np.max(np.linalg.norm(np.asarray(g.com_offset), axis=1)) <= 2e-4 * (1 + 1e-12)
@@ -132,9 +163,9 @@ def test_polygon_hull_change_detection(poly):
     hi = tuple(poly.hull_index)
     check = jax.jit(jax.vmap(lambda dv, dc: polygon_hull_changed(V0 + dv, com + dc, jnp.asarray(hi))))
     for tau, expect in ((1e-5, "none"), (1.5e-2, "some")):
-        p, ax = Sampler(GeometryTolerance(tau_v=tau)).sample(
+        draws = Sampler(GeometryTolerance(tau_v=tau)).sample(
             jax.random.key(1), 400, n_vertices=5, dim=2, body=poly.body)
-        p = broadcast(p, ax, 400)
+        p = draws.broadcast()
         changed = np.asarray(check(p.geometry.vertex_offset, p.geometry.com_offset))
         if expect == "none":
             assert not changed.any()
@@ -152,8 +183,9 @@ def test_polyhedron_combinatorics_change_detection():
         cube = make_polyhedron(CUBE)
     diam = float(np.max(np.linalg.norm(CUBE[:, None] - CUBE[None], axis=-1)))
     for tau, expect in ((1e-5, False), (3e-2, True)):
-        p, ax = Sampler(GeometryTolerance(tau_v=tau)).sample(jax.random.key(2), 12, n_vertices=8,
+        draws = Sampler(GeometryTolerance(tau_v=tau)).sample(jax.random.key(2), 12, n_vertices=8,
                                                                dim=3)
+        p = draws.params
         V = CUBE[None] + np.asarray(p.geometry.vertex_offset)
         changed = polyhedron_combinatorics_changed(V, cube, face_merge_tol(tau, diam))
         assert changed.shape == (12,)
@@ -161,8 +193,8 @@ def test_polyhedron_combinatorics_change_detection():
 
 
 def test_parameter_columns(drawn):
-    p, ax = drawn
-    cols = parameter_columns(p, ax, N, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
+    p = drawn.params
+    cols = parameter_columns(drawn, n_vertices=5, dim=2, n_pushes=4, n_tumbles=3,
                              max_pushes=6)
     assert "dv4_y_m" in cols and "dcom_x_m" in cols and "c_m" in cols
     assert "fence_angle_err_rad_p3" in cols and np.all(np.isnan(cols["push_dist_abs_err_m_p5"]))

@@ -69,9 +69,9 @@ def test_tilt_is_the_minimiser_of_the_convex_dual():
 
 def test_sampler_support_is_centred_and_c_in_range():
     body = pg.make_polygon(PENT).body
-    p, ax = Sampler(friction=FrictionRange(support_points=16, support="points")).sample(
+    draws = Sampler(friction=FrictionRange(support_points=16, support="points")).sample(
         jax.random.key(0), 64, n_vertices=5, dim=2, body=body)
-    f = p.friction
+    f = draws.params.friction
     off = np.asarray(jax.vmap(centroid_offset)(f.support_points, f.support_weights))
     a = float(np.max(np.linalg.norm(body, axis=1)))
     assert np.quantile(off, 0.98) <= 1e-8 * a   # (a rare draw of 16 points leaves the centre

@@ -131,8 +131,8 @@ def test_sampler_draws_each_family_in_its_range(name):
     for fam in ("rigid", "uniform", "ring", "any"):
         lo, hi = ks.family_c_range(fam, body)
         s = Sampler(friction=FrictionRange(support=fam))
-        p, ax = s.sample(jax.random.key(3), n, n_vertices=len(body), dim=2, body=body)
-        cols = parameter_columns(p, ax, n, n_vertices=len(body), dim=2)
+        draws = s.sample(jax.random.key(3), n, n_vertices=len(body), dim=2, body=body)
+        cols = parameter_columns(draws, n_vertices=len(body), dim=2)
         c = cols["c_m"]
         assert c.min() >= lo - 1e-12 and c.max() <= hi + 1e-12, fam
         names = set(cols["support"])
@@ -171,7 +171,7 @@ def test_the_scene_realises_the_drawn_support(name):
     sam = Sampler(GeometryTolerance(tau_v=5e-5), FrictionRange(mu_f=(0.5, 0.5)))
     params = sam.sample(jax.random.key(5), n, n_vertices=len(part.vertices), dim=2,
                         n_pushes=plan.n_pushes, body=body)
-    r = rollout_push_plan(plan, *params, n, backend="c", settings=PhysicsSettings(batch=n))
+    r = rollout_push_plan(plan, params, backend="c", settings=PhysicsSettings(batch=n))
     assert set(r["support"]) == set(ks.ANY_COMPONENTS)
     sim = r["simulated"]
     assert sim.all()

@@ -116,19 +116,18 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace, stroke):
     return out
 
 
-def rollout_push_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
+def rollout_push_plan(plan, draws, *, backend: str = "auto",
                       settings: Optional[PhysicsSettings] = None, workspace=None,
                       pos_eps_m: float = SuccessCriterion.pos_eps_m,
                       theta_eps_rad: float = SuccessCriterion.theta_eps_rad,
                       slip_fraction: float = SuccessCriterion.slip_fraction,
                       stroke: str = "planned") -> dict:
-    """Roll a push plan out in MuJoCo on ``n`` sampled parts and executions.
+    """Roll a push plan out in MuJoCo on sampled parts and executions.
 
     Args:
       plan: a :class:`planning.PushPlan`.
-      params, in_axes: ``robustness.Sampler(...).sample(key, n, n_vertices=m,
-        dim=2, n_pushes=P, body=<nominal body polygon>)``.
-      n: number of samples.
+      draws: the ``n`` samples, ``robustness.Sampler(...).sample(key, n,
+        n_vertices=m, dim=2, n_pushes=P, body=<nominal body polygon>)``.
       backend: ``"c"`` (C engine, ``mujoco.rollout`` threads), ``"mjx"`` (MJX,
         float32, vmapped) or ``"auto"`` (MJX on an accelerator, else C).
       settings: :class:`PhysicsSettings` (defaults documented there).
@@ -168,14 +167,15 @@ def rollout_push_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
     """
     s = settings or PhysicsSettings()
     backend = resolve_backend(backend, s)
-    check_batch(params, in_axes, n)
+    check_batch(draws)
+    n = draws.n
     if not plan.pushes:
         raise ValueError("plan: has no pushes; nothing to roll out")
     if stroke not in STROKES:
         raise ValueError(f"stroke: expected one of {STROKES}, got {stroke!r}")
     t0 = time.perf_counter()
     poly, planned = nominal_polygon(plan)
-    parts = push_parts(plan, poly, params, in_axes, n)
+    parts = push_parts(plan, poly, draws)
     ws = tuple(workspace) if workspace is not None else _workspace(plan, poly, s)
     idx = np.flatnonzero(parts.valid)
     P = len(plan.pushes)

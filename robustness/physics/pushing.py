@@ -33,7 +33,6 @@ from kernels import polygon as pg, polygon_hull_changed, rot2_np
 from robustness.physics import geometry as geo
 from robustness.physics.monitor import fence_frame, vertices_world
 from robustness.physics.schedule import Phase, Schedule, steps_for, transit_steps, unwrap_near
-from robustness.samplers import broadcast
 
 
 @dataclasses.dataclass
@@ -84,11 +83,12 @@ def nominal_polygon(plan):
     return poly, [poly.caller_edge_to_hull(p.edge) for p in plan.pushes]
 
 
-def push_parts(plan, poly, params, in_axes, n: int) -> PushParts:
-    """Per-sample parts of ``n`` drawn perturbations (the semantics of
+def push_parts(plan, poly, draws) -> PushParts:
+    """Per-sample parts of drawn perturbations (``Draws``; the semantics of
     :func:`robustness.replay.run_push`), each with the support of its
     family (:func:`robustness.physics.geometry.support_of`)."""
-    p = jax.tree_util.tree_map(lambda x: np.asarray(x, np.float64), broadcast(params, in_axes, n))
+    n = draws.n
+    p = jax.tree_util.tree_map(lambda x: np.asarray(x, np.float64), draws.broadcast())
     g, f, e = p.geometry, p.friction, p.execution
     V = np.asarray(plan.vertices, np.float64)[None] + g.vertex_offset
     com = np.asarray(plan.com, np.float64)[None] + g.com_offset

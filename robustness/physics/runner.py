@@ -67,21 +67,26 @@ def make_engine(backend: str, models, settings):
     return CEngine(models, settings.threads)
 
 
-def check_batch(params, in_axes, n: int) -> None:
-    """Raise ValueError unless every sampled field of ``params`` holds ``n``
-    samples (its axis 0, where ``in_axes`` says 0)."""
+def check_batch(draws) -> None:
+    """Raise ValueError unless ``draws`` is a :class:`robustness.samplers.Draws`
+    of at least one sample whose every sampled field holds ``draws.n`` samples
+    (its axis 0, where ``in_axes`` says 0)."""
     import jax
 
+    from robustness import Draws
+
+    if not isinstance(draws, Draws):
+        raise ValueError(f"draws: expected the Draws of Sampler.sample, got {type(draws).__name__}")
+    n = draws.n
     if not (isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n >= 1):
-        raise ValueError(f"n: expected an integer >= 1, got {n!r}")
-    sizes = {int(np.shape(x)[0]) for x, a in zip(jax.tree_util.tree_leaves(params),
+        raise ValueError(f"draws: expected at least one sample, got n={n!r}")
+    sizes = {int(np.shape(x)[0]) for x, a in zip(jax.tree_util.tree_leaves(draws.params),
                                                  jax.tree_util.tree_leaves(
-                                                     in_axes, is_leaf=lambda v: v is None))
+                                                     draws.in_axes, is_leaf=lambda v: v is None))
              if a == 0}
     if sizes and sizes != {int(n)}:
-        raise ValueError(f"n: the sampled params hold {sorted(sizes)} samples, got n={n}; pass "
-                         "the n given to Sampler.sample (or slice the params with "
-                         "robustness.samplers.slice_batch)")
+        raise ValueError(f"draws: the sampled params hold {sorted(sizes)} samples, not n={n}; "
+                         "take them from Sampler.sample (or Draws.slice)")
 
 
 def run_schedule(engine, schedule, state0: np.ndarray, consumers, chunk: int,

@@ -106,21 +106,20 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace):
                 left_workspace=rec.left, steps=sched.total, grip=grip)
 
 
-def rollout_tumble_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
+def rollout_tumble_plan(plan, draws, *, backend: str = "auto",
                         settings: Optional[PhysicsSettings] = None, workspace=None,
                         pos_eps_m: Optional[float] = None, theta_eps_rad: Optional[float] = None,
                         slip_fraction: float = SuccessCriterion.slip_fraction,
                         merge_factor: float = 8.0,
                         tau_v: Optional[float] = None) -> dict:
-    """Roll a tumble plan out in MuJoCo on ``n`` sampled parts and executions.
+    """Roll a tumble plan out in MuJoCo on sampled parts and executions.
 
     Args:
       plan: a :class:`planning.TumblePlan` with at least one tumble.
-      params, in_axes: ``robustness.Sampler(...).sample(key, n, n_vertices=m,
-        dim=3, n_tumbles=L)``; ``mu_f`` is the upper pad's coefficient and
-        ``mu_s`` the lower pad's (the device needs them well above 1, see
-        :mod:`robustness.physics.tumbling`).
-      n: number of samples.
+      draws: the ``n`` samples, ``robustness.Sampler(...).sample(key, n,
+        n_vertices=m, dim=3, n_tumbles=L)``; ``mu_f`` is the upper pad's
+        coefficient and ``mu_s`` the lower pad's (the device needs them well
+        above 1, see :mod:`robustness.physics.tumbling`).
       backend: ``"c"``, ``"mjx"`` or ``"auto"`` (as :func:`rollout_push_plan`).
       settings: :class:`PhysicsSettings`.
       workspace: ``(xmin, xmax, ymin, ymax)`` (m); default the planned
@@ -150,12 +149,13 @@ def rollout_tumble_plan(plan, params, in_axes, n: int, *, backend: str = "auto",
     """
     s = settings or PhysicsSettings()
     backend = resolve_backend(backend, s)
-    check_batch(params, in_axes, n)
+    check_batch(draws)
+    n = draws.n
     if not plan.tumbles:
         raise ValueError("plan: has no tumbles; nothing to roll out")
     t0 = time.perf_counter()
     poly = tb.nominal_polyhedron(plan)
-    parts = tb.tumble_parts(plan, poly, params, in_axes, n, merge_factor, tau_v)
+    parts = tb.tumble_parts(plan, poly, draws, merge_factor, tau_v)
     hull = poly.vertices[list(poly.hull_vertices)]
     diam = float(np.max(np.linalg.norm(hull[:, None] - hull[None], axis=-1)))
     ws = tuple(workspace) if workspace is not None else _workspace(tb.nominal_configs(plan, poly),

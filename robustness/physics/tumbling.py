@@ -62,7 +62,6 @@ from robustness.physics import geometry as geo
 from robustness.physics.monitor import mat_to_quat, quat_to_mat
 from robustness.physics.scene import PLATE_HALF_THICKNESS, Jaw
 from robustness.physics.schedule import Phase, Schedule, steps_for, transit_steps
-from robustness.samplers import broadcast
 
 ROLL_GRID = 512      # points of the nominal roll kinematics per tumble
 
@@ -126,15 +125,15 @@ class TumbleParts:
     slip: np.ndarray
 
 
-def tumble_parts(plan, poly, params, in_axes, n: int, merge_factor: float = 8.0,
-                 tau_v=None) -> TumbleParts:
-    """Per-sample polyhedra of ``n`` drawn perturbations (the semantics of
+def tumble_parts(plan, poly, draws, merge_factor: float = 8.0, tau_v=None) -> TumbleParts:
+    """Per-sample polyhedra of drawn perturbations (``Draws``; the semantics of
     :func:`robustness.replay.run_tumble`); ``tau_v`` (m) sets the
     combinatorics check's tolerance (default the largest sampled offset)."""
     from kernels import tumble_geometry
     from robustness.hulls import face_merge_tol, polyhedron_combinatorics_changed
 
-    p = jax.tree_util.tree_map(lambda x: np.asarray(x, np.float64), broadcast(params, in_axes, n))
+    n = draws.n
+    p = jax.tree_util.tree_map(lambda x: np.asarray(x, np.float64), draws.broadcast())
     g, f, e = p.geometry, p.friction, p.execution
     V = np.asarray(plan.vertices, np.float64)[None] + g.vertex_offset
     com = np.asarray(plan.com, np.float64)[None] + g.com_offset
