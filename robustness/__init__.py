@@ -7,7 +7,7 @@
   parts, friction and robot errors, returning an :class:`Evaluation`
   (per-sample frame and summary).
 * Analytic bounds: :func:`push_plan_bound` and :func:`tumble_first_order_bound`
-  (first order, exact model derivatives), :func:`tumble_plan_paper_bounds`
+  (first order, exact model derivatives; a :class:`Bound`), :func:`tumble_plan_paper_bounds`
   (Marigo-Bicchi eqs. 4-6).
 * :func:`certify`: sample, replay and decide what can be claimed about a plan
   (a :class:`Certificate`: the one-sided Clopper-Pearson bound at the required
@@ -19,7 +19,8 @@ Units: metres, radians.  Nothing here reads or writes files; the edge
 (:mod:`sweeps`) does.
 """
 from robustness.certificates import Certificate, certify
-from robustness.bounds import push_plan_bound, tumble_first_order_bound, tumble_plan_paper_bounds
+from robustness.bounds import (Bound, SourceBound, push_plan_bound, tumble_first_order_bound,
+                               tumble_plan_paper_bounds)
 from robustness.evaluation import MODELS, BoundViolation, Evaluation, evaluate
 from robustness.samplers import Draws, PerturbationParams, Sampler
 from robustness.stats import clopper_pearson, one_sided_lower, one_sided_upper
@@ -38,7 +39,7 @@ from robustness.tables import FAILURE_MODES, to_arrow
 __all__ = [
     "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Sampler",
     "Draws", "PerturbationParams",
-    "evaluate", "Evaluation", "BoundViolation", "MODELS", "push_plan_bound",
+    "evaluate", "Evaluation", "BoundViolation", "MODELS", "Bound", "SourceBound", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
     "one_sided_upper", "certify", "Certificate", "summarise",
     "tables", "FAILURE_MODES", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",

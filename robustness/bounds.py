@@ -53,8 +53,10 @@ worst-case (x, y) box corner, ``hypot(bound_x, bound_y)``.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
+from typing import Mapping
 
 import jax
 import jax.numpy as jnp
@@ -139,9 +141,39 @@ def push_final_pose_fn(plan: PushPlan):
     return f, dict(n=n, pushes=P)
 
 
+@dataclasses.dataclass(frozen=True)
+class SourceBound:
+    """One tolerance's share of a :class:`Bound`: position (m) and angle (rad)."""
+
+    position_m: float
+    theta_rad: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Bound:
+    """First-order worst-case bound on a plan's final pose error (world frame).
+
+    Attributes:
+      x_m, y_m: per-coordinate bounds of the final position error (m).
+      theta_rad: bound of the final orientation error (rad).
+      by_source: the contribution of each tolerance (name -> :class:`SourceBound`),
+        to see what dominates (empty where not itemised).
+    """
+
+    x_m: float
+    y_m: float
+    theta_rad: float
+    by_source: Mapping[str, SourceBound] = dataclasses.field(default_factory=dict)
+
+    @property
+    def position_m(self) -> float:
+        """Bound of the final position error, ``hypot(x_m, y_m)`` (m)."""
+        return math.hypot(self.x_m, self.y_m)
+
+
 @float64
 def push_plan_bound(plan: PushPlan, geometry: GeometryTolerance = GeometryTolerance(),
-                    execution: ExecutionTolerance = ExecutionTolerance()) -> dict:
+                    execution: ExecutionTolerance = ExecutionTolerance()) -> Bound:
     """First-order worst-case bound on a push plan's final pose error.
 
     Args:
@@ -153,9 +185,8 @@ def push_plan_bound(plan: PushPlan, geometry: GeometryTolerance = GeometryTolera
         tumble fields do not apply).
 
     Returns:
-      dict with ``x_m``, ``y_m``, ``position_m`` (``hypot`` of the two) and
-      ``theta_rad`` bounds, and ``by_source``: the position and angle
-      contributions of each tolerance (m, rad), to see what dominates.
+      :class:`Bound`, with the contribution of each tolerance (``tau_v``,
+      ``tau_com``, ``start_xy``, ``start_theta``, ``fence_angle``, ``distance``).
     """
     P = len(plan.pushes)
     arrays, n, _ = _plan_arrays(plan, pad_to=-(-max(P, 1) // 4) * 4)
@@ -173,16 +204,13 @@ def push_plan_bound(plan: PushPlan, geometry: GeometryTolerance = GeometryTolera
         "distance": (np.abs(jd) * (e.distance_abs + e.distance_rel * dists)[None, :]).sum(1),
     }
     total = sum(contrib.values())
-    return {
-        "x_m": float(total[0]), "y_m": float(total[1]),
-        "position_m": float(math.hypot(total[0], total[1])), "theta_rad": float(total[2]),
-        "by_source": {k: {"position_m": float(math.hypot(v[0], v[1])), "theta_rad": float(v[2])}
-                      for k, v in contrib.items()},
-    }
+    return Bound(float(total[0]), float(total[1]), float(total[2]),
+                 {k: SourceBound(float(math.hypot(v[0], v[1])), float(v[2]))
+                  for k, v in contrib.items()})
 
 
 @float64
-def tumble_first_order_bound(vertices, com, topology, start, faces, tau_v: float) -> dict:
+def tumble_first_order_bound(vertices, com, topology, start, faces, tau_v: float) -> Bound:
     """First-order worst-case bound on a tumble sequence's final configuration
     error when every vertex coordinate is within ``tau_v`` (m, box).
 
@@ -194,7 +222,7 @@ def tumble_first_order_bound(vertices, com, topology, start, faces, tau_v: float
       tau_v: vertex tolerance, m.
 
     Returns:
-      dict ``x_m``, ``y_m``, ``position_m``, ``theta_rad``.
+      :class:`Bound` (not itemised: one source).
     """
     from kernels import tumble_geometry, replay
 
@@ -211,8 +239,7 @@ def tumble_first_order_bound(vertices, com, topology, start, faces, tau_v: float
 
     j = np.asarray(jax.jacfwd(f)(jnp.zeros_like(v0)))
     b = np.abs(j).reshape(3, -1).sum(1) * tau_v
-    return {"x_m": float(b[0]), "y_m": float(b[1]), "position_m": float(math.hypot(b[0], b[1])),
-            "theta_rad": float(b[2])}
+    return Bound(float(b[0]), float(b[1]), float(b[2]))
 
 
 @float64
@@ -243,7 +270,7 @@ def tumble_plan_paper_bounds(plan, tau_v: float, tau_g=None) -> dict:
 
 @float64
 def tumble_plan_bound(plan, geometry: GeometryTolerance = GeometryTolerance(),
-                      execution: ExecutionTolerance = ExecutionTolerance()) -> dict:
+                      execution: ExecutionTolerance = ExecutionTolerance()) -> Bound:
     """First-order bound of a tumble plan's final error: the vertex tolerance
     (:func:`tumble_first_order_bound`) plus the start and slip errors of
     ``execution`` (m, rad).
@@ -269,15 +296,9 @@ def tumble_plan_bound(plan, geometry: GeometryTolerance = GeometryTolerance(),
     start = make_config(*plan.start[:3], int(plan.start[3]), dtype=jnp.float64)
     faces = np.asarray(plan.faces, np.int32)
     tau_v = geometry.tau_v
-    if tau_v > 0:
-        vb = tumble_first_order_bound(poly.vertices, poly.com, poly.topology, start, faces, tau_v)
-    else:
-        vb = {"x_m": 0.0, "y_m": 0.0, "theta_rad": 0.0}
-    # per-coordinate terms when given; a bound with only a norm is used for both
-    bx = float(vb.get("x_m", vb.get("position_m", math.nan)))
-    by = float(vb.get("y_m", vb.get("position_m", math.nan)))
-    bt = float(vb["theta_rad"])
-    vb = {"x_m": bx, "y_m": by, "theta_rad": bt}
+    vb = (tumble_first_order_bound(poly.vertices, poly.com, poly.topology, start, faces, tau_v)
+          if tau_v > 0 else Bound(0.0, 0.0, 0.0))
+    bx, by, bt = vb.x_m, vb.y_m, vb.theta_rad
     if len(faces):
         fin, _, traj = replay_trajectory(poly.geometry(jnp.float64), start, jnp.asarray(faces))
         pk = np.asarray(traj.xy, np.float64)
@@ -292,7 +313,5 @@ def tumble_plan_bound(plan, geometry: GeometryTolerance = GeometryTolerance(),
           + len(pk) * e.tumble_slip_xy + e.tumble_slip_theta * np.abs(pf[0] - pk[:, 0]).sum())
     et = e.start_theta + len(pk) * e.tumble_slip_theta
     bx, by, bt = bx + float(ex), by + float(ey), bt + float(et)
-    return {"x_m": bx, "y_m": by, "position_m": math.hypot(bx, by), "theta_rad": bt,
-            "by_source": {"tau_v": {"position_m": math.hypot(vb["x_m"], vb["y_m"]),
-                                    "theta_rad": float(vb["theta_rad"])},
-                          "execution": {"position_m": math.hypot(ex, ey), "theta_rad": float(et)}}}
+    return Bound(bx, by, bt, {"tau_v": SourceBound(vb.position_m, vb.theta_rad),
+                              "execution": SourceBound(math.hypot(ex, ey), float(et))})

@@ -148,6 +148,55 @@ class Evaluation:
     lists: dict = dataclasses.field(default_factory=dict)
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class SampleOutcomes:
+    """What a model says became of each of ``n`` samples (numpy arrays of
+    length n), the input of the ``samples`` rows.
+
+    Attributes:
+      x, y, theta: final pose of the plan's reference point (m, m, rad; world
+        frame, CCW positive).
+      final_edge_a, final_edge_b, planned_edge_a, planned_edge_b: the caller's
+        vertex indices of the edge on the fence after the last push, and of
+        the planned one (-1: none, or a tumble plan).
+      final_face, planned_face: the face on the plane after the last tumble,
+        and the planned one (-1 for push plans).
+      slip: summed slip (m).
+      n_incomplete: pushes that did not finish reorienting (tumbles: the plan's
+        steps that were invalid); first_wrong_step: the first push that
+        landed another edge (-1: none).
+      hull_changed: the perturbed part is not the nominal part's combinatorics;
+        model_valid: the model's assumptions hold for the sample;
+        in_bound_model: inside the analytic bound's model.
+      structural: kinematic models: the structural failure of each sample
+        (``""``: none; ``hull_changed``, ``incomplete_reorientation``,
+        ``wrong_edge``, ``combinatorics_changed``, ``wrong_face``).
+      success, failure_mode: physics: the rollout classified the samples
+        itself (None for the kinematic models: decided from the errors).
+      max_tilt_rad: physics: the largest tilt of the part (rad; None: NaN).
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    theta: np.ndarray
+    final_edge_a: np.ndarray
+    final_edge_b: np.ndarray
+    planned_edge_a: np.ndarray
+    planned_edge_b: np.ndarray
+    final_face: np.ndarray
+    planned_face: np.ndarray
+    slip: np.ndarray
+    n_incomplete: np.ndarray
+    first_wrong_step: np.ndarray
+    hull_changed: np.ndarray
+    model_valid: np.ndarray
+    in_bound_model: np.ndarray
+    structural: Optional[np.ndarray] = None
+    success: Optional[np.ndarray] = None
+    failure_mode: Optional[np.ndarray] = None
+    max_tilt_rad: Optional[np.ndarray] = None
+
+
 # --------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------
@@ -247,9 +296,8 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
 
             grip = (physics.settings.grip_ratio if physics is not None else 2.0)
             check_pad_friction(sampler.friction, kind, nominal_polyhedron(plan), grip)
-        rows = _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction, merge_factor,
-                             physics)
-        dtype = jnp.dtype(rows.pop("dtype"))
+        rows, dtype = _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction,
+                                    merge_factor, physics)
     elif kind == "push":
         rows = _push_rows(plan, draws, model, dtype, chunk, task)
     else:
@@ -271,7 +319,7 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
                       model=model, lists=lists)
 
 
-def _push_rows(plan, draws, model, dtype, chunk, task) -> dict:
+def _push_rows(plan, draws, model, dtype, chunk, task) -> SampleOutcomes:
     """Per-sample outcomes of a push plan under the quasi-static or exact kernel."""
     P, n = len(plan.pushes), draws.n
     poly, planned, r = run_push(plan, draws, model, dtype, chunk)
@@ -285,7 +333,7 @@ def _push_rows(plan, draws, model, dtype, chunk, task) -> dict:
     slip = np.asarray(r["slip"], np.float64)
     fa, fb = edge_pairs(poly, edges[:, -1] if P else np.full(n, -1))
     pa, pb = edge_pairs(poly, np.full(n, planned[-1] if P else -1))
-    return dict(
+    return SampleOutcomes(
         x=r["x"], y=r["y"], theta=r["theta"], final_edge_a=fa, final_edge_b=fb,
         planned_edge_a=pa, planned_edge_b=pb, final_face=np.full(n, -1, np.int64),
         planned_face=np.full(n, -1, np.int64), slip=slip, n_incomplete=n_incomplete,
@@ -298,7 +346,7 @@ def _push_rows(plan, draws, model, dtype, chunk, task) -> dict:
                              default=""))
 
 
-def _tumble_rows(plan, draws, dtype, chunk, sampler, merge_factor) -> dict:
+def _tumble_rows(plan, draws, dtype, chunk, sampler, merge_factor) -> SampleOutcomes:
     """Per-sample outcomes of a tumble plan under the exact tumble kinematics."""
     poly = tumble_nominal(plan)
     tol = None
@@ -315,7 +363,7 @@ def _tumble_rows(plan, draws, dtype, chunk, sampler, merge_factor) -> dict:
     pface = np.full(n, int(plan.goal[3]), np.int64)
     bad_face = (~ok) | (face != pface)
     none = np.full(n, -1, np.int64)
-    return dict(
+    return SampleOutcomes(
         x=r["x"], y=r["y"], theta=r["theta"], final_edge_a=none, final_edge_b=none,
         planned_edge_a=none, planned_edge_b=none, final_face=face, planned_face=pface,
         slip=np.asarray(r["slip"], np.float64), n_incomplete=(~ok).astype(np.int64),
@@ -326,12 +374,13 @@ def _tumble_rows(plan, draws, dtype, chunk, sampler, merge_factor) -> dict:
 
 
 def _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction, merge_factor,
-                  physics) -> dict:
+                  physics) -> tuple:
     """Per-sample outcomes of a plan rolled out in MuJoCo (:mod:`robustness.physics`):
     the physics layer classifies every sample itself (tipping, toppling, a fence
     strike, leaving the workspace come on top of the kernels' failure modes);
     no sample is inside an analytic bound's model (physics always slips a
-    little), so the bound columns stay empty."""
+    little), so the bound columns stay empty.  Returns ``(SampleOutcomes, dtype)``
+    (float32 under MJX)."""
     from robustness.physics import PhysicsRun, rollout_push_plan, rollout_tumble_plan
 
     run = physics or PhysicsRun()
@@ -361,11 +410,12 @@ def _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction, merge_facto
                      planned_face=np.full(n, int(plan.goal[3]), np.int64),
                      n_incomplete=np.asarray(r["n_wrong_faces"], np.int64), first_wrong_step=none,
                      hull_changed=np.asarray(r["combinatorics_changed"], bool))
-    return dict(x=r["x"], y=r["y"], theta=r["theta"], slip=np.asarray(r["slip"], np.float64),
-                model_valid=np.asarray(r["simulated"], bool), in_bound_model=np.zeros(n, bool),
-                success=np.asarray(r["success"], bool), failure_mode=np.asarray(r["failure_mode"]),
-                max_tilt_rad=np.asarray(r.get("max_tilt", np.full(n, np.nan)), np.float64),
-                dtype="float32" if r["backend"] == "mjx" else "float64", **extra)
+    out = SampleOutcomes(
+        x=r["x"], y=r["y"], theta=r["theta"], slip=np.asarray(r["slip"], np.float64),
+        model_valid=np.asarray(r["simulated"], bool), in_bound_model=np.zeros(n, bool),
+        success=np.asarray(r["success"], bool), failure_mode=np.asarray(r["failure_mode"]),
+        max_tilt_rad=np.asarray(r.get("max_tilt", np.full(n, np.nan)), np.float64), **extra)
+    return out, jnp.dtype(jnp.float32 if r["backend"] == "mjx" else jnp.float64)
 
 
 def _compare_with_kinematics(df, plan, kind, draws, chunk, task, sampler, merge_factor, pe, te,
@@ -388,24 +438,24 @@ def _compare_with_kinematics(df, plan, kind, draws, chunk, task, sampler, merge_
         df[f"success_{ref}"] = pd.array(other["success"].to_numpy(), dtype="boolean")
 
 
-def _frame(rows: dict, cols: dict, plan, kind, model, dtype, task, pe, te, slip_fraction):
+def _frame(rows: SampleOutcomes, cols: dict, plan, kind, model, dtype, task, pe, te, slip_fraction):
     """The per-sample frame (``samples`` columns) from a model's outcomes: errors to
     the goal, success and the failure mode (the first that applies, see the
     module docstring) unless the model classified the samples itself."""
-    n = len(rows["x"])
+    n = len(rows.x)
     goal = np.asarray(plan.goal[:3], np.float64)
-    x = np.asarray(rows["x"], np.float64)
-    y = np.asarray(rows["y"], np.float64)
-    th = wrap_angle_np(np.asarray(rows["theta"], np.float64))
+    x = np.asarray(rows.x, np.float64)
+    y = np.asarray(rows.y, np.float64)
+    th = wrap_angle_np(np.asarray(rows.theta, np.float64))
     ex, ey = x - goal[0], y - goal[1]
     ep = np.hypot(ex, ey)
     et = wrap_angle_np(th - goal[2])
-    slip = rows["slip"]
-    if "success" in rows:
-        success, mode = rows["success"], rows["failure_mode"]
+    slip = rows.slip
+    if rows.success is not None:
+        success, mode = rows.success, rows.failure_mode
     else:
-        structural = rows["structural"]
-        success = rows["model_valid"] & (ep <= pe) & (np.abs(et) <= te) & (structural != "wrong_face")
+        structural = rows.structural
+        success = rows.model_valid & (ep <= pe) & (np.abs(et) <= te) & (structural != "wrong_face")
         # a success whose intermediate push was incomplete or landed another edge stays a
         # success (the final pose is within eps); its flags stay visible in its columns
         mode = np.where(success, "none",
@@ -417,16 +467,17 @@ def _frame(rows: dict, cols: dict, plan, kind, model, dtype, task, pe, te, slip_
             "final_x_m": x, "final_y_m": y, "final_theta_rad": th}
     for c in ("final_edge_a", "final_edge_b", "planned_edge_a", "planned_edge_b", "final_face",
               "planned_face"):
-        data[c] = np.asarray(rows[c], np.int64)
+        data[c] = np.asarray(getattr(rows, c), np.int64)
     data.update({
         "err_x_m": ex, "err_y_m": ey, "err_pos_m": ep, "err_theta_rad": et, "slip_m": slip,
-        "n_incomplete": np.asarray(rows["n_incomplete"], np.int64),
-        "first_wrong_step": np.asarray(rows["first_wrong_step"], np.int64),
-        "hull_changed": np.asarray(rows["hull_changed"], bool),
-        "model_valid": np.asarray(rows["model_valid"], bool),
-        "in_bound_model": np.asarray(rows["in_bound_model"], bool),
+        "n_incomplete": np.asarray(rows.n_incomplete, np.int64),
+        "first_wrong_step": np.asarray(rows.first_wrong_step, np.int64),
+        "hull_changed": np.asarray(rows.hull_changed, bool),
+        "model_valid": np.asarray(rows.model_valid, bool),
+        "in_bound_model": np.asarray(rows.in_bound_model, bool),
         "success": np.asarray(success, bool), "failure_mode": mode,
-        "max_tilt_rad": np.asarray(rows.get("max_tilt_rad", np.full(n, np.nan)), np.float64),
+        "max_tilt_rad": np.asarray(np.full(n, np.nan) if rows.max_tilt_rad is None
+                                   else rows.max_tilt_rad, np.float64),
     })
     for ref in ("quasistatic", "exact"):   # filled for physics rows (_compare_with_kinematics)
         data.update({f"dpos_vs_{ref}_m": np.full(n, np.nan), f"dtheta_vs_{ref}_rad": np.full(n, np.nan),

@@ -92,7 +92,7 @@ def deviations(df: pd.DataFrame, plan, kind: str) -> tuple[np.ndarray, np.ndarra
     return dp, dt
 
 
-def analytic_bound(plan, sampler, kind: str) -> dict:
+def analytic_bound(plan, sampler, kind: str):
     """The first-order bound (:mod:`robustness.bounds`) over the box that holds
     every draw of ``sampler`` (a disc of radius tau_com lies in the box of
     half-width tau_com; Gaussians are truncated to their boxes)."""
@@ -204,7 +204,7 @@ def summary_row(df, kind, model, dtype_name, pe, te, confidence, b, task, dev,
         s["bound_position_m"] = s["bound_theta_rad"] = math.nan
         s["bound_violated"] = None
     else:
-        bp, bt = float(b["position_m"]), float(b["theta_rad"])
+        bp, bt = float(b.position_m), float(b.theta_rad)
         s["bound_position_m"], s["bound_theta_rad"] = bp, bt
         viol = False
         msgs = []

@@ -33,17 +33,17 @@ def test_translation_push_by_hand():
     s = plan.pushes[0].distance
     a, d = 1e-3, 2e-4
     b = push_plan_bound(plan, execution=ExecutionTolerance(fence_angle=a, distance_abs=d))
-    assert b["x_m"] == pytest.approx(d + 0.01 * a, rel=1e-5)
-    assert b["y_m"] == pytest.approx((s + 0.02) * a, rel=1e-5)
-    assert b["theta_rad"] == pytest.approx(a, rel=1e-5)
+    assert b.x_m == pytest.approx(d + 0.01 * a, rel=1e-5)
+    assert b.y_m == pytest.approx((s + 0.02) * a, rel=1e-5)
+    assert b.theta_rad == pytest.approx(a, rel=1e-5)
 
 
 def test_start_errors_do_not_reach_final_orientation():
     # every push ends with a stable edge flush: start errors cannot change the final heading
     plan = plan_pose(TRI, (0.01, -0.02, 0.4), (0.1, 0.05, 2.0))
     b = push_plan_bound(plan, execution=ExecutionTolerance(start_xy=1e-3, start_theta=1e-2))
-    assert b["theta_rad"] == pytest.approx(0.0, abs=1e-12)
-    assert b["by_source"]["start_xy"]["position_m"] > 0
+    assert b.theta_rad == pytest.approx(0.0, abs=1e-12)
+    assert b.by_source["start_xy"].position_m > 0
 
 
 @pytest.mark.parametrize("verts,com,goal", [
@@ -73,9 +73,9 @@ def test_first_order_bound_vs_monte_carlo(verts, com, goal):
     th = np.abs((out[:, 2] - g[2] + np.pi) % (2 * np.pi) - np.pi)
     # first order: the Monte-Carlo maximum stays below the bound (second-order terms are
     # ~tolerance^2 here) and the bound is not vacuous
-    assert pos.max() <= b["position_m"] * (1 + 1e-3), (pos.max(), b)
-    assert th.max() <= b["theta_rad"] * (1 + 1e-3) + 1e-15, (th.max(), b)
-    assert pos.max() >= 0.3 * b["position_m"]
+    assert pos.max() <= b.position_m * (1 + 1e-3), (pos.max(), b)
+    assert th.max() <= b.theta_rad * (1 + 1e-3) + 1e-15, (th.max(), b)
+    assert pos.max() >= 0.3 * b.position_m
 
 
 def test_tolerances_validated():
@@ -105,9 +105,9 @@ def test_tumble_first_order_bound_vs_monte_carlo():
     dpos = np.hypot(*(np.asarray(final.xy) - np.asarray(nominal.xy)).T)
     dth = np.abs((np.asarray(final.theta) - float(nominal.theta) + np.pi) % (2 * np.pi) - np.pi)
     assert bool(np.all(ok))
-    assert dpos.max() <= b["position_m"] * (1 + 1e-3)
-    assert dth.max() <= b["theta_rad"] * (1 + 1e-3)
-    assert dpos.max() >= 0.2 * b["position_m"]
+    assert dpos.max() <= b.position_m * (1 + 1e-3)
+    assert dth.max() <= b.theta_rad * (1 + 1e-3)
+    assert dpos.max() >= 0.2 * b.position_m
 
 
 def test_paper_bounds_confronted_with_monte_carlo():

@@ -11,7 +11,7 @@ from kernels.polyhedron import PartWarning, make_polyhedron
 from kernels.tumble import make_config, replay
 from planning.pushing.planner import plan_pose
 from planning.tumbling.plan import Tumble, TumblePlan
-from robustness import replay as batches
+from robustness import Bound, replay as batches
 from robustness import summary
 from robustness.evaluation import BoundViolation, evaluate
 from robustness.samplers import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler
@@ -147,7 +147,7 @@ def test_quasistatic_shows_failures_when_slippery(plan):
 
 def test_bound_violation_is_reported_not_clipped(plan, monkeypatch):
     monkeypatch.setattr(summary, "analytic_bound",
-                        lambda p, s, k: {"position_m": 1e-9, "theta_rad": 1e-9})
+                        lambda p, s, k: Bound(1e-9, 0.0, 1e-9))
     with pytest.warns(BoundViolation, match="BOUND VIOLATED"):
         ev = evaluate(plan, TOL, N, jax.random.key(1), model="exact")
     assert ev.summary["bound_violated"] is True

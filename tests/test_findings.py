@@ -7,12 +7,12 @@ from tests.test_sweep import TINY
 
 
 def test_a_bound_violation_is_a_finding_read_from_the_summary(tmp_path, monkeypatch, capsys):
-    from robustness import summary
+    from robustness import Bound, summary
     from sweeps import run
 
     monkeypatch.delenv("NUDGE_DEBUG", raising=False)
     monkeypatch.setattr(summary, "analytic_bound",
-                        lambda plan, sampler, kind: {"position_m": 1e-12, "theta_rad": 1e-12})
+                        lambda plan, sampler, kind: Bound(1e-12, 0.0, 1e-12))
     p = tmp_path / "tiny.yaml"
     p.write_text(TINY.replace("samples: 24", "samples: 8"))
     code = run.main([str(p), "--out", str(tmp_path / "out"), "--quiet"])
