@@ -46,6 +46,7 @@ def test_start_errors_do_not_reach_final_orientation():
     assert b.by_source["start_xy"].position_m > 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("verts,com,goal", [
     (TRI, None, (0.1, 0.05, 1.0)),
     (RECT, None, (-0.05, 0.08, -2.5)),
@@ -85,6 +86,7 @@ def test_tolerances_validated():
         ExecutionTolerance(fence_angle=float("nan"))
 
 
+@pytest.mark.slow
 def test_tumble_first_order_bound_vs_monte_carlo():
     cube = make_polyhedron([[x, y, z] for x in (0, 0.02) for y in (0, 0.02) for z in (0, 0.02)])
     seq = []
@@ -110,6 +112,7 @@ def test_tumble_first_order_bound_vs_monte_carlo():
     assert dpos.max() >= 0.2 * b.position_m
 
 
+@pytest.mark.slow
 def test_paper_bounds_confronted_with_monte_carlo():
     """The Marigo-Bicchi bounds (eqs. 5, 6) against the Monte-Carlo maximum on the same part,
     plan and vertex tolerance.  Findings, asserted so that a change shows up:

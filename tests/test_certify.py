@@ -23,6 +23,7 @@ def _files(out, table):
     return sorted((out / table).rglob("*.parquet"))
 
 
+@pytest.mark.slow
 def test_example_end_to_end_layout_and_metadata(tmp_path):
     out = tmp_path / "out"
     r = nudge("certify", EXAMPLE, "--out", out, "--n-samples", "40", "--seed", "5", "--quiet")
@@ -64,6 +65,7 @@ def test_example_end_to_end_layout_and_metadata(tmp_path):
     assert r3.returncode == 2 and "another config" in r3.stderr
 
 
+@pytest.mark.slow
 def test_pd_read_parquet_on_run_folder_never_mixes_tables(tmp_path):
     out = tmp_path / "out"
     r = nudge("certify", EXAMPLE, "--out", out, "--n-samples", "8", "--quiet")
@@ -96,6 +98,7 @@ def _input_error(r, *words):
     return lines[0]
 
 
+@pytest.mark.slow
 def test_unknown_key_exits_2(tmp_path):
     p = _write(tmp_path, BASE.replace("tau_v: 1e-5", "tau_v: 1e-5, tau_vv: 2"))
     line = _input_error(nudge("certify", p), "tau_vv", "allowed keys")
@@ -138,6 +141,7 @@ def test_missing_config_file(tmp_path, capsys):
     assert "no such config" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_nothing_perturbed_is_said(tmp_path):
     text = f"""part: {EXAMPLE.parent / 'rectangle.yaml'}
 friction: {{mu_f: [0.8, 0.8], c: [0.005, 0.005]}}
@@ -154,6 +158,7 @@ tasks:
     assert bool(c["nothing_perturbed"]) and "nothing was perturbed" in c["claim"]
 
 
+@pytest.mark.slow
 def test_too_few_samples_says_how_many_are_needed(tmp_path):
     text = BASE.replace("tau_v: 1e-5", "tau_v: 1e-7") + "required: {probability: 0.95}\n"
     out = tmp_path / "o"
@@ -165,6 +170,7 @@ def test_too_few_samples_says_how_many_are_needed(tmp_path):
         assert "at least 59 successes without a failure are needed" in c["claim"]
 
 
+@pytest.mark.slow
 def test_non_convex_part_warns(tmp_path):
     text = """part:
   vertices: [[0, 0], [0.04, 0], [0.04, 0.02], [0.02, 0.005], [0, 0.02]]
@@ -179,6 +185,7 @@ tasks:
     assert "warning: vertices: points [3] are not vertices of the convex hull" in r.stderr
 
 
+@pytest.mark.slow
 def test_auto_samples_grow_until_decided(tmp_path):
     text = BASE.replace("tau_v: 1e-5", "tau_v: 1e-7") + "required: {probability: 0.9}\n"
     out = tmp_path / "o"
@@ -218,6 +225,7 @@ def test_help_explains_units_and_exit_codes():
     assert r.returncode == 0 and "metres" in r.stdout and "Exit status" in r.stdout
 
 
+@pytest.mark.slow
 def test_tumble_task_without_a_plan_has_zero_steps(tmp_path):
     text = f"""part: {EXAMPLE.parent / 'cube.yaml'}
 tolerances: {{tau_v: 1e-5}}

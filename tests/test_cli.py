@@ -14,6 +14,7 @@ def test_help_lists_every_command():
     assert "metres" in r.stdout and "Exit status" in r.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cmd", SUBCOMMANDS)
 def test_each_subcommand_has_help(cmd):
     r = nudge(cmd, "--help")
@@ -36,6 +37,7 @@ def test_parts_lists_bundled_parts_and_studies():
         assert name in r.stdout
 
 
+@pytest.mark.slow
 def test_bundled_part_by_name():
     r = nudge("plan-push", "rectangle", "--start", "0,0,0", "--goal", "0.05,0.02,90deg")
     assert r.returncode == 0, r.stderr

@@ -166,6 +166,7 @@ def test_a_bug_in_plan_push_is_an_internal_error(monkeypatch, tmp_path):
 
 
 # ------------------------------------------------------------ design size
+@pytest.mark.slow
 def test_a_huge_design_is_refused_before_it_is_expanded(tmp_path):
     """A 1e8-configuration grid (two 10,000-value axes): one line, exit 2, also under
     --dry-run, instead of gigabytes of configurations (the timeout is the guard)."""
@@ -245,6 +246,7 @@ def test_study_and_certify_effort_options_are_validated(tmp_path, planner, field
         assert "integer" in line or ">=" in line, line
 
 
+@pytest.mark.slow
 def test_study_and_certify_effort_options_reach_the_planner(tmp_path):
     out = tmp_path / "out"
     text = STUDY + "planner: {max_reorients: 1}\n"

@@ -92,6 +92,7 @@ def test_within_prefixes_every_line_and_keeps_the_type():
     assert YamlError("x").within("p").lines == ["p: x"] and type(YamlError("x").within("p")) is YamlError
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["sweep", "certify"])
 def test_a_yaml_syntax_error_in_a_config_is_one_line_exit_2(tmp_path, command):
     """The file's YamlError reaches the user as it is (no translation into another error type)."""

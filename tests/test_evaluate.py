@@ -60,6 +60,7 @@ def tumble_plan():
                       reachable_class="dense", n_tumbles_paper=len(seq))
 
 
+@pytest.mark.slow
 def test_zero_tolerances_reproduce_the_plan(plan):
     ev = evaluate(plan, Sampler(), 4, jax.random.key(0), model="exact", bound=False)
     df = ev.samples
@@ -74,6 +75,7 @@ def test_zero_tolerances_reproduce_the_plan(plan):
     assert ev.summary["success_rate"] == 1.0 and ev.summary["n_none"] == 4
 
 
+@pytest.mark.slow
 def test_tolerances_success_rate_and_interval(plan):
     ev = evaluate(plan, TOL, N, jax.random.key(1), model="exact", pos_eps_m=4e-4,
                   theta_eps_rad=2e-3)
@@ -164,6 +166,7 @@ def test_tumble_zero_tolerances_and_com_offset(tumble_plan):
     assert ev.summary["pos_eps_m"] == tumble_plan.eps
 
 
+@pytest.mark.slow
 def test_tumble_vertex_tolerance_bound_and_slip(tumble_plan):
     # eq. (6) of the paper raises lengths to high powers: in metres, for a part smaller than a
     # metre, its bound collapses (~1e-31 m here) and the samples exceed it -- an expected
@@ -238,6 +241,7 @@ def _kernel_tumble_replay(plan, draws):
     return jax.jit(jax.vmap(one))(g.vertex_offset, g.com_offset, e.start_offset, e.tumble_slip)
 
 
+@pytest.mark.slow
 @pytest.mark.float64
 @pytest.mark.parametrize("series", [True, False])
 def test_tumble_replay_is_the_kernels(tumble_plan, series):
@@ -298,6 +302,7 @@ jax.monitoring.register_event_duration_secs_listener(
     if name == "/jax/core/compile/backend_compile_duration" else None)
 
 
+@pytest.mark.slow
 def test_one_compilation_per_shape_bucket(plan, tumble_plan):
     """A study of several plan lengths (one length bucket), sample counts (one chunk
     bucket) and tolerance values compiles the push batch, the tumble batch and each

@@ -1,11 +1,13 @@
 """A bound the Monte Carlo exceeds is a finding read from the summary table's
 columns (``bound_violated``), not matched in warning text, and it is reported
 once per kind, not as a warning per task."""
+import pytest
 import pandas as pd
 
 from tests.test_sweep import TINY
 
 
+@pytest.mark.slow
 def test_a_bound_violation_is_a_finding_read_from_the_summary(tmp_path, monkeypatch, capsys):
     from robustness import Bound, summary
     from sweeps import run

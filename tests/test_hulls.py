@@ -59,6 +59,7 @@ def _jax(P, V, tol):
     return polyhedra_changed(V, P, tol)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(PARTS))
 def test_polyhedron_check_matches_reference_on_random_perturbations(name):
     """Each sample its own perturbation size (1e-5 .. 5e-2 of the diameter) and merge
@@ -82,6 +83,7 @@ def test_polyhedron_check_matches_reference_on_random_perturbations(name):
     np.testing.assert_array_equal(got[:-1], ref)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(PARTS) + ["dropped_inside", "dropped_on_face"])
 def test_polyhedron_check_on_the_boundary_of_the_reference(name):
     """Along random directions (all vertices, or one), find by bisection where the

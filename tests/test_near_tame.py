@@ -71,6 +71,7 @@ def _goal(name):
     return (m.z.real, m.z.imag, math.remainder(m.angle, 2 * math.pi), GOAL_WALKS[name][-1])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tau_v", [1e-8, 1e-6])
 @pytest.mark.parametrize("name", list(SOLIDS))
 def test_near_tame_solid_gets_the_ideal_solids_plan(name, tau_v):

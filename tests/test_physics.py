@@ -61,6 +61,7 @@ def reorient_plan(rectangle):
 # --------------------------------------------------------------------------
 # Pushes
 # --------------------------------------------------------------------------
+@pytest.mark.slow
 def test_translating_box_neither_turns_nor_walks(rectangle):
     plan = plan_pose(rectangle.vertices, (0.0, 0.0, 0.0), (0.1, 0.0, 0.0), com=rectangle.com)
     assert [p.kind for p in plan.pushes] == ["translate"]
@@ -83,6 +84,7 @@ def test_reorient_push_ends_flush_on_planned_edge(reorient_plan):
     assert r["err_pos"][0] < 1e-3
 
 
+@pytest.mark.slow
 def test_push_shorter_than_half_peshkin_stays_incomplete(reorient_plan):
     push = reorient_plan.pushes[0]
     peshkin = push.min_distance / reorient_plan.safety_factor
@@ -97,6 +99,7 @@ def test_push_shorter_than_half_peshkin_stays_incomplete(reorient_plan):
     assert qs["n_incomplete"].iloc[0] == 1
 
 
+@pytest.mark.slow
 def test_sticking_push_agrees_with_quasistatic_model(reorient_plan):
     sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(0.5, 0.5)))
     key = jax.random.key(3)
@@ -109,6 +112,7 @@ def test_sticking_push_agrees_with_quasistatic_model(reorient_plan):
     assert abs(r["theta"][0] - qs["final_theta_rad"].iloc[0]) < math.radians(0.2)
 
 
+@pytest.mark.slow
 def test_row_semantics_match_the_exact_model(rectangle):
     """Centre-of-mass offset, start and fence errors: the physics row of a
     sample and its exact-model row describe the same part and execution."""
@@ -306,6 +310,7 @@ def test_quaternion_helpers_round_trip():
     assert yaw[0] == pytest.approx(0.6) and tilt[0] == pytest.approx(0.0, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_batches_do_not_change_the_rows(rectangle):
     plan = plan_pose(rectangle.vertices, (0.0, 0.0, 0.0), (0.02, 0.0, 0.0), com=rectangle.com)
     sam = Sampler(friction=FrictionRange(mu_f=(0.5, 1.0), mu_s=(0.4, 0.6)),

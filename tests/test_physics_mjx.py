@@ -33,6 +33,7 @@ def _translate_plan(distance):
 SOFT = PhysicsSettings(noslip_iterations=0, impratio=SOFT_IMPRATIO)
 
 
+@pytest.mark.slow
 def test_mjx_smoke_on_cpu_agrees_with_the_c_engine():
     """One sample, a 2 cm translation on a tripod (c 8 mm), the same (soft)
     contact model on both engines: MJX (float32) lands the planned edge and

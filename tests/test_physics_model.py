@@ -33,6 +33,7 @@ def _input_error(r, *words):
     return lines[0]
 
 
+@pytest.mark.slow
 def test_sweep_rolls_out_in_mujoco(tmp_path):
     cfg = tmp_path / "physics.yaml"
     cfg.write_text(STUDY.format(extra=""))
@@ -54,6 +55,7 @@ def test_sweep_rolls_out_in_mujoco(tmp_path):
     assert not s["in_bound_model"].any()
 
 
+@pytest.mark.slow
 def test_physics_section_is_validated_before_any_work(tmp_path):
     cfg = tmp_path / "bad.yaml"
     cfg.write_text(STUDY.format(extra="").replace("timestep: 0.004", "timestep: -1"))
@@ -105,6 +107,7 @@ tasks:
     assert "mujoco" in r.stdout.lower()
 
 
+@pytest.mark.slow
 def test_evaluate_tumble_in_mujoco_beside_the_exact_model():
     """A tumble plan's physics rows carry the exact kinematics' answer on the same draw;
     the quasi-static columns stay empty (tumbles have no quasi-static model)."""
@@ -141,6 +144,7 @@ SUPPORT_PART = """part:
 """
 
 
+@pytest.mark.slow
 def test_sweep_in_mujoco_realises_the_support_family_and_the_part_material(tmp_path):
     """friction.support and the part file's thickness and density, through
     ``nudge sweep``: the samples name their family, and the scene stood the

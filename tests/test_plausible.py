@@ -258,6 +258,7 @@ def test_bundled_parts_and_usual_command_lines_raise_no_warning():
         assert got == [], (name, got)
 
 
+@pytest.mark.slow
 def test_warnings_raised_while_a_study_runs_show_under_quiet(tmp_path):
     """A warning raised by the work itself (the planner replacing a non-convex
     part by its hull) reaches stderr under ``--quiet`` too (issue 21: quiet

@@ -339,6 +339,7 @@ def _reorient_case(draw):
     return part, frac, sense, fence, pick
 
 
+@pytest.mark.slow
 @given(_reorient_case())
 @settings(derandomize=True, deadline=None, max_examples=60)
 def test_peshkin_distance_is_what_the_replay_needs(case):

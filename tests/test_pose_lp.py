@@ -103,6 +103,7 @@ def _brute_force(ang, mask, merged, target, objective="distance"):
 # --------------------------------------------------------------------------
 # closed form against cvxpy (the slow part: ~1000 LPs)
 # --------------------------------------------------------------------------
+@pytest.mark.slow
 def test_closed_form_matches_cvxpy_lp():
     insts = _instances(0, 1000)
     n_feas = n_infeas = 0

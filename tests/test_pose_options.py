@@ -22,6 +22,7 @@ from oracles import push_numpy as oracle
 pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, options", [
     ("nice", dict(support={"c": [0.4, 0.8]}, min_fence_mu=0.5)),   # c in units of the part's radius
     ("biplus", dict(support={"c": [0.2, 0.6]})),
@@ -79,6 +80,7 @@ def test_safety_factor_one_from_an_unwrapped_start(goal):
         check_plan(plan, RECT_40_20, None, start, goal, margin_deg=10, safety=1.0)
 
 
+@pytest.mark.slow
 def test_safety_factor_one():
     """safety_factor = 1 is allowed (>= 1) and gives valid plans, one and many at once."""
     start, goal = [0.0, 0.0, 0.0], [0.1, 0.2, 2.5]
@@ -153,6 +155,7 @@ def test_effort_budget_error_says_so():
         pp.plan_pose(RECT, [0.0, 0.0, 0.0], [0.1, 0.2, 3.0], max_reorients=2, strategy="paper")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scale", [1e-3, 1.0, 1e3, 1e9])
 def test_plans_are_exact_at_every_scale(scale):
     """The same task at scales 1e-3 .. 1e9: every length tolerance is relative
@@ -239,6 +242,7 @@ def test_no_sticking_reorient_push_says_why():
     assert _plan(part.vertices, (0, 0, 0), (0.1, 0.05, 1.0), **{**kw, "min_fence_mu": None}).n_pushes > 0
 
 
+@pytest.mark.slow
 def test_workspace_error_names_a_workspace_that_holds_a_plan():
     """A uni-stable part turns on a circle of 8 cm or more: 7.8 cm from the start
     with a 24 deg turn, no plan stays inside 30 x 30 cm.  The error names the
@@ -263,6 +267,7 @@ def test_workspace_error_names_a_workspace_that_holds_a_plan():
         _plan(part.vertices, start, goal, com=part.com, workspace=tuple(0.99 * b for b in box))
 
 
+@pytest.mark.slow
 def test_uni_stable_last_step_of_its_own(monkeypatch):
     """Uni-stable main runs may end with a step of a quarter to all of the step
     angle, the steps before it sharing the rest (rule ``LAST``): on the bundled
@@ -296,6 +301,7 @@ def _cw_step(part) -> float:
     return float(p.step[p.stable[0], pg.CW])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("objective", ["distance", "pushes"])
 def test_workspace_bound_gives_the_plan_of_fitting_every_candidate(monkeypatch, objective):
     """With a workspace, candidates are fitted in the order of their
@@ -349,6 +355,7 @@ def test_workspace_bound_gives_the_plan_of_fitting_every_candidate(monkeypatch, 
         check_plan(p, part.vertices, part.com, start, goal, workspace=ws)
 
 
+@pytest.mark.slow
 def test_plans_float64_cannot_replay_are_not_plans(monkeypatch):
     """A sliver of a uni-stable part, half a turn in place, paper strategy: its
     lowest tier's best LP pushes 4.7e9 m (translations that nearly cancel), which

@@ -182,6 +182,7 @@ def _plan_or_budget(pts, com, start, goal, **kw):
         return None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("relation", S.RELATIONS)
 @pytest.mark.parametrize("cls", [S.UNI, S.BIPLUS, S.NICE], ids=["uni", "biplus", "nice"])
 @settings(derandomize=True, deadline=None, max_examples=10)
@@ -285,6 +286,7 @@ AGREEMENT = ([(n, "distance", "search") for n in ("uni", "biplus", "nice", "wide
              + [(n, "distance", "paper") for n in ("uni", "biplus", "nice")])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, objective, strategy", AGREEMENT)
 def test_batch_agrees_with_single(name, objective, strategy):
     pts, com = _fixed_parts()[name]
@@ -365,6 +367,7 @@ def test_cvxpy_solver_gives_the_same_plans(name):
         check_plan(ref, pts, com, starts[b], goals[b])
 
 
+@pytest.mark.slow
 def test_cvxpy_solver_with_pushes_objective():
     """plan_pose(objective="pushes", solver="cvxpy") gives the closed form's plan,
     on the uni-stable part, where many candidate LPs are infeasible."""

@@ -51,6 +51,7 @@ CLASSES = {"translation": (S.any_class_parts(), "equal"), "uni": (S.parts_of_cla
            "biplus": (S.parts_of_class(S.BIPLUS), None), "nice": (S.parts_of_class(S.NICE), None)}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", list(CLASSES))
 @settings(derandomize=True, deadline=None, max_examples=10)
 @given(data=st.data())

@@ -1,5 +1,6 @@
 """Planning is float64 whatever the caller's JAX setting, and importing nudge
 changes no global JAX setting (each check in a fresh interpreter)."""
+import pytest
 import json
 import pathlib
 import subprocess
@@ -24,6 +25,7 @@ def _run(code: str) -> str:
     return p.stdout.strip().splitlines()[-1]
 
 
+@pytest.mark.slow
 def test_imports_change_no_global_setting_and_tumble_plan_is_exact():
     out = _run("""
 import json, jax
@@ -39,12 +41,14 @@ print(json.dumps([before, bool(jax.config.jax_enable_x64), plan.verdict, plan.er
     assert verdict == "solved" and err < 1e-15
 
 
+@pytest.mark.slow
 def test_plan_pose_identical_with_and_without_global_x64():
     off = _run(PLAN_POSE.format(enable=""))
     on = _run(PLAN_POSE.format(enable='jax.config.update("jax_enable_x64", True)'))
     assert off == on
 
 
+@pytest.mark.slow
 def test_evaluate_float64_without_global_x64():
     out = _run("""
 import json, jax

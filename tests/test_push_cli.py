@@ -133,6 +133,7 @@ def test_planning_error_exits_1(monkeypatch, capsys):
     assert cap.err.strip() == "error: no feasible pose plan (test)"
 
 
+@pytest.mark.slow
 def test_psd_only_mode(tmp_path, capsys):
     from sweeps import plan_push as push
     rc = push.main([str(EXAMPLES / "unistable.yaml"), "--psd", str(tmp_path / "u.png")])
@@ -142,6 +143,7 @@ def test_psd_only_mode(tmp_path, capsys):
     assert (tmp_path / "u.png").read_bytes()[:8] == PNG_MAGIC
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["unistable", "biplus_stable"])  # each new part costs ~3 s CPU
 def test_push_stability_matches_tables(name):
     """The replayed capture ranges agree with the planner's tables."""
@@ -178,6 +180,7 @@ def test_push_stability_matches_tables(name):
 
 # ---------------------------------------------------------------- CLI subprocesses
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(EXAMPLE_RUNS))
 def test_json_round_trips_and_reaches_goal(cli, name):
     rc, out, err = cli[0][f"json_{name}"]
@@ -194,6 +197,7 @@ def test_json_round_trips_and_reaches_goal(cli, name):
     np.testing.assert_allclose(plan.pushes[-1].pose_after[:2], want[:2], atol=1e-9)
 
 
+@pytest.mark.slow
 def test_plain_output_and_figures(cli):
     rc, out, err = cli[0]["plain_plots"]
     tmp = cli[1]
@@ -206,6 +210,7 @@ def test_plain_output_and_figures(cli):
         assert f"wrote {tmp / name}" in err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("key, needles", [
     ("unknown_key", ["unknown key 'colour'", "allowed keys", "vertices"]),
     ("nan_vertex", ["vertices[1][1]", "finite"]),

@@ -63,6 +63,7 @@ def _random_pushes(rng, body, count):
     return poses, dirs, dists
 
 
+@pytest.mark.slow
 def test_kernel_matches_oracle_on_random_parts():
     rng = np.random.default_rng(0)
     stats = dict(partial=0, complete=0, rolled=0, zero=0, n=set())

@@ -114,6 +114,7 @@ def radius(body):
 # --------------------------------------------------------------------------
 # the paper's assumptions: exact replay
 # --------------------------------------------------------------------------
+@pytest.mark.slow
 def test_complete_push_ends_where_the_replay_ends():
     """mu_f = 10 (no slip, bar a few steep pivots at tiny c) and any c in (0, a]: a push the replay completes
     also completes here, on the same edge, at the same pose (the final pose of
@@ -298,6 +299,7 @@ def test_translation_on_a_stable_edge():
 # --------------------------------------------------------------------------
 # against the independent numpy oracle
 # --------------------------------------------------------------------------
+@pytest.mark.slow
 def test_kernel_matches_numpy_oracle():
     rng = np.random.default_rng(14)
     stats = dict(slipped=0, stuck=0, complete=0, partial=0, rolled=0, n=set())
@@ -364,6 +366,7 @@ def test_float32_agrees_with_float64():
     assert mism <= 0.03 * total, mism
 
 
+@pytest.mark.slow
 def test_vmap_over_perturbed_parts_equals_loop():
     rng = np.random.default_rng(16)
     body = random_part(rng, uni=0.0, sizes=(4,))
@@ -486,6 +489,7 @@ def test_pushes_ending_mid_slide_match_the_oracle():
     assert mid >= 20, mid
 
 
+@pytest.mark.slow
 def test_inactive_pushes_are_skipped():
     """simulate_pushes(active=...): an inactive push leaves the pose alone and reports no
     edge; the active ones run exactly as the plan without the inactive ones."""

@@ -63,6 +63,7 @@ def _start(geom, e, sense, alpha):
     return np.array([0.0, 0.0, th0]), np.array([0.0, 1.0]), th_final
 
 
+@pytest.mark.slow
 def test_model_distance_completes_for_every_c_and_friction():
     """Claim 3: the model distance at c_hi completes the rotation in the
     quasi-static simulation for every c up to c_hi and every fence friction;

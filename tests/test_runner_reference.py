@@ -125,10 +125,12 @@ def _compare(tmp_path, text):
     return design
 
 
+@pytest.mark.slow
 def test_push_study_equals_the_library(tmp_path):
     _compare(tmp_path, PUSH)
 
 
+@pytest.mark.slow
 def test_tumble_study_equals_the_library(tmp_path):
     _compare(tmp_path, TUMBLE)
 

@@ -56,6 +56,7 @@ def test_shapes_and_in_axes(drawn):
 
 
 
+@pytest.mark.slow
 def test_draws_are_one_value(drawn):
     """Draws: the arrays traced (a pytree through jit), the layout static; slices and
     casts keep the layout and the sample count with it."""
@@ -157,6 +158,7 @@ def test_settings_validated():
         GeometryTolerance(distribution="cauchy")
 
 
+@pytest.mark.slow
 def test_polygon_hull_change_detection(poly):
     V0 = jnp.asarray(poly.vertices)
     com = jnp.asarray(poly.com)

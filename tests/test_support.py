@@ -22,6 +22,7 @@ def _draw(body, n, S, k, seed):
     return support_from_u(u, body, S, k, jnp.float64)
 
 
+@pytest.mark.slow
 @settings(max_examples=25)
 @given(st.integers(0, 10_000), st.sampled_from([(PENT, 16, 1), (PENT, 4, 8), (THIN, 16, 1),
                                                 (THIN, 32, 64)]))
@@ -50,6 +51,7 @@ def _depth(points) -> float:
     return float(-np.max(h.equations[:, 2]))
 
 
+@pytest.mark.slow
 def test_tilt_is_the_minimiser_of_the_convex_dual():
     body = pg.make_polygon(PENT).body
     pts, w = _draw(body, 1, 16, 1, 7)

@@ -43,6 +43,7 @@ def _x64(f, *a):
         return np.asarray(f(*(jnp.asarray(x) for x in a)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", POLYGONS)
 def test_every_foot_lies_inside_the_outline(name):
     """No foot of any family outside any bundled part (by FOOT_INSET at least)."""
@@ -77,6 +78,7 @@ def _polygon(seed, h):
     return body
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, derandomize=True)
 @given(st.integers(0, 10 ** 6), st.integers(3, 8))
 def test_corner_loads_solve_the_resting_linear_programme(seed, h):
@@ -95,6 +97,7 @@ def test_corner_loads_solve_the_resting_linear_programme(seed, h):
     assert (w > 1e-12).sum() <= 3 and w.min() >= 0 and w.sum() == pytest.approx(1.0)
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, derandomize=True)
 @given(st.integers(0, 10 ** 6), st.integers(3, 8))
 def test_equal_spring_loads_are_the_least_norm_balance(seed, h):
@@ -124,6 +127,7 @@ def test_rigid_rectangle_rests_on_a_diagonal():
     assert ks.family_c_range("rigid", body) == pytest.approx((np.hypot(0.02, 0.01),) * 2)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", POLYGONS)
 def test_sampler_draws_each_family_in_its_range(name):
     _, body = _body(name)
@@ -158,6 +162,7 @@ def test_family_validation_names_the_field():
     assert FrictionRange(c=(0.004, 0.008)).support == "tripod"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", POLYGONS)
 def test_the_scene_realises_the_drawn_support(name):
     """Each family drawn by the sampler, stood in MuJoCo (C engine): the loads
@@ -181,6 +186,7 @@ def test_the_scene_realises_the_drawn_support(name):
     assert r["support_ok"].all()
 
 
+@pytest.mark.slow
 def test_plans_name_the_support_their_distances_assume(tmp_path):
     """planner.support through ``nudge certify`` and ``nudge plan-push``: the
     plans table, the certificate and the printed plan name the support."""

@@ -129,6 +129,7 @@ def test_design_applies_overrides_and_sweeps_range_fields(tmp_path):
     assert "samples: 16" in d.text and d.run_id != load_design(p).run_id
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("edit,words", [
     (("samples: 24", "samples: -1"), ["samples", ">= 1"]),
     (("planner.margin_deg: [5, 9]", "planner.margin: [5, 9]"), ["params.planner.margin", "no field 'margin'", "margin_deg"]),
@@ -195,6 +196,7 @@ def reference(tmp_path_factory):
     return p, out, _tables(out), r
 
 
+@pytest.mark.slow
 def test_tables_layout_and_dtypes(reference):
     p, out, t, r = reference
     s, summ, plans = t["samples"], t["summary"], t["plans"]
@@ -212,6 +214,7 @@ def test_tables_layout_and_dtypes(reference):
     assert "planner_margin_deg" in r.stdout and "results:" in r.stdout
 
 
+@pytest.mark.slow
 def test_resume_after_sigkill_is_bit_identical(reference, tmp_path):
     p, _, ref, _ = reference
     out = tmp_path / "out"
@@ -229,6 +232,7 @@ def test_resume_after_sigkill_is_bit_identical(reference, tmp_path):
     _same(_tables(out), ref)
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_cleanly_and_resumes(reference, tmp_path):
     p, _, ref, _ = reference
     out = tmp_path / "out"
@@ -245,6 +249,7 @@ def test_ctrl_c_stops_cleanly_and_resumes(reference, tmp_path):
     _same(_tables(out), ref)
 
 
+@pytest.mark.slow
 def test_rerun_of_a_finished_run_changes_nothing_and_changed_config_is_refused(reference, tmp_path):
     p, out, ref, _ = reference
     r = run_module(p, "--out", out, "--quiet")
@@ -254,9 +259,10 @@ def test_rerun_of_a_finished_run_changes_nothing_and_changed_config_is_refused(r
     assert r.returncode == 2 and "another config" in r.stderr
 
 
+@pytest.mark.slow
 def test_dask_executor_matches_local(reference, tmp_path):
-    """Dask workers with the persistent compilation cache (the suite runs without
-    one: conftest) give the local run's tables."""
+    """Dask workers with a persistent compilation cache of their own (the suite's is
+    another folder: conftest) give the local run's tables."""
     p, _, ref, _ = reference
     out, cache = tmp_path / "out", tmp_path / "jax-cache"
     r = nudge("sweep", p, "--out", out, "--executor", "dask", "--quiet",
@@ -266,6 +272,7 @@ def test_dask_executor_matches_local(reference, tmp_path):
     assert any(cache.iterdir()), "the workers wrote no compiled kernel"
 
 
+@pytest.mark.slow
 def test_local_run_uses_the_cache_cold_and_warm_and_gives_the_same_tables(reference, tmp_path):
     p, _, ref, _ = reference
     cache = tmp_path / "jax-cache"
@@ -295,6 +302,7 @@ def test_the_cache_is_scoped_to_the_run(tmp_path, monkeypatch):
     assert {k: os.environ.get(k) for k in ours} == {k: env.get(k) for k in ours}
 
 
+@pytest.mark.slow
 def test_a_killed_dask_worker_loses_and_duplicates_nothing(reference, tmp_path):
     from distributed import Client, LocalCluster
 
@@ -317,6 +325,7 @@ def test_a_killed_dask_worker_loses_and_duplicates_nothing(reference, tmp_path):
     _same(got, ref)
 
 
+@pytest.mark.slow
 def test_report_is_self_contained(tmp_path):
     p = _study(tmp_path, TINY.replace("report: false", "report: true").replace("samples: 24", "samples: 8"))
     out = tmp_path / "out"
@@ -329,6 +338,7 @@ def test_report_is_self_contained(tmp_path):
 
 
 # ---------------------------------------------------------------- bundled studies
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["margins.yaml", "tolerances.yaml"])
 def test_bundled_studies_are_found_by_name_and_valid(tmp_path, name):
     r = run_module(name, "--dry-run", cwd=tmp_path)   # not in the working folder: the bundled one
@@ -336,6 +346,7 @@ def test_bundled_studies_are_found_by_name_and_valid(tmp_path, name):
     assert "configuration(s)" in r.stdout
 
 
+@pytest.mark.slow
 def test_bundled_margins_runs_small(tmp_path):
     r = run_module("margins.yaml", "--out", tmp_path / "out", "--set", "samples=8",
                    "--set", "tasks.sample.n=2", "--quiet", cwd=tmp_path)
@@ -350,6 +361,7 @@ def test_bundled_margins_runs_small(tmp_path):
     assert d[12] < d[7] < d[3], d
 
 
+@pytest.mark.slow
 def test_planner_options_reach_the_plans(tmp_path):
     """The push planner's options are study fields (and axes): the paper's strategy plans
     no shorter than the default search, and a workspace is honoured."""

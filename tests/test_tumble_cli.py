@@ -93,6 +93,7 @@ def test_cube_development_is_the_cross(tmp_path):
     assert_png(tmp_path / "d.png")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["cube", "octahedron"])
 def test_plot_reachable_and_plan_direct(name, tmp_path):
     tp = planner()
@@ -115,6 +116,7 @@ def test_plot_reachable_and_plan_direct(name, tmp_path):
         assert int(cfgs[-1, 3]) == int(plan.predicted_final[3])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["irregular_polyhedron", "truncated_pyramid"])
 def test_plot_reachable_dense_zooms(name, tmp_path):
     """A dense class: the lattice mesh is far below the figure's scale (for the truncated
@@ -142,6 +144,7 @@ def test_sample_reached_positions_cube_on_grid():
 
 
 # ---------------------------------------------------------------- CLI, good input
+@pytest.mark.slow
 def test_cli_cube_exact_goal_json_and_plots(tmp_path):
     planner()
     from planning.tumbling.plan import TumblePlan
@@ -161,6 +164,7 @@ def test_cli_cube_exact_goal_json_and_plots(tmp_path):
         assert_png(p)
 
 
+@pytest.mark.slow
 def test_cli_summary_and_degrees(tmp_path):
     planner()
     r = run_cli(CUBE, "--goal", f"-{2 * A},0,180deg,0", "--eps", "1e-3", "--start", "0,0,90deg,0")
@@ -170,6 +174,7 @@ def test_cli_summary_and_degrees(tmp_path):
     assert len(r.stdout.splitlines()) >= 2
 
 
+@pytest.mark.slow
 def test_cli_not_solvable_exits_1():
     planner()
     # the cube turns only by multiples of pi/2: a heading of 0.3 rad is off by more than eps
@@ -223,6 +228,7 @@ def test_cli_bad_eps(eps):
     _assert_input_error(run_cli(CUBE, "--goal", "0.2,0,0,0", "--eps", eps), "--eps")
 
 
+@pytest.mark.slow
 def test_cli_other_bad_input(tmp_path):
     _assert_input_error(run_cli(CUBE, "--goal", "0.2,0,0,0"), "--eps")  # eps missing
     _assert_input_error(run_cli(CUBE, "--eps", "1e-3"), "--goal")  # goal missing
@@ -254,6 +260,7 @@ def test_bench_quick_result_line():
     assert int(m.group(2)) > 0
 
 
+@pytest.mark.slow
 def test_cli_effort_budget_runs_out_with_its_own_message(tmp_path):
     # a unit cube whose vertices carry 1e-9 of noise: dense at tau_v = 0, and this goal is
     # off its lattice; with a tiny budget the planner returns the best plan it has

@@ -134,6 +134,7 @@ def test_dense_random_goals(name):
         check_plan(plan, V, com)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(4))
 def test_random_polyhedra_plans_verified(seed):
     V = random_polyhedron(seed, (6, 8)[seed % 2])
@@ -363,6 +364,7 @@ def test_answers_in_bounded_time_with_the_best_plan_found():
     assert clock.verdict == "budget_exhausted" and "wall-clock" in clock.reason
 
 
+@pytest.mark.slow
 def test_plans_do_not_depend_on_what_is_cached():
     V, com = example("truncated_pyramid")
     goal = (0.25, -0.1, 1.0, 2)
@@ -376,6 +378,7 @@ def test_plans_do_not_depend_on_what_is_cached():
 
 # ---------------------------------------------------------------------------
 # Issue 12: parts at any scale (tolerances relative to the part's size)
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["cube", "octahedron", "irregular_polyhedron"])
 def test_plans_at_every_scale(name):
     V, com = example(name)
@@ -404,6 +407,7 @@ def test_plans_at_every_scale(name):
 
 # ---------------------------------------------------------------------------
 # the widened polyhedra: non-triangular and nearly coplanar faces, slivers
+@pytest.mark.slow
 @settings(derandomize=True, max_examples=8, deadline=None)
 @given(polyhedra())
 def test_plans_verified_on_the_hard_families(case):
