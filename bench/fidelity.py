@@ -112,7 +112,7 @@ KINDS = {"default": {}, "rigid": {"support": "rigid"},
 def _model_rows(plan, draws, model):
     with jax.enable_x64(True):
         _, _, r = _run_push(plan, draws, model, jnp.float64, 3)
-    return {k: np.asarray(v) for k, v in r.items()}
+    return {f.name: np.asarray(getattr(r, f.name)) for f in dataclasses.fields(r)}
 
 
 def _ok(x, y, th, goal, pe, te):

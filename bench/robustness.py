@@ -144,7 +144,7 @@ def push_bench(n: int, n_np: int, repeat: int) -> dict:
         _, _, res = kernel()
         first = time.perf_counter() - t0
         t = best_of(kernel, repeat)
-        finals[name] = np.stack([res["x"], res["y"], res["theta"]], 1).astype(np.float64)
+        finals[name] = np.stack([res.x, res.y, res.theta], 1).astype(np.float64)
         rows.append(dict(method=f"jax vmap kernel {name}", n=n, seconds=t, rate=n / t, first=first))
 
         def full():
@@ -265,9 +265,9 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
             label = "+ hull check" if check else ""
             rows.append(dict(method=f"replay in evaluate {name} {label}".rstrip(), n=n, seconds=t,
                              rate=steps / t, first=first))
-            finals[name] = np.stack([res["x"], res["y"]], 1)
+            finals[name] = np.stack([res.x, res.y], 1)
             if check and dtype == jnp.float64:
-                changed_eval = res["changed"]
+                changed_eval = res.changed
     full = dict(method="evaluate() float64 (samples/s)", n=n)
 
     def whole():

@@ -200,9 +200,9 @@ class SampleOutcomes:
 # --------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------
-def _warn_truncated(r: dict, task) -> None:
+def _warn_truncated(r, task) -> None:
     """A push still moving at the kernel's phase cap is reported, never silently kept."""
-    k = int(np.sum(np.asarray(r.get("truncated", False))))
+    k = int(np.sum(np.asarray(r.truncated)))
     if k:
         warnings.warn(f"task {task!r}: {k} sample(s) had a push still moving at the quasi-static "
                       "kernel's phase cap (kernels.quasistatic.phase_cap); they are counted as "
@@ -324,17 +324,17 @@ def _push_rows(plan, draws, model, dtype, chunk, task) -> SampleOutcomes:
     P, n = len(plan.pushes), draws.n
     poly, planned, r = run_push(plan, draws, model, dtype, chunk)
     _warn_truncated(r, task)
-    edges = np.asarray(r["edges"]).reshape(n, P)
-    complete = np.asarray(r["complete"]).reshape(n, P).astype(bool)
+    edges = np.asarray(r.edges).reshape(n, P)
+    complete = np.asarray(r.complete).reshape(n, P).astype(bool)
     wrong = complete & (edges != np.asarray(planned, np.int64)[None, :])
     n_incomplete = (~complete).sum(axis=1)
-    changed = np.asarray(r["changed"]).astype(bool)
-    trunc = np.asarray(r["truncated"]).astype(bool)
-    slip = np.asarray(r["slip"], np.float64)
+    changed = np.asarray(r.changed).astype(bool)
+    trunc = np.asarray(r.truncated).astype(bool)
+    slip = np.asarray(r.slip, np.float64)
     fa, fb = edge_pairs(poly, edges[:, -1] if P else np.full(n, -1))
     pa, pb = edge_pairs(poly, np.full(n, planned[-1] if P else -1))
     return SampleOutcomes(
-        x=r["x"], y=r["y"], theta=r["theta"], final_edge_a=fa, final_edge_b=fb,
+        x=r.x, y=r.y, theta=r.theta, final_edge_a=fa, final_edge_b=fb,
         planned_edge_a=pa, planned_edge_b=pb, final_face=np.full(n, -1, np.int64),
         planned_face=np.full(n, -1, np.int64), slip=slip, n_incomplete=n_incomplete,
         first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
@@ -357,16 +357,16 @@ def _tumble_rows(plan, draws, dtype, chunk, sampler, merge_factor) -> SampleOutc
     n = draws.n
     poly, r = run_tumble(plan, draws, dtype, chunk, merge_tol=tol,
                          slip_theta=sampler.execution.tumble_slip_theta)
-    changed = np.asarray(r["changed"]).astype(bool)
-    face = np.asarray(r["face"], np.int64)
-    ok = np.asarray(r["ok"]).astype(bool)
+    changed = np.asarray(r.changed).astype(bool)
+    face = np.asarray(r.face, np.int64)
+    ok = np.asarray(r.ok).astype(bool)
     pface = np.full(n, int(plan.goal[3]), np.int64)
     bad_face = (~ok) | (face != pface)
     none = np.full(n, -1, np.int64)
     return SampleOutcomes(
-        x=r["x"], y=r["y"], theta=r["theta"], final_edge_a=none, final_edge_b=none,
+        x=r.x, y=r.y, theta=r.theta, final_edge_a=none, final_edge_b=none,
         planned_edge_a=none, planned_edge_b=none, final_face=face, planned_face=pface,
-        slip=np.asarray(r["slip"], np.float64), n_incomplete=(~ok).astype(np.int64),
+        slip=np.asarray(r.slip, np.float64), n_incomplete=(~ok).astype(np.int64),
         first_wrong_step=none, hull_changed=changed, model_valid=~changed,
         in_bound_model=(~changed) & (~bad_face),
         structural=np.select([changed, bad_face], ["combinatorics_changed", "wrong_face"],

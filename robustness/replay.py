@@ -6,9 +6,11 @@ per-sample semantics are those of :mod:`robustness.evaluation`.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import warnings
+from typing import Optional
 
 import jax
 import jax.numpy as jnp
@@ -16,6 +18,115 @@ import numpy as np
 
 from kernels import polygon as pg, polygon_hull_changed, rot2, wrap_angle
 from robustness.hulls import polyhedron_combinatorics_changed
+
+
+def _pytree(cls):
+    """A frozen dataclass registered as a pytree whose every field is data (arrays)."""
+    cls = dataclasses.dataclass(frozen=True)(cls)
+    return jax.tree_util.register_dataclass(
+        cls, data_fields=[f.name for f in dataclasses.fields(cls)], meta_fields=[])
+
+
+@_pytree
+class PushNominal:
+    """A push plan's numbers, padded to its buckets (traced: one compilation per
+    shape bucket).  ``V0`` (mp, 2) caller's vertices (m, zero rows past the
+    part's), ``com0`` (2,), ``start`` (3,) start pose (m, rad; world),
+    ``ang`` (Pp,) fence directions (rad), ``dist`` (Pp,) push distances (m),
+    ``planned`` (Pp,) the hull edge each push lands (-1: padding), ``active``
+    (Pp,) real pushes, ``hull`` the hull's vertex indices."""
+
+    V0: jax.Array
+    com0: jax.Array
+    start: jax.Array
+    ang: jax.Array
+    dist: jax.Array
+    planned: jax.Array
+    active: jax.Array
+    hull: jax.Array
+
+
+@_pytree
+class PushSamples:
+    """Per-sample perturbations of a push plan (leading axis: samples): vertex
+    and centre-of-mass offsets (m), start-pose error (m, rad), per-push fence
+    angle (rad), relative and absolute distance errors, the support's ``c``
+    (m) and ``mu`` the fence friction."""
+
+    dv: jax.Array
+    dc: jax.Array
+    start: jax.Array
+    fence: jax.Array
+    rel: jax.Array
+    abs: jax.Array
+    c: jax.Array
+    mu: jax.Array
+
+
+@_pytree
+class PushReplay:
+    """Per-sample outcomes of a push plan: the final pose of the reference
+    point (m, rad; world), the hull edge flush after each push and whether it
+    completed, the summed slip (m), the hull changed, a push truncated at the
+    kernel's phase cap."""
+
+    x: jax.Array
+    y: jax.Array
+    theta: jax.Array
+    edges: jax.Array
+    complete: jax.Array
+    slip: jax.Array
+    changed: jax.Array
+    truncated: jax.Array
+
+
+@_pytree
+class TumbleNominal:
+    """A tumble plan's numbers: the nominal vertices ``V0`` (m, the kernels'
+    dtype; ``V64`` in float64 for the hull check), ``com0``, the face frames
+    (``origins``, ``xaxes``), the start configuration, the start and final
+    faces, and ``idx`` the directed edge of every (padded) step."""
+
+    V0: jax.Array
+    com0: jax.Array
+    origins: jax.Array
+    xaxes: jax.Array
+    start: jax.Array
+    start_face: jax.Array
+    final_face: jax.Array
+    idx: jax.Array
+    V64: jax.Array
+
+
+@_pytree
+class TumbleSamples:
+    """Per-sample perturbations of a tumble plan: vertex (``dv``; ``dv64`` in
+    float64) and centre-of-mass offsets (m), start error (m, rad), the slip
+    after every (padded) tumble (m, m, rad)."""
+
+    dv: jax.Array
+    dc: jax.Array
+    start: jax.Array
+    slip: jax.Array
+    dv64: jax.Array
+
+
+@_pytree
+class TumbleReplay:
+    """Per-sample outcomes of a tumble plan: the final configuration of the
+    final face's nominal frame (m, rad; world), the summed slip (m), the face
+    reached and whether every step was valid (the same for every sample),
+    the perturbed hull changed its combinatorics (``undecided``: the compiled
+    check left it to the host reference)."""
+
+    x: jax.Array
+    y: jax.Array
+    theta: jax.Array
+    slip: jax.Array
+    changed: Optional[jax.Array] = None
+    undecided: Optional[jax.Array] = None
+    face: Optional[np.ndarray] = None
+    ok: Optional[np.ndarray] = None
 
 
 # --------------------------------------------------------------------------
@@ -50,43 +161,46 @@ def _pad_axis(x, k: int, axis: int = 1):
     return jnp.pad(x, widths)
 
 
-def _run_chunks(fn, nom, rows: dict, n: int, chunk: int, *args) -> dict:
-    """``fn(nom, rows_chunk, *args)`` over chunks of the per-sample ``rows``
-    (each padded by repeating its first sample); returns numpy arrays of n rows."""
+def _run_chunks(fn, nom, rows, n: int, chunk: int, *args):
+    """``fn(nom, rows_chunk, *args)`` over chunks of the per-sample pytree
+    ``rows`` (each padded by repeating its first sample); returns the outcome
+    pytree with numpy arrays of n rows."""
+    tm = jax.tree_util.tree_map
     if n == chunk or (n < chunk and _bucket(n, 8) == n):   # one call, no padding: as they are
-        return {k: np.asarray(x) for k, x in fn(nom, rows, *args).items()}
-    outs = []
+        return tm(np.asarray, fn(nom, rows, *args))
+    outs, sizes = [], []
     # sliced on the host: numpy slices are views, where eager jax slices of the
     # (n, L, 3) slips cost a third of a 200-tumble evaluation
-    rows = {k: np.asarray(x) for k, x in rows.items()}
+    rows = tm(np.asarray, rows)
     for lo, hi, size in _chunks(n, chunk):
-        part = {}
-        for k, x in rows.items():
+        def cut(x, lo=lo, hi=hi, size=size):
             x = x[lo:hi]
             if size > hi - lo:
                 x = np.concatenate([x, np.broadcast_to(x[:1], (size - (hi - lo),) + x.shape[1:])])
-            part[k] = x
-        outs.append((hi - lo, fn(nom, part, *args)))
-    return {k: np.concatenate([np.asarray(o[k])[:m] for m, o in outs]) for k in outs[0][1]}
+            return x
+
+        outs.append(fn(nom, tm(cut, rows), *args))
+        sizes.append(hi - lo)
+    return tm(lambda *xs: np.concatenate([np.asarray(x)[:m] for x, m in zip(xs, sizes)]), *outs)
 
 
 # --------------------------------------------------------------------------
 # Push plans
 # --------------------------------------------------------------------------
-def _push_one(nom: dict, q: dict, model: str):
-    dt = nom["V0"].dtype
-    V = nom["V0"] + q["dv"]
-    com = nom["com0"] + q["dc"]
-    hi = nom["hull"]
+def _push_one(nom: PushNominal, q: PushSamples, model: str) -> PushReplay:
+    dt = nom.V0.dtype
+    V = nom.V0 + q.dv
+    com = nom.com0 + q.dc
+    hi = nom.hull
     geom = pg.polygon_geometry(V[hi] - com[None, :])
     changed = polygon_hull_changed(V, com, hi)
-    start, so = nom["start"], q["start"]
+    start, so = nom.start, q.start
     th0 = start[2] + so[2]
-    pose0 = jnp.concatenate([start[:2] + so[:2] + rot2(th0) @ q["dc"], th0[None]])
-    ang = nom["ang"] + q["fence"]
+    pose0 = jnp.concatenate([start[:2] + so[:2] + rot2(th0) @ q.dc, th0[None]])
+    ang = nom.ang + q.fence
     dirs = jnp.stack([jnp.cos(ang), jnp.sin(ang)], axis=-1)
-    active = nom["active"]
-    dists = jnp.maximum(nom["dist"] * (1.0 + q["rel"]) + q["abs"], 0.0)
+    active = nom.active
+    dists = jnp.maximum(nom.dist * (1.0 + q.rel) + q.abs, 0.0)
     dists = jnp.where(active, dists, 0.0)  # padding pushes are no-ops
     if model == "exact":
         from kernels import replay_pushes
@@ -96,16 +210,16 @@ def _push_one(nom: dict, q: dict, model: str):
     else:
         from kernels import simulate_pushes
 
-        final, outs = simulate_pushes(geom, pose0, dirs, dists, q["c"], q["mu"],
-                                      expected_edges=nom["planned"], active=active)
+        final, outs = simulate_pushes(geom, pose0, dirs, dists, q.c, q.mu,
+                                      expected_edges=nom.planned, active=active)
         slip = jnp.sum(jnp.where(active, outs.slip, 0.0))
         trunc = jnp.any(active & outs.truncated)
-    ref = final[:2] - rot2(final[2]) @ q["dc"]
-    return dict(x=ref[0], y=ref[1], theta=final[2], edges=outs.edge, complete=outs.complete,
-                slip=slip, changed=changed, truncated=trunc)
+    ref = final[:2] - rot2(final[2]) @ q.dc
+    return PushReplay(x=ref[0], y=ref[1], theta=final[2], edges=outs.edge, complete=outs.complete,
+                      slip=slip, changed=changed, truncated=trunc)
 
 
-def _blocks(fn, q: dict, block: int):
+def _blocks(fn, q, block: int):
     """``fn`` over blocks of ``block`` samples of the per-sample arrays ``q``
     (``lax.map``; the whole batch when it does not divide): a block's
     intermediates stay in cache, which on a CPU is worth 1.5-2.5x."""
@@ -136,7 +250,7 @@ def push_nominal(plan):
 
 def run_push(plan, draws, model, dtype, chunk):
     """Replay a push plan on the samples ``draws`` (:class:`robustness.samplers.Draws`);
-    returns ``(poly, planned, results)``."""
+    returns ``(poly, planned, PushReplay)``."""
     poly, planned = push_nominal(plan)
     P, m = len(plan.pushes), len(plan.vertices)
     Pp, mp = _bucket(P, 2), _bucket(m, 4)
@@ -150,26 +264,25 @@ def run_push(plan, draws, model, dtype, chunk):
         plan_e[:P] = planned
     V0 = np.zeros((mp, 2))
     V0[:m] = poly.vertices
-    nom = dict(V0=jnp.asarray(V0, dtype), com0=jnp.asarray(poly.com, dtype),
-               start=jnp.asarray(plan.start, dtype),
-               ang=jnp.asarray(np.arctan2(dirs[:, 1], dirs[:, 0]), dtype),
-               dist=jnp.asarray(dist, dtype), planned=jnp.asarray(plan_e),
-               active=jnp.asarray(np.arange(Pp) < P),
-               hull=jnp.asarray(np.asarray(poly.hull_index, np.int32)))
+    nom = PushNominal(V0=jnp.asarray(V0, dtype), com0=jnp.asarray(poly.com, dtype),
+                      start=jnp.asarray(plan.start, dtype),
+                      ang=jnp.asarray(np.arctan2(dirs[:, 1], dirs[:, 0]), dtype),
+                      dist=jnp.asarray(dist, dtype), planned=jnp.asarray(plan_e),
+                      active=jnp.asarray(np.arange(Pp) < P),
+                      hull=jnp.asarray(np.asarray(poly.hull_index, np.int32)))
     n, p, a, rows_of = draws.n, draws.params, draws.in_axes, draws.rows
     g, f, e = p.geometry, p.friction, p.execution
     ga, fa, ea = a.geometry, a.friction, a.execution
-    rows = dict(dv=_pad_axis(rows_of(g.vertex_offset, ga.vertex_offset), mp),
-                dc=rows_of(g.com_offset, ga.com_offset),
-                start=rows_of(e.start_offset, ea.start_offset),
-                fence=_pad_axis(rows_of(e.fence_angle, ea.fence_angle), Pp),
-                rel=_pad_axis(rows_of(e.distance_rel, ea.distance_rel), Pp),
-                abs=_pad_axis(rows_of(e.distance_abs, ea.distance_abs), Pp),
-                c=rows_of(f.c, fa.c), mu=rows_of(f.mu_f, fa.mu_f))
-    rows = {k: v.astype(dtype) for k, v in rows.items()}
+    rows = PushSamples(dv=_pad_axis(rows_of(g.vertex_offset, ga.vertex_offset), mp),
+                       dc=rows_of(g.com_offset, ga.com_offset),
+                       start=rows_of(e.start_offset, ea.start_offset),
+                       fence=_pad_axis(rows_of(e.fence_angle, ea.fence_angle), Pp),
+                       rel=_pad_axis(rows_of(e.distance_rel, ea.distance_rel), Pp),
+                       abs=_pad_axis(rows_of(e.distance_abs, ea.distance_abs), Pp),
+                       c=rows_of(f.c, fa.c), mu=rows_of(f.mu_f, fa.mu_f))
+    rows = jax.tree_util.tree_map(lambda v: v.astype(dtype), rows)
     res = _run_chunks(_push_batch, nom, rows, n, chunk, model)
-    res["edges"] = res["edges"][:, :P]
-    res["complete"] = res["complete"][:, :P]
+    res = dataclasses.replace(res, edges=res.edges[:, :P], complete=res.complete[:, :P])
     return poly, planned, res
 
 
@@ -297,11 +410,10 @@ def _tumble_block(nom: dict, q: dict, topology, slip_series: bool):
     """
     from kernels import tumble_geometry
 
-    geom = jax.vmap(lambda v, c: tumble_geometry(v, c, topology))(nom["V0"] + q["dv"],
-                                                                  nom["com0"] + q["dc"])
+    geom = jax.vmap(lambda v, c: tumble_geometry(v, c, topology))(nom.V0 + q.dv, nom.com0 + q.dc)
     ec, es, ex, ey = _edge_motions(geom.corners_2d, topology)
-    idx = nom["idx"]
-    slip = q["slip"]
+    idx = nom.idx
+    slip = q.slip
     dth = slip[:, :, 2].T                                         # (L, B)
     sc, ss = _cos_sin_small(dth) if slip_series else (jnp.cos(dth), jnp.sin(dth))
     c1, s1 = ec[:, idx].T, es[:, idx].T                            # (L, B): the step's motion
@@ -319,18 +431,19 @@ def _tumble_block(nom: dict, q: dict, topology, slip_series: bool):
 
     def finish(geom, so, slip_xy, C, S, X, Y):
         # start: nominal frame of the start face at start (+ error) -> perturbed frame
-        start = nom["start"]
-        q0, phi0 = _frame_offset(geom, nom["origins"], nom["xaxes"], nom["start_face"])
+        start = nom.start
+        q0, phi0 = _frame_offset(geom, nom.origins, nom.xaxes, nom.start_face)
         th0 = start[2] + so[2] - phi0
         R0 = rot2(th0)
         xy = start[:2] + so[:2] - R0 @ q0 + R0 @ jnp.stack([X, Y]) + slip_xy
         th = th0 + jnp.arctan2(S, C)
-        qf, phif = _frame_offset(geom, nom["origins"], nom["xaxes"], nom["final_face"])
+        qf, phif = _frame_offset(geom, nom.origins, nom.xaxes, nom.final_face)
         xy_ref = xy + rot2(th) @ qf
         return xy_ref[0], xy_ref[1], wrap_angle(th + phif)
 
-    x, y, th = jax.vmap(finish)(geom, q["start"], jnp.sum(slip[:, :, :2], axis=1), C, S, X, Y)
-    return dict(x=x, y=y, theta=th, slip=jnp.sum(jnp.linalg.norm(slip[:, :, :2], axis=-1), axis=1))
+    x, y, th = jax.vmap(finish)(geom, q.start, jnp.sum(slip[:, :, :2], axis=1), C, S, X, Y)
+    return TumbleReplay(x=x, y=y, theta=th,
+                        slip=jnp.sum(jnp.linalg.norm(slip[:, :, :2], axis=-1), axis=1))
 
 
 @functools.partial(jax.jit, static_argnames=("topology", "check", "slip_series"))
@@ -339,8 +452,9 @@ def _tumble_batch(nom, q, merge_tol, topology, check, slip_series):
     if check:   # the perturbed hulls, in float64 (their tolerance can be ~ float32's rounding)
         from kernels import polyhedron_hull_tables, polyhedron_hull_verdict_batch
 
-        out["changed"], out["undecided"] = polyhedron_hull_verdict_batch(
-            nom["V64"] + q["dv64"], polyhedron_hull_tables(topology), merge_tol)
+        changed, undecided = polyhedron_hull_verdict_batch(
+            nom.V64 + q.dv64, polyhedron_hull_tables(topology), merge_tol)
+        out = dataclasses.replace(out, changed=changed, undecided=undecided)
     return out
 
 
@@ -363,8 +477,8 @@ def _nominal_polyhedron(vertices: tuple, com: tuple, tau_v):
 
 def run_tumble(plan, draws, dtype, chunk, merge_tol=None, slip_theta=math.inf):
     """Replay a tumble plan on the samples ``draws`` (and, with ``merge_tol``, check
-    every perturbed hull); returns ``(poly, results)``; ``results`` holds
-    ``face`` and ``ok`` (the same for every sample) beside the poses.
+    every perturbed hull); returns ``(poly, TumbleReplay)`` (``face`` and ``ok``
+    the same for every sample; ``changed`` all False without the check).
     ``slip_theta``: a bound on the rotational slips (rad; the tolerance)."""
     poly = tumble_nominal(plan)
     topo = poly.topology
@@ -373,34 +487,32 @@ def run_tumble(plan, draws, dtype, chunk, merge_tol=None, slip_theta=math.inf):
     Lp = _bucket(L, 16)
     seq = np.full(Lp, topo.n_faces * topo.max_face_size, np.int32)
     seq[:L] = idx
-    nom = dict(V0=jnp.asarray(poly.vertices, dtype), com0=jnp.asarray(poly.com, dtype),
-               origins=jnp.asarray(poly.face_origins, dtype),
-               xaxes=jnp.asarray(poly.face_rotations[:, 0, :], dtype),
-               start=jnp.asarray(plan.start[:3], dtype),
-               start_face=jnp.asarray(int(plan.start[3]), jnp.int32),
-               final_face=jnp.asarray(final_face, jnp.int32), idx=jnp.asarray(seq),
-               V64=jnp.asarray(poly.vertices, jnp.float64))
+    nom = TumbleNominal(V0=jnp.asarray(poly.vertices, dtype), com0=jnp.asarray(poly.com, dtype),
+                        origins=jnp.asarray(poly.face_origins, dtype),
+                        xaxes=jnp.asarray(poly.face_rotations[:, 0, :], dtype),
+                        start=jnp.asarray(plan.start[:3], dtype),
+                        start_face=jnp.asarray(int(plan.start[3]), jnp.int32),
+                        final_face=jnp.asarray(final_face, jnp.int32), idx=jnp.asarray(seq),
+                        V64=jnp.asarray(poly.vertices, jnp.float64))
     n, rows_of = draws.n, draws.rows
     g, e = draws.params.geometry, draws.params.execution
     ga, ea = draws.in_axes.geometry, draws.in_axes.execution
     dv64 = rows_of(g.vertex_offset, ga.vertex_offset).astype(jnp.float64)
-    rows = dict(dv=dv64.astype(dtype), dc=rows_of(g.com_offset, ga.com_offset).astype(dtype),
-                start=rows_of(e.start_offset, ea.start_offset).astype(dtype),
-                slip=_pad_axis(rows_of(e.tumble_slip, ea.tumble_slip), Lp).astype(dtype),
-                dv64=dv64)
+    rows = TumbleSamples(dv=dv64.astype(dtype), dc=rows_of(g.com_offset, ga.com_offset).astype(dtype),
+                         start=rows_of(e.start_offset, ea.start_offset).astype(dtype),
+                         slip=_pad_axis(rows_of(e.tumble_slip, ea.tumble_slip), Lp).astype(dtype),
+                         dv64=dv64)
     check = merge_tol is not None
     tol = jnp.asarray(0.0 if merge_tol is None else merge_tol, jnp.float64)
     res = _run_chunks(_tumble_batch, nom, rows, n, chunk, tol, topo, check,
                       bool(slip_theta <= SLIP_SERIES_MAX))
-    res["face"] = np.full(n, final_face, np.int64)
-    res["ok"] = np.full(n, ok)
     if check:
-        und = res.pop("undecided").astype(bool)
-        changed = res["changed"].astype(bool)
+        und = res.undecided.astype(bool)
+        changed = res.changed.astype(bool)
         if und.any():   # a point the nominal hull dropped pops out by < the merge distance
             V = poly.vertices[None] + np.asarray(dv64)[und]
             changed[und] = polyhedron_combinatorics_changed(V, poly, merge_tol)
-        res["changed"] = changed
     else:
-        res["changed"] = np.zeros(n, bool)
-    return poly, res
+        changed = np.zeros(n, bool)
+    return poly, dataclasses.replace(res, changed=changed, undecided=None,
+                                     face=np.full(n, final_face, np.int64), ok=np.full(n, ok))

@@ -168,6 +168,7 @@ class Design:
                 lines = [f"params: configuration {i} ({where}): {ln}" for ln in exc.lines]
                 raise ConfigError(lines[0], lines) from None
         self._parts: dict = {}
+        self._tasks: dict = {}
         self.warnings: list = []   # plausibility warnings (sweeps.plausible), by load_design
 
     @property
@@ -177,19 +178,28 @@ class Design:
     def part(self, config_id: int):
         """The :class:`~sweeps.partfile.PartFile` of a configuration (cached)."""
         cfg = self.configs[config_id]
-        key = json.dumps(cfg.part if isinstance(cfg.part, str) else cfg.part.model_dump(),
-                         sort_keys=True)
+        key = _part_key(cfg)
         if key not in self._parts:
             self._parts[key] = load_part_ref(cfg.part, self.base)
         return self._parts[key]
 
     def tasks(self, config_id: int) -> list[tuple[str, tuple, tuple]]:
-        """``(name, start, goal)`` of a configuration's tasks."""
+        """``(name, start, goal)`` of a configuration's tasks (derived once per
+        distinct part, task list and seed: every unit of a run asks)."""
         cfg = self.configs[config_id]
         part = self.part(config_id)
-        if isinstance(cfg.tasks, list):
-            return explicit_tasks(cfg.tasks, part.kind)
-        return sample_tasks(cfg.tasks.sample, part, cfg.seed)
+        key = (_part_key(cfg), repr(cfg.tasks), cfg.seed)
+        if key not in self._tasks:
+            self._tasks[key] = tuple(explicit_tasks(cfg.tasks, part.kind)
+                                     if isinstance(cfg.tasks, list)
+                                     else sample_tasks(cfg.tasks.sample, part, cfg.seed))
+        return list(self._tasks[key])
+
+
+def _part_key(cfg) -> str:
+    """What identifies a configuration's part (a file reference or an inline part)."""
+    return json.dumps(cfg.part if isinstance(cfg.part, str) else cfg.part.model_dump(),
+                      sort_keys=True)
 
 
 def _apply(doc: dict, path: str, value) -> None:

@@ -257,8 +257,8 @@ def test_tumble_replay_is_the_kernels(tumble_plan, series):
     _, r = batches.run_tumble(tumble_plan, draws, jnp.float64, 16,
                               slip_theta=0.05 if series else np.inf)
     want, face = _kernel_tumble_replay(tumble_plan, draws)
-    got = np.stack([r["x"], r["y"], r["theta"]], axis=1)
-    assert np.all(np.asarray(face) == r["face"]) and r["ok"].all()
+    got = np.stack([r.x, r.y, r.theta], axis=1)
+    assert np.all(np.asarray(face) == r.face) and r.ok.all()
     dth = np.abs((got[:, 2] - np.asarray(want)[:, 2] + np.pi) % (2 * np.pi) - np.pi)
     assert np.max(np.abs(got[:, :2] - np.asarray(want)[:, :2])) < 1e-13 and np.max(dth) < 1e-13
     assert np.ptp(got[:, 0]) > 1e-4   # the perturbations do move the part
