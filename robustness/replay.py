@@ -20,14 +20,8 @@ from kernels import polygon as pg, polygon_hull_changed, rot2, wrap_angle
 from robustness.hulls import polyhedron_combinatorics_changed
 
 
-def _pytree(cls):
-    """A frozen dataclass registered as a pytree whose every field is data (arrays)."""
-    cls = dataclasses.dataclass(frozen=True)(cls)
-    return jax.tree_util.register_dataclass(
-        cls, data_fields=[f.name for f in dataclasses.fields(cls)], meta_fields=[])
-
-
-@_pytree
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
 class PushNominal:
     """A push plan's numbers, padded to its buckets (traced: one compilation per
     shape bucket).  ``V0`` (mp, 2) caller's vertices (m, zero rows past the
@@ -46,7 +40,8 @@ class PushNominal:
     hull: jax.Array
 
 
-@_pytree
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
 class PushSamples:
     """Per-sample perturbations of a push plan (leading axis: samples): vertex
     and centre-of-mass offsets (m), start-pose error (m, rad), per-push fence
@@ -63,7 +58,8 @@ class PushSamples:
     mu: jax.Array
 
 
-@_pytree
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
 class PushReplay:
     """Per-sample outcomes of a push plan: the final pose of the reference
     point (m, rad; world), the hull edge flush after each push and whether it
@@ -80,7 +76,8 @@ class PushReplay:
     truncated: jax.Array
 
 
-@_pytree
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
 class TumbleNominal:
     """A tumble plan's numbers: the nominal vertices ``V0`` (m, the kernels'
     dtype; ``V64`` in float64 for the hull check), ``com0``, the face frames
@@ -98,7 +95,8 @@ class TumbleNominal:
     V64: jax.Array
 
 
-@_pytree
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
 class TumbleSamples:
     """Per-sample perturbations of a tumble plan: vertex (``dv``; ``dv64`` in
     float64) and centre-of-mass offsets (m), start error (m, rad), the slip
@@ -111,7 +109,8 @@ class TumbleSamples:
     dv64: jax.Array
 
 
-@_pytree
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
 class TumbleReplay:
     """Per-sample outcomes of a tumble plan: the final configuration of the
     final face's nominal frame (m, rad; world), the summed slip (m), the face

@@ -176,8 +176,7 @@ class Draws:
 
     def broadcast(self) -> PerturbationParams:
         """Every field with a leading axis of length ``n`` (unbatched ones repeated)."""
-        n = self.n
-        return self._map(lambda x, a: x if a == 0 else jnp.broadcast_to(x, (n,) + jnp.shape(x)))
+        return self._map(self.rows)
 
     def take(self, i) -> PerturbationParams:
         """Sample ``i`` (or the samples of an index array); unbatched fields as they are."""
