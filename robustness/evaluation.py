@@ -103,6 +103,7 @@ for positions), ``eps`` the kernels' dtype's machine epsilon.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import warnings
 from typing import Optional
@@ -130,22 +131,35 @@ class Evaluation:
     """Result of :func:`evaluate`.
 
     Attributes:
-      samples: one row per sample (columns: ``results/README.md``, table
-        ``samples``; parameter columns in ``param_columns``).
+      columns: the per-sample columns (``results/README.md``, table
+        ``samples``; parameter columns in ``param_columns``) as ``{name: (n,)
+        array}`` (a constant column, ``task``..., as one scalar): what a writer
+        builds its table from (:func:`robustness.tables.samples_columns`).
       summary: dict, the ``summary`` table's row (None when not asked for).
       param_columns: names of the sampled-parameter columns of ``samples``.
       kind: ``"push"`` or ``"tumble"``; model: the model used.
       lists: the per-vertex and per-push draws as ``(n, k)`` arrays, one per
         list column of the ``samples`` table
         (:func:`robustness.samplers.parameter_lists`).
+      samples: ``columns`` as a pandas frame, one row per sample (built when
+        first read).
     """
 
-    samples: pd.DataFrame
+    columns: dict
     summary: dict
     param_columns: tuple
     kind: str
     model: str
     lists: dict = dataclasses.field(default_factory=dict)
+
+    @functools.cached_property
+    def samples(self) -> pd.DataFrame:
+        return pd.DataFrame(self.columns)
+
+    @property
+    def n(self) -> int:
+        """The number of samples."""
+        return len(self.columns["sample_id"])
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -305,18 +319,20 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
     cast = draws.astype(dtype)   # a float32 evaluation sees the float64 one's samples
     cols = parameter_columns(cast, **shape)
     lists = parameter_lists(cast, **shape)
-    df = _frame(rows, cols, plan, kind, model, dtype, task, pe, te, slip_fraction)
+    data = _columns(rows, cols, plan, kind, model, dtype, task, pe, te, slip_fraction)
     if model == "mujoco":
-        _compare_with_kinematics(df, plan, kind, draws, chunk, task, sampler, merge_factor, pe,
+        _compare_with_kinematics(data, plan, kind, draws, chunk, task, sampler, merge_factor, pe,
                                  te, slip_fraction)
+    ev = Evaluation(columns=data, summary=None, param_columns=tuple(cols), kind=kind,
+                    model=model, lists=lists)
     if summary:
-        summary = summarise(df, plan, sampler, kind=kind, model=model, dtype=dtype.name,
-                            pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, task=task,
-                            bound=bound and model != "mujoco", warn_stacklevel=5)
-    else:
-        summary = None
-    return Evaluation(samples=df, summary=summary, param_columns=tuple(cols), kind=kind,
-                      model=model, lists=lists)
+        s = summarise(ev.samples, plan, sampler, kind=kind, model=model, dtype=dtype.name,
+                      pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, task=task,
+                      bound=bound and model != "mujoco", warn_stacklevel=5)
+        frame = ev.samples
+        ev = dataclasses.replace(ev, summary=s)
+        ev.__dict__["samples"] = frame   # built once (the cached property's slot)
+    return ev
 
 
 def _push_rows(plan, draws, model, dtype, chunk, task) -> SampleOutcomes:
@@ -418,28 +434,31 @@ def _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction, merge_facto
     return out, jnp.dtype(jnp.float32 if r["backend"] == "mjx" else jnp.float64)
 
 
-def _compare_with_kinematics(df, plan, kind, draws, chunk, task, sampler, merge_factor, pe, te,
+def _compare_with_kinematics(data, plan, kind, draws, chunk, task, sampler, merge_factor, pe, te,
                              slip_fraction) -> None:
     """Physics rows get the kinematic models' answers on the same draws beside them
-    (float64): ``dpos_vs_<model>_m`` (m) and ``dtheta_vs_<model>_rad`` (rad, wrapped),
-    the physics final pose minus the model's, and ``success_<model>``; push rows
-    against ``quasistatic`` and ``exact``, tumble rows against ``exact``."""
+    (float64, into the columns ``data``): ``dpos_vs_<model>_m`` (m) and
+    ``dtheta_vs_<model>_rad`` (rad, wrapped), the physics final pose minus the
+    model's, and ``success_<model>``; push rows against ``quasistatic`` and
+    ``exact``, tumble rows against ``exact``."""
     f64 = jnp.dtype(jnp.float64)
     for ref in ("quasistatic", "exact") if kind == "push" else ("exact",):
         if kind == "push":
             rr = _push_rows(plan, draws, ref, f64, chunk, task)
         else:
             rr = _tumble_rows(plan, draws, f64, chunk, sampler, merge_factor)
-        other = _frame(rr, {}, plan, kind, ref, f64, task, pe, te, slip_fraction)
-        df[f"dpos_vs_{ref}_m"] = np.hypot(df["final_x_m"] - other["final_x_m"],
-                                          df["final_y_m"] - other["final_y_m"])
-        df[f"dtheta_vs_{ref}_rad"] = wrap_angle_np(df["final_theta_rad"].to_numpy()
-                                                   - other["final_theta_rad"].to_numpy())
-        df[f"success_{ref}"] = pd.array(other["success"].to_numpy(), dtype="boolean")
+        other = _columns(rr, {}, plan, kind, ref, f64, task, pe, te, slip_fraction)
+        data[f"dpos_vs_{ref}_m"] = np.hypot(data["final_x_m"] - other["final_x_m"],
+                                            data["final_y_m"] - other["final_y_m"])
+        data[f"dtheta_vs_{ref}_rad"] = wrap_angle_np(data["final_theta_rad"]
+                                                     - other["final_theta_rad"])
+        data[f"success_{ref}"] = pd.array(other["success"], dtype="boolean")
 
 
-def _frame(rows: SampleOutcomes, cols: dict, plan, kind, model, dtype, task, pe, te, slip_fraction):
-    """The per-sample frame (``samples`` columns) from a model's outcomes: errors to
+def _columns(rows: SampleOutcomes, cols: dict, plan, kind, model, dtype, task, pe, te,
+             slip_fraction) -> dict:
+    """The per-sample columns (``samples``, ``{name: (n,) array}``; ``task``,
+    ``kind``, ``model``, ``dtype`` as scalars) from a model's outcomes: errors to
     the goal, success and the failure mode (the first that applies, see the
     module docstring) unless the model classified the samples itself."""
     n = len(rows.x)
@@ -463,7 +482,7 @@ def _frame(rows: SampleOutcomes, cols: dict, plan, kind, model, dtype, task, pe,
                                  np.where(slip >= slip_fraction * pe, "slip",
                                           np.where(ep > pe, "position", "orientation"))))
     data = {"task": task, "kind": kind, "model": model, "dtype": dtype.name,
-            "sample_id": np.arange(n, dtype=np.int64), **cols,
+            "sample_id": np.arange(n, dtype=np.int64), **{k: np.asarray(v) for k, v in cols.items()},
             "final_x_m": x, "final_y_m": y, "final_theta_rad": th}
     for c in ("final_edge_a", "final_edge_b", "planned_edge_a", "planned_edge_b", "final_face",
               "planned_face"):
@@ -482,7 +501,7 @@ def _frame(rows: SampleOutcomes, cols: dict, plan, kind, model, dtype, task, pe,
     for ref in ("quasistatic", "exact"):   # filled for physics rows (_compare_with_kinematics)
         data.update({f"dpos_vs_{ref}_m": np.full(n, np.nan), f"dtheta_vs_{ref}_rad": np.full(n, np.nan),
                      f"success_{ref}": pd.array([pd.NA] * n, dtype="boolean")})
-    return pd.DataFrame(data)
+    return data
 
 
 __all__ = ["evaluate", "Evaluation", "BoundViolation", "MODELS"]

@@ -286,11 +286,15 @@ def run_push(plan, draws, model, dtype, chunk):
 
 
 def edge_pairs(poly, hull_edges: np.ndarray):
-    a = np.full(len(hull_edges), -1, np.int64)
-    b = np.full(len(hull_edges), -1, np.int64)
-    for i, e in enumerate(hull_edges):
-        if e >= 0:
-            a[i], b[i] = poly.edge_vertices(int(e))
+    """Caller vertex indices ``(a, b)`` (two (n,) int64 arrays) of hull edges
+    ``hull_edges`` ((n,) ints, :meth:`kernels.Polygon.edge_vertices` for each),
+    ``-1`` where the edge is ``-1`` (no edge)."""
+    e = np.asarray(hull_edges, np.int64).reshape(-1)
+    hull = np.asarray(poly.hull_index, np.int64)
+    ok = e >= 0
+    safe = np.where(ok, e, 0)
+    a = np.where(ok, hull[safe], -1)
+    b = np.where(ok, hull[(safe + 1) % len(hull)], -1)
     return a, b
 
 

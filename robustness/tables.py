@@ -435,23 +435,22 @@ def arrow_table(columns: Mapping[str, Any], schema: pa.Schema, n: Optional[int] 
 def samples_columns(ev, sample_offset: int = 0) -> dict:
     """The ``samples`` table's columns of an :class:`~robustness.Evaluation`
     (every field but ``run_id`` and a study's swept columns) as arrays for
-    :func:`arrow_table`: the per-sample results and scalar draws from its frame,
+    :func:`arrow_table`: the per-sample results and scalar draws from its
+    columns (no pandas frame),
     ``sample_id`` shifted by ``sample_offset`` (a block's first sample), the
     per-vertex / per-push draws from ``ev.lists``; scalars a part does not
     have (``dcom_z_m`` of a polygon) NaN.  The same table as
     ``to_arrow(pack_samples(ev.samples, ev.param_columns))``."""
-    df = ev.samples
-    n = len(df)
+    data = ev.columns
+    n = ev.n
     out = {}
     for f in SAMPLES_SCHEMA:
         if f.name == "run_id":
             continue
         if f.type == F64_LIST:
             out[f.name] = ev.lists[f.name]
-        elif f.name in df:
-            col = df[f.name]
-            out[f.name] = col.array if isinstance(col.dtype, pd.api.extensions.ExtensionDtype) \
-                else col.to_numpy()
+        elif f.name in data:
+            out[f.name] = data[f.name]
         else:
             out[f.name] = np.full(n, np.nan) if f.type == F64 else [None] * n
     out["sample_id"] = out["sample_id"] + sample_offset

@@ -354,3 +354,18 @@ def test_summary_one_sided_lower_bound(plan):
     assert s["ci_low"] <= s["ci_low_one_sided"] <= s["success_rate"]
     ev = evaluate(plan, Sampler(), 8, jax.random.key(0), model="exact", bound=False)
     assert ev.summary["ci_low_one_sided"] == pytest.approx(0.05 ** (1 / 8), rel=1e-12)  # k = n
+
+
+def test_edge_pairs_are_the_hull_edges_vertex_pairs():
+    from kernels import make_polygon
+    from robustness.replay import edge_pairs
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        # vertex 5 is interior: caller indices and hull indices differ
+        poly = make_polygon(np.array([[0, 0], [1, 0], [1.2, 0.5], [0.5, 1], [0.3, 0.9], [0.6, 0.4]]))
+    edges = np.array([-1, *range(poly.n), -1, poly.n - 1])
+    a, b = edge_pairs(poly, edges)
+    want = [poly.edge_vertices(int(e)) if e >= 0 else (-1, -1) for e in edges]
+    assert list(zip(a.tolist(), b.tolist())) == want
+    assert a.dtype == np.int64 and b.dtype == np.int64

@@ -54,6 +54,20 @@ def test_metadata_present(tmp_path):
     assert (path.stat().st_mode & 0o777) == 0o666 & ~mask
 
 
+def test_text_columns_are_dictionary_encoded_numbers_plain(tmp_path):
+    df = _samples(50)
+    path = write_table(df, tmp_path / "samples.parquet", SAMPLES_SCHEMA, CONFIG, 7)
+    rg = pq.ParquetFile(path).metadata.row_group(0)
+    enc = {rg.column(i).path_in_schema: rg.column(i).encodings for i in range(rg.num_columns)}
+    for f in SAMPLES_SCHEMA:
+        e = next(v for k, v in enc.items() if k == f.name or k.startswith(f.name + "."))
+        dictionary = any("DICTIONARY" in x for x in e)
+        assert dictionary == pa.types.is_string(f.type), (f.name, e)
+    back = pd.read_parquet(path)   # an encoding only: the same values come back
+    pd.testing.assert_frame_equal(back[df.columns[:12]], df[df.columns[:12]], check_dtype=False)
+    assert back["task"].tolist() == df["task"].tolist()
+
+
 def test_column_mismatch_names_the_column(tmp_path):
     df = _samples(3)
     with pytest.raises(ValueError, match="c_m"):
