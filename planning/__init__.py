@@ -2,7 +2,9 @@
 
 * Fence pushes on convex polygons (Akella & Mason 1992): :func:`plan_pose` (one
   problem, numpy reference, LP in closed form or by cvxpy) and
-  :func:`plan_pose_batch` (many start/goal pairs of one part, JAX); plans are
+  :func:`plan_pose_batch` (many start/goal pairs of one part, JAX), and
+  :func:`plan_alternatives` (the candidates ranked below the plan, verified:
+  robust synthesis chooses among them); plans are
   :class:`PushPlan` values of :class:`Push` steps.
 * Tumbles of convex polyhedra (Marigo & Bicchi): :func:`analyze_polyhedron`
   (rotations, generators, lattice, reachable class) and :func:`plan_tumble`;
@@ -12,6 +14,7 @@ Every function computes in float64 whatever the caller's JAX setting, and
 every returned plan has been replayed by the exact kinematics of
 :mod:`kernels`.  Units: metres, radians, CCW positive.
 """
+from planning.pushing.alternatives import plan_alternatives
 from planning.pushing.batch import PushPlanBatch, plan_pose_batch
 from planning.pushing.options import PushOptions
 from planning.pushing.part import PlanningError, PushPart, WorkspaceError, prepare_part
@@ -30,7 +33,7 @@ from planning.tumbling.reachability import lattice_count_bound, radius_for_count
 from planning.tumbling.trajectory import plan_trajectory, quiet_polyhedron, sample_reached_positions
 
 __all__ = [
-    "plan_pose", "plan_pose_batch", "PushOptions", "prepare_part", "PushPart", "PushPlanBatch", "Push",
+    "plan_pose", "plan_alternatives", "plan_pose_batch", "PushOptions", "prepare_part", "PushPart", "PushPlanBatch", "Push",
     "PushPlan", "PlanningError", "WorkspaceError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
     "Tumble", "TumblePlan",
     "stability", "PushStability", "development_poses", "face_footprint", "lattice_count_bound",

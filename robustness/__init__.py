@@ -13,6 +13,9 @@
   (a :class:`Certificate`: the one-sided Clopper-Pearson bound at the required
   confidence, or why nothing can be claimed); :func:`summarise` summarises any
   set of samples.
+* Robust synthesis: :func:`synthesize` (candidate plans of a push task scored
+  on the same draws, :func:`select` by an explicit objective; certify the
+  chosen one on fresh draws, :func:`selection_key`).
 * Statistics: :func:`clopper_pearson`, :func:`one_sided_lower`, :func:`one_sided_upper`.
 
 Units: metres, radians.  Nothing here reads or writes files; the edge
@@ -25,6 +28,8 @@ from robustness.evaluation import MODELS, BoundViolation, Evaluation, evaluate
 from robustness.samplers import Draws, PerturbationParams, Sampler
 from robustness.stats import clopper_pearson, one_sided_lower, one_sided_upper
 from robustness.summary import summarise
+from robustness.synthesis import (Candidate, Scores, Synthesis, push_candidates,
+                                  score_candidates, select, selection_key, synthesize)
 from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTolerance,
                                    SuccessCriterion)
 
@@ -37,6 +42,8 @@ from robustness.summary import STAT_COLUMNS, empty_summary
 from robustness.tables import FAILURE_MODES, to_arrow
 
 __all__ = [
+    "synthesize", "push_candidates", "score_candidates", "select", "selection_key", "Candidate",
+    "Scores", "Synthesis",
     "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Sampler",
     "Draws", "PerturbationParams",
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "Bound", "SourceBound", "push_plan_bound",

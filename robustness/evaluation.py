@@ -455,6 +455,25 @@ def _compare_with_kinematics(data, plan, kind, draws, chunk, task, sampler, merg
         data[f"success_{ref}"] = pd.array(other["success"], dtype="boolean")
 
 
+def goal_errors(x, y, theta, goal) -> tuple:
+    """Final-pose errors against a plan's goal ``(x, y, theta[, face])``:
+    ``(theta wrapped, err_x, err_y, err_pos, err_theta wrapped)`` (m, rad; world
+    frame), numpy float64 of the shape of ``x``."""
+    g = np.asarray(goal[:3], np.float64)
+    th = wrap_angle_np(np.asarray(theta, np.float64))
+    ex, ey = np.asarray(x, np.float64) - g[0], np.asarray(y, np.float64) - g[1]
+    return th, ex, ey, np.hypot(ex, ey), wrap_angle_np(th - g[2])
+
+
+def kinematic_success(model_valid, err_pos_m, err_theta_rad, pos_eps_m: float,
+                      theta_eps_rad: float) -> np.ndarray:
+    """A kinematic model's success: the sample inside the model's assumptions
+    and its final pose within ``pos_eps_m`` (m) and ``theta_eps_rad`` (rad) of
+    the goal (the one rule of :func:`evaluate` and of robust synthesis)."""
+    return (np.asarray(model_valid, bool) & (np.asarray(err_pos_m) <= pos_eps_m)
+            & (np.abs(np.asarray(err_theta_rad)) <= theta_eps_rad))
+
+
 def _columns(rows: SampleOutcomes, cols: dict, plan, kind, model, dtype, task, pe, te,
              slip_fraction) -> dict:
     """The per-sample columns (``samples``, ``{name: (n,) array}``; ``task``,
@@ -462,19 +481,15 @@ def _columns(rows: SampleOutcomes, cols: dict, plan, kind, model, dtype, task, p
     the goal, success and the failure mode (the first that applies, see the
     module docstring) unless the model classified the samples itself."""
     n = len(rows.x)
-    goal = np.asarray(plan.goal[:3], np.float64)
     x = np.asarray(rows.x, np.float64)
     y = np.asarray(rows.y, np.float64)
-    th = wrap_angle_np(np.asarray(rows.theta, np.float64))
-    ex, ey = x - goal[0], y - goal[1]
-    ep = np.hypot(ex, ey)
-    et = wrap_angle_np(th - goal[2])
+    th, ex, ey, ep, et = goal_errors(x, y, rows.theta, plan.goal)
     slip = rows.slip
     if rows.success is not None:
         success, mode = rows.success, rows.failure_mode
     else:
         structural = rows.structural
-        success = rows.model_valid & (ep <= pe) & (np.abs(et) <= te) & (structural != "wrong_face")
+        success = kinematic_success(rows.model_valid, ep, et, pe, te) & (structural != "wrong_face")
         # a success whose intermediate push was incomplete or landed another edge stays a
         # success (the final pose is within eps); its flags stay visible in its columns
         mode = np.where(success, "none",

@@ -160,10 +160,10 @@ def _pad_axis(x, k: int, axis: int = 1):
     return jnp.pad(x, widths)
 
 
-def _run_chunks(fn, nom, rows, n: int, chunk: int, *args):
+def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0):
     """``fn(nom, rows_chunk, *args)`` over chunks of the per-sample pytree
     ``rows`` (each padded by repeating its first sample); returns the outcome
-    pytree with numpy arrays of n rows."""
+    pytree with numpy arrays of n rows (along the outcomes' ``sample_axis``)."""
     tm = jax.tree_util.tree_map
     if n == chunk or (n < chunk and _bucket(n, 8) == n):   # one call, no padding: as they are
         return tm(np.asarray, fn(nom, rows, *args))
@@ -180,7 +180,9 @@ def _run_chunks(fn, nom, rows, n: int, chunk: int, *args):
 
         outs.append(fn(nom, tm(cut, rows), *args))
         sizes.append(hi - lo)
-    return tm(lambda *xs: np.concatenate([np.asarray(x)[:m] for x, m in zip(xs, sizes)]), *outs)
+    lead = (slice(None),) * sample_axis
+    return tm(lambda *xs: np.concatenate([np.asarray(x)[lead + (slice(0, m),)]
+                                          for x, m in zip(xs, sizes)], axis=sample_axis), *outs)
 
 
 # --------------------------------------------------------------------------
@@ -247,12 +249,9 @@ def push_nominal(plan):
     return poly, planned
 
 
-def run_push(plan, draws, model, dtype, chunk):
-    """Replay a push plan on the samples ``draws`` (:class:`robustness.samplers.Draws`);
-    returns ``(poly, planned, PushReplay)``."""
-    poly, planned = push_nominal(plan)
+def _push_nominal_of(plan, poly, planned, Pp: int, mp: int, dtype) -> PushNominal:
+    """A plan's :class:`PushNominal`, padded to ``Pp`` pushes and ``mp`` vertices."""
     P, m = len(plan.pushes), len(plan.vertices)
-    Pp, mp = _bucket(P, 2), _bucket(m, 4)
     dirs = np.zeros((Pp, 2))
     dirs[:, 0] = 1.0
     dist = np.zeros(Pp)
@@ -263,13 +262,18 @@ def run_push(plan, draws, model, dtype, chunk):
         plan_e[:P] = planned
     V0 = np.zeros((mp, 2))
     V0[:m] = poly.vertices
-    nom = PushNominal(V0=jnp.asarray(V0, dtype), com0=jnp.asarray(poly.com, dtype),
-                      start=jnp.asarray(plan.start, dtype),
-                      ang=jnp.asarray(np.arctan2(dirs[:, 1], dirs[:, 0]), dtype),
-                      dist=jnp.asarray(dist, dtype), planned=jnp.asarray(plan_e),
-                      active=jnp.asarray(np.arange(Pp) < P),
-                      hull=jnp.asarray(np.asarray(poly.hull_index, np.int32)))
-    n, p, a, rows_of = draws.n, draws.params, draws.in_axes, draws.rows
+    return PushNominal(V0=jnp.asarray(V0, dtype), com0=jnp.asarray(poly.com, dtype),
+                       start=jnp.asarray(plan.start, dtype),
+                       ang=jnp.asarray(np.arctan2(dirs[:, 1], dirs[:, 0]), dtype),
+                       dist=jnp.asarray(dist, dtype), planned=jnp.asarray(plan_e),
+                       active=jnp.asarray(np.arange(Pp) < P),
+                       hull=jnp.asarray(np.asarray(poly.hull_index, np.int32)))
+
+
+def _push_samples_of(draws, Pp: int, mp: int, dtype) -> PushSamples:
+    """The draws as per-sample :class:`PushSamples` rows, padded to ``Pp`` pushes
+    and ``mp`` vertices, in ``dtype``."""
+    p, a, rows_of = draws.params, draws.in_axes, draws.rows
     g, f, e = p.geometry, p.friction, p.execution
     ga, fa, ea = a.geometry, a.friction, a.execution
     rows = PushSamples(dv=_pad_axis(rows_of(g.vertex_offset, ga.vertex_offset), mp),
@@ -279,10 +283,67 @@ def run_push(plan, draws, model, dtype, chunk):
                        rel=_pad_axis(rows_of(e.distance_rel, ea.distance_rel), Pp),
                        abs=_pad_axis(rows_of(e.distance_abs, ea.distance_abs), Pp),
                        c=rows_of(f.c, fa.c), mu=rows_of(f.mu_f, fa.mu_f))
-    rows = jax.tree_util.tree_map(lambda v: v.astype(dtype), rows)
-    res = _run_chunks(_push_batch, nom, rows, n, chunk, model)
+    return jax.tree_util.tree_map(lambda v: v.astype(dtype), rows)
+
+
+def run_push(plan, draws, model, dtype, chunk):
+    """Replay a push plan on the samples ``draws`` (:class:`robustness.samplers.Draws`);
+    returns ``(poly, planned, PushReplay)``."""
+    poly, planned = push_nominal(plan)
+    P, m = len(plan.pushes), len(plan.vertices)
+    Pp, mp = _bucket(P, 2), _bucket(m, 4)
+    nom = _push_nominal_of(plan, poly, planned, Pp, mp, dtype)
+    rows = _push_samples_of(draws, Pp, mp, dtype)
+    res = _run_chunks(_push_batch, nom, rows, draws.n, chunk, model)
     res = dataclasses.replace(res, edges=res.edges[:, :P], complete=res.complete[:, :P])
     return poly, planned, res
+
+
+@functools.partial(jax.jit, static_argnames=("model",))
+def _push_batch_many(noms, q, model):
+    one = functools.partial(_push_one, model=model)
+    return jax.lax.map(
+        lambda nom: _blocks(lambda b: jax.vmap(one, in_axes=(None, 0))(nom, b), q, BLOCK), noms)
+
+
+def run_push_many(plans, draws, model, dtype, chunk: int = 4096) -> PushReplay:
+    """Replay ``K`` push plans of one part (the same vertices, centre of mass
+    and start) on the SAME samples ``draws`` (common random numbers), in one
+    compiled call per chunk of samples: the plans are padded to the longest
+    (padding pushes are no-ops) and mapped over inside the call.  Push ``j`` of
+    every plan sees the sample's push-``j`` errors, so ``draws`` must carry at
+    least as many pushes as the longest plan (``n_pushes`` of the sampler).
+
+    Returns:
+      A :class:`PushReplay` of numpy arrays with a leading plan axis ``(K, n,
+      ...)``; ``edges`` / ``complete`` padded to the longest plan (a plan's
+      pushes past its own count are padding).
+    """
+    plans = list(plans)
+    if not plans:
+        raise ValueError("plans: expected at least one plan")
+    ref = plans[0]
+    for i, pl in enumerate(plans[1:], 1):
+        if (pl.vertices, pl.com, pl.start) != (ref.vertices, ref.com, ref.start):
+            raise ValueError(f"plans[{i}]: another part or start than plans[0] (candidates of "
+                             "one task share both)")
+    poly, _ = push_nominal(ref)
+    width = np.shape(draws.params.execution.fence_angle)[-1] \
+        if draws.in_axes.execution.fence_angle == 0 else 0
+    P = max(len(pl.pushes) for pl in plans)
+    if width and width < P:
+        raise ValueError(f"draws: carry {width} pushes, the longest plan has {P} (draw with "
+                         f"n_pushes={P})")
+    Pp, mp = _bucket(max(P, width), 2), _bucket(len(ref.vertices), 4)
+    K = len(plans)
+    noms = [_push_nominal_of(pl, poly, [poly.caller_edge_to_hull(p.edge) for p in pl.pushes],
+                             Pp, mp, dtype) for pl in plans]
+    noms += [noms[0]] * (_bucket(K, 1) - K)   # a power of two of plans: shared compilations
+    noms = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *noms)
+    rows = _push_samples_of(draws, Pp, mp, dtype)
+    res = _run_chunks(_push_batch_many, noms, rows, draws.n, chunk, model, sample_axis=1)
+    res = jax.tree_util.tree_map(lambda x: x[:K], res)
+    return dataclasses.replace(res, edges=res.edges[:, :, :P], complete=res.complete[:, :, :P])
 
 
 def edge_pairs(poly, hull_edges: np.ndarray):

@@ -232,14 +232,44 @@ CERTIFICATES_SCHEMA = pa.schema([
     pa.field("dominant_failure_mode", STR),
     pa.field("recommended_margin_deg", F64),
     pa.field("recommended_safety_factor", F64),
+    pa.field("selection", STR),                     # "default plan" or how it was synthesized
+    pa.field("n_candidates", I64),                  # candidates scored (0: the default plan)
+    pa.field("selection_n_samples", I64),           # selection draws (independent of n_samples)
+    pa.field("selection_ci_low", F64),              # chosen plan's bound on them (optimistic)
+    pa.field("default_selection_ci_low", F64),      # the default plan's on the same draws
     pa.field("note", STR),
 ])
 
-SUMMARY_SCHEMA, PLANS_SCHEMA, CERTIFICATES_SCHEMA = (
-    _ints_not_null(s) for s in (SUMMARY_SCHEMA, PLANS_SCHEMA, CERTIFICATES_SCHEMA))
+CANDIDATES_SCHEMA = pa.schema([
+    RUN_FIELD,
+    pa.field("task", STR, nullable=False),
+    pa.field("candidate", I64),                     # 0: the default plan
+    pa.field("label", STR),                         # setting and plan, one line
+    pa.field("margin_deg", F64),
+    pa.field("safety_factor", F64),
+    pa.field("strategy", STR),
+    pa.field("distance_rule", STR),                 # peshkin | quasi-static
+    pa.field("support", STR),                       # what the distances are valid for
+    pa.field("min_fence_mu", F64),                  # slip-aware bound (NaN: none)
+    pa.field("alternative", I64),                   # 0: that setting's own plan
+    pa.field("n_pushes", I64),
+    pa.field("total_distance_m", F64),
+    pa.field("model", STR),                         # the model the selection draws ran
+    pa.field("n_samples", I64),                     # selection draws (common to every candidate)
+    pa.field("n_success", I64),
+    pa.field("ci_low_one_sided", F64),              # at `confidence`, on the selection draws
+    pa.field("confidence", F64),
+    pa.field("objective", STR),
+    pa.field("chosen", BOOL),
+    pa.field("plan_json", STR),
+])
+
+SUMMARY_SCHEMA, PLANS_SCHEMA, CERTIFICATES_SCHEMA, CANDIDATES_SCHEMA = (
+    _ints_not_null(s) for s in (SUMMARY_SCHEMA, PLANS_SCHEMA, CERTIFICATES_SCHEMA,
+                                CANDIDATES_SCHEMA))
 
 TABLES = {"samples": SAMPLES_SCHEMA, "summary": SUMMARY_SCHEMA, "plans": PLANS_SCHEMA,
-          "certificates": CERTIFICATES_SCHEMA}
+          "certificates": CERTIFICATES_SCHEMA, "candidates": CANDIDATES_SCHEMA}
 
 
 def schema_for(table: str) -> pa.Schema:

@@ -64,8 +64,8 @@ from pydantic import Field, StrictBool, field_validator
 
 from robustness import model_for
 from sweeps.errors import Exit, UserError
-from sweeps.config import (ConfigError, Evaluation, PartInline, Strict, Task, explicit_tasks,
-                          validate)
+from sweeps.config import (ConfigError, Evaluation, PartInline, Strict, Synthesize, Task,
+                           explicit_tasks, validate)
 from sweeps.terminal import Parser, fail, report_warnings, run_main
 
 MAX_SAMPLES = 100_000
@@ -102,6 +102,7 @@ class CertifyConfig(Evaluation):
     max_samples: int = Field(MAX_SAMPLES, ge=1, le=100_000_000)
     tasks: list[Task] = Field(min_length=1)
     margin_search: Optional[MarginSearch] = None
+    synthesize: Optional[Synthesize] = None
 
     @field_validator("n_samples")
     @classmethod
@@ -129,12 +130,18 @@ def build_parser(prog: str = "nudge certify") -> Parser:
     p.add_argument("--max-samples", type=int, help=f"cap of --n-samples auto (default "
                                                     f"{MAX_SAMPLES})")
     p.add_argument("--seed", type=int, help="override seed")
+    p.add_argument("--synthesize", action="store_true",
+                   help="robust plan synthesis (push tasks): score many candidate plans on the "
+                        "same selection draws, certify the best on fresh draws (the config's "
+                        "synthesize: section sets the grid and the objective)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     return p
 
 
-def load(path, n_samples=None, max_samples=None, seed=None):
-    """Read a certify config and apply command-line overrides.
+def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = False):
+    """Read a certify config and apply command-line overrides (``synthesize``:
+    ``--synthesize``, the ``synthesize:`` section enabled, created with its
+    defaults when absent).
 
     Returns:
       ``(config, document as run, its YAML text, part, tasks)``.
@@ -164,6 +171,9 @@ def load(path, n_samples=None, max_samples=None, seed=None):
         if v != "auto" and v < (1 if key != "seed" else 0):
             raise ConfigError(f"{flag}: must be >= {1 if key != 'seed' else 0}, got {v}")
         doc[key] = v
+    if synthesize:
+        sec = doc.get("synthesize")
+        doc["synthesize"] = {**(sec if isinstance(sec, dict) else {}), "enabled": True}
     try:
         cfg = validate(CertifyConfig, doc)
         part = load_part_ref(cfg.part, path.parent)
@@ -190,7 +200,8 @@ def main(argv=None, prog: str = "nudge certify") -> int:
     args = build_parser(prog).parse_args(sys.argv[1:] if argv is None else argv)
     path = pathlib.Path(args.config)
     try:
-        cfg, doc, text, part, tasks = load(path, args.n_samples, args.max_samples, args.seed)
+        cfg, doc, text, part, tasks = load(path, args.n_samples, args.max_samples, args.seed,
+                                           args.synthesize)
     except UserError as exc:
         for line in exc.lines:
             fail(line)
@@ -268,10 +279,17 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     except PlanInputError as exc:
         raise ConfigError(f"tasks[{ti}] ({name}): {exc}") from None
     report_warnings(caught)
+    key = jax.random.fold_in(jax.random.key(cfg.seed), ti)
+    syn = None
+    if plan is not None and kind == "push" and cfg.synthesize is not None \
+            and cfg.synthesize.enabled:
+        syn = synthesize_task(cfg, part, name, start, goal, key, store, ti)
+        plan = syn.plan
+        _log(quiet, f"[{name}] {syn.describe()}")
     prow = {"run_id": store.run_id, **plan_row(part, name, start, goal, plan, reason)}
     store.write("plans", 0, f"t{ti:04d}", tables.rows_table([prow], tables.PLANS_SCHEMA),
                 tables.PLANS_SCHEMA)
-    row = _task_row(cfg, part, name, start, goal, plan)
+    row = _task_row(cfg, part, name, start, goal, plan, syn)
     schedule = (auto_schedule(p, conf, cfg.max_samples) if cfg.n_samples == "auto"
                 else Schedule((int(cfg.n_samples),), conf))
     if plan is None:
@@ -282,7 +300,6 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
                           conf)
         _write_summary(store, ti, s)
         return {**row, **no_plan(reason, p, conf, model, schedule).to_row()}
-    key = jax.random.fold_in(jax.random.key(cfg.seed), ti)
     blocks = Blocks(cfg, store, plan, name, ti, key, schedule.counts[0], model, done, flag)
     grow(blocks.extend, schedule, p)
     if flag.stop:
@@ -294,8 +311,11 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
                   pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
                   schedule=schedule)
     row.update(cert.to_row())
+    if syn is not None:
+        row["note"] = "; ".join(x for x in (row["note"], "certified on fresh draws, not the "
+                                            "selection draws the plan was chosen on") if x)
     if cert.verdict != "certified" and kind == "push" and cfg.margin_search is not None \
-            and cfg.margin_search.enabled:
+            and cfg.margin_search.enabled and syn is None:
         rec = margin_search(part, start, goal, cfg, key, model)
         if rec is not None:
             row.update(recommended_margin_deg=rec[0], recommended_safety_factor=rec[1])
@@ -373,9 +393,56 @@ def _write_summary(store, ti, s: dict) -> None:
                 tables.SUMMARY_SCHEMA)
 
 
-def _task_row(cfg, part, name, start, goal, plan) -> dict:
+def synthesize_task(cfg, part, name, start, goal, key, store, ti):
+    """Robust synthesis of one push task (:func:`robustness.synthesis.synthesize`
+    on the selection draws of ``key``, :func:`~robustness.synthesis.selection_key`);
+    writes the task's ``candidates`` rows and returns the :class:`Synthesis`."""
+    import jax.numpy as jnp
+
+    from robustness import tables
+    from robustness import selection_key, synthesize
+    from sweeps.tasks import plan_json
+
+    sy = cfg.synthesize
+    model = cfg.model if cfg.model in ("quasistatic", "exact") else "quasistatic"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        syn = synthesize(part.vertices, start, goal, part.com, sampler=cfg.sampler(),
+                         n=sy.n_samples, key=selection_key(key),
+                         options=cfg.planner.push_options(), objective=sy.objective,
+                         required_probability=cfg.required.probability, model=model,
+                         dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
+                         pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+                         confidence=cfg.required.confidence, **sy.grid(cfg.friction))
+    report_warnings(caught)
+    s = syn.scores
+    rows = []
+    for i, c in enumerate(syn.candidates):
+        pl = c.plan
+        rows.append(dict(run_id=store.run_id, task=name, candidate=i, label=c.label,
+                         margin_deg=pl.margin_deg, safety_factor=pl.safety_factor,
+                         strategy=pl.strategy, distance_rule=pl.distance_rule, support=pl.support,
+                         min_fence_mu=math.nan if pl.min_fence_mu is None else pl.min_fence_mu,
+                         alternative=c.rank, n_pushes=pl.n_pushes,
+                         total_distance_m=pl.total_distance, model=model, n_samples=s.n,
+                         n_success=int(s.n_success[i]), ci_low_one_sided=float(s.ci_low[i]),
+                         confidence=s.confidence, objective=syn.objective,
+                         chosen=i == syn.chosen, plan_json=plan_json(pl)))
+    schema = tables.CANDIDATES_SCHEMA
+    store.write("candidates", 0, f"t{ti:04d}", tables.rows_table(rows, schema), schema)
+    return syn
+
+
+def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
     push = part.kind == "polygon"
-    return dict(task=name, kind="push" if push else "tumble", part=part.name,
+    sel = dict(selection="default plan", n_candidates=0, selection_n_samples=0,
+               selection_ci_low=math.nan, default_selection_ci_low=math.nan)
+    if syn is not None:
+        sel = dict(selection=syn.describe(), n_candidates=len(syn.candidates),
+                   selection_n_samples=syn.scores.n,
+                   selection_ci_low=float(syn.scores.ci_low[syn.chosen]),
+                   default_selection_ci_low=float(syn.scores.ci_low[0]))
+    return dict(**sel,task=name, kind="push" if push else "tumble", part=part.name,
                 model=model_for(cfg.model, "push" if push else "tumble"),
                 start_x_m=start[0], start_y_m=start[1], start_theta_rad=start[2],
                 start_face=start[3] if not push else -1, goal_x_m=goal[0], goal_y_m=goal[1],
@@ -383,8 +450,10 @@ def _task_row(cfg, part, name, start, goal, plan) -> dict:
                 plan_steps=0 if plan is None else (plan.n_pushes if push else plan.n_tumbles),
                 plan_distance_m=plan.total_distance if (push and plan is not None) else math.nan,
                 plan_verdict="no_plan" if plan is None else ("solved" if push else plan.verdict),
-                margin_deg=cfg.planner.margin_deg if push else math.nan,
-                safety_factor=cfg.planner.safety_factor if push else math.nan,
+                margin_deg=(plan.margin_deg if plan is not None else cfg.planner.margin_deg)
+                if push else math.nan,
+                safety_factor=(plan.safety_factor if plan is not None
+                               else cfg.planner.safety_factor) if push else math.nan,
                 pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
                 recommended_margin_deg=math.nan, recommended_safety_factor=math.nan)
 
@@ -439,6 +508,8 @@ def format_table(certs: list) -> str:
             f"{c['verdict']:14s} {str(c.get('reason') or '-'):18s} "
             f"{str(c.get('dominant_failure_mode') or '-'):24s}")
         lines.append(f"{'':16s} {c.get('claim') or ''}")
+        if c.get("n_candidates"):
+            lines.append(f"{'':16s} {c['selection']}")
         if c.get("note"):
             lines.append(f"{'':16s} note: {c['note']}")
     return "\n".join(lines)

@@ -114,6 +114,46 @@ class Planner(Strict):
     tau_g: Optional[float] = Field(None, ge=0)
 
 
+class Synthesize(Strict):
+    """Robust plan synthesis (:mod:`robustness.synthesis`, push tasks): the
+    candidate grid, the selection draws and the objective."""
+
+    enabled: bool = True
+    n_samples: StrictInt = Field(1000, ge=10, le=1_000_000)
+    objective: Literal["max_lower_bound", "shortest_certifying"] = "max_lower_bound"
+    margins_deg: list[float] = Field(default_factory=lambda: [3.0, 7.0, 12.0, 20.0],
+                                     min_length=1)
+    safety_factors: list[float] = Field(default_factory=lambda: [1.15, 1.5, 2.0], min_length=1)
+    strategies: list[Literal["search", "paper"]] = Field(
+        default_factory=lambda: ["search", "paper"], min_length=1)
+    model_distances: bool = True
+    slip_aware: bool = True
+    per_setting: StrictInt = Field(3, ge=1, le=32)
+    max_candidates: StrictInt = Field(64, ge=1, le=1024)
+
+    @model_validator(mode="after")
+    def _grid(self):
+        if any(not (0 < m < 90) for m in self.margins_deg):
+            raise ValueError("margins_deg: give margin angles in degrees, 0 < margin < 90")
+        if any(sf < 1 for sf in self.safety_factors):
+            raise ValueError("safety_factors: give safety factors >= 1")
+        return self
+
+    def grid(self, friction) -> dict:
+        """The keywords of :func:`robustness.synthesis.push_candidates` for a
+        cell with ``friction`` (a :class:`~robustness.FrictionRange`): the
+        distance rules are Peshkin's and, with ``model_distances``, those of the
+        support family drawn (a named family other than ``any``); slip-aware
+        variants at the range's lowest fence friction."""
+        fam = friction.support
+        supports = [None] + ([fam] if self.model_distances and fam in ("rigid", "uniform", "ring")
+                             else [])
+        return dict(margins_deg=tuple(self.margins_deg), safety_factors=tuple(self.safety_factors),
+                    strategies=tuple(self.strategies), supports=tuple(supports),
+                    min_fence_mu=float(friction.mu_f[0]) if self.slip_aware else None,
+                    per_setting=self.per_setting, limit=self.max_candidates)
+
+
 class Eps(Strict):
     """Success tolerances: position (m) and orientation (rad)."""
 

@@ -107,7 +107,7 @@ def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[
         row["verdict"] = verdict or (head if head in ("not_solvable", "budget_exhausted")
                                      else "no_plan")
         return row
-    row["plan_json"] = json.dumps(plan.to_dict(), default=_json_default, sort_keys=True)
+    row["plan_json"] = plan_json(plan)
     if tumble:
         row.update(verdict=plan.verdict, n_steps=plan.n_tumbles,
                    n_tumbles_paper=int(min(plan.n_tumbles_paper, 2 ** 62)),
@@ -120,6 +120,11 @@ def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[
                    total_distance_m=total, plan_error=float(max(plan.final_error)),
                    length_ratio=total / straight if straight > 0 else math.nan)
     return row
+
+
+def plan_json(plan) -> str:
+    """A plan as the tables store it: ``plan.to_dict()`` as sorted JSON."""
+    return json.dumps(plan.to_dict(), default=_json_default, sort_keys=True)
 
 
 def _json_default(o):
