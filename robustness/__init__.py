@@ -16,6 +16,9 @@
 * Robust synthesis: :func:`synthesize` (candidate plans of a push task scored
   on the same draws, :func:`select` by an explicit objective; certify the
   chosen one on fresh draws, :func:`selection_key`).
+* Tolerance design: :mod:`tolerance_design` (the loosest value of each tolerance
+  that still certifies a plan, what drives its failures, a joint design
+  verified on fresh draws).
 * Statistics: :func:`clopper_pearson`, :func:`one_sided_lower`, :func:`one_sided_upper`.
 
 Units: metres, radians.  Nothing here reads or writes files; the edge
@@ -34,7 +37,7 @@ from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTo
                                    SuccessCriterion)
 
 # used by the layers above (the one boundary: tests/test_layers.py)
-from robustness import tables  # noqa: F401  (modules other layers use)
+from robustness import tables, tolerance_design  # noqa: F401  (modules other layers use)
 from robustness.certificates import (Schedule, auto_schedule, decide, first_certifying, grow,
                                      no_plan, perturbed_sources)
 from robustness.models import model_for
@@ -49,6 +52,6 @@ __all__ = [
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "Bound", "SourceBound", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
     "one_sided_upper", "certify", "Certificate", "summarise",
-    "tables", "FAILURE_MODES", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
+    "tables", "tolerance_design", "FAILURE_MODES", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
     "first_certifying", "grow", "model_for", "no_plan", "perturbed_sources", "to_arrow",
 ]

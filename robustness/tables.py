@@ -264,12 +264,45 @@ CANDIDATES_SCHEMA = pa.schema([
     pa.field("plan_json", STR),
 ])
 
-SUMMARY_SCHEMA, PLANS_SCHEMA, CERTIFICATES_SCHEMA, CANDIDATES_SCHEMA = (
+DESIGN_SCHEMA = pa.schema([
+    RUN_FIELD,
+    pa.field("task", STR, nullable=False),
+    pa.field("axis", STR, nullable=False),          # tau_v, tau_com, start, fence_angle, ...
+    pa.field("fields", STR),                        # the config fields it moves
+    pa.field("configured", F64_LIST),               # their configured values (SI)
+    pa.field("loosest", F64_LIST),                  # the loosest that certifies, the rest as configured
+    pa.field("scale", F64),                         # loosest / configured (NaN: friction, or 0 configured)
+    pa.field("certified_at_configured", BOOL),
+    pa.field("ci_low_at_loosest", F64),             # on the design draws
+    pa.field("limit", STR),                         # "", no_limit, none_certifies
+    pa.field("failure_rate", F64),                  # every axis as configured
+    pa.field("failure_rate_without", F64),          # this axis perfect
+    pa.field("failure_rate_alone", F64),            # only this axis perturbed
+    pa.field("failures_removed", F64),              # failure_rate - failure_rate_without
+    pa.field("failure_rate_all_perfect", F64),      # every axis perfect
+    pa.field("rank", I64),                          # 1: removes most failures
+    pa.field("joint", F64_LIST),                    # the joint design's values of this axis
+    pa.field("joint_t", F64),                       # its fraction of the one-axis limits
+    pa.field("joint_ci_low_design", F64),
+    pa.field("joint_n_fresh", I64),
+    pa.field("joint_k_fresh", I64),
+    pa.field("joint_ci_low_fresh", F64),            # the joint design's claim
+    pa.field("joint_certified", BOOL),
+    pa.field("drawing", STR),                       # the joint design in words, with its claim
+    pa.field("model", STR),
+    pa.field("n_samples", I64),                     # design draws (common to every evaluation)
+    pa.field("evaluations", I64),                   # evaluations of this axis's search
+    pa.field("confidence", F64),
+    pa.field("required_probability", F64),
+])
+
+SUMMARY_SCHEMA, PLANS_SCHEMA, CERTIFICATES_SCHEMA, CANDIDATES_SCHEMA, DESIGN_SCHEMA = (
     _ints_not_null(s) for s in (SUMMARY_SCHEMA, PLANS_SCHEMA, CERTIFICATES_SCHEMA,
-                                CANDIDATES_SCHEMA))
+                                CANDIDATES_SCHEMA, DESIGN_SCHEMA))
 
 TABLES = {"samples": SAMPLES_SCHEMA, "summary": SUMMARY_SCHEMA, "plans": PLANS_SCHEMA,
-          "certificates": CERTIFICATES_SCHEMA, "candidates": CANDIDATES_SCHEMA}
+          "certificates": CERTIFICATES_SCHEMA, "candidates": CANDIDATES_SCHEMA,
+          "design": DESIGN_SCHEMA}
 
 
 def schema_for(table: str) -> pa.Schema:
@@ -409,6 +442,8 @@ def _pandas_metadata(schema: pa.Schema) -> dict:
 
 def _column(v, f: pa.Field, n: int) -> pa.Array:
     if f.type == F64_LIST:
+        if isinstance(v, (list, tuple)) and len({np.size(x) for x in v}) > 1:   # ragged rows
+            return pa.array([None if x is None else [float(y) for y in x] for x in v], F64_LIST)
         a = np.asarray(v, np.float64)
         if a.ndim != 2 or a.shape[0] != n:
             raise ValueError(f"column {f.name!r}: expected an (n, k) float array for a list "

@@ -3,6 +3,7 @@
 Usage::
 
     nudge certify CONFIG.yaml [--out DIR] [--n-samples N|auto] [--max-samples M] [--seed S]
+                              [--synthesize] [--design]
                               [--quiet]
 
 For every task of the config: plan it (the Akella-Mason pose planner for a
@@ -25,7 +26,11 @@ all looks, and the certificate names the procedure (``procedure``,
 look, the plain one-sided bound.  With a
 ``margin_search`` section, a push task that is not certified is re-planned over
 a grid of margin angles and safety factors and the first setting that
-certifies is recommended.
+certifies is recommended.  ``--synthesize`` (a ``synthesize:`` section) replaces
+the default plan of a push task by the best of many candidates scored on the
+same selection draws (:mod:`robustness.synthesis`), certified on fresh draws;
+``--design`` (a ``design:`` section) adds the tolerance design of the certified
+plan (:mod:`robustness.tolerance_design`: table ``design``, ``report.html``).
 
 Config (YAML; unknown keys are errors; numbers such as ``1e-5`` are numbers)::
 
@@ -64,8 +69,8 @@ from pydantic import Field, StrictBool, field_validator
 
 from robustness import model_for
 from sweeps.errors import Exit, UserError
-from sweeps.config import (ConfigError, Evaluation, PartInline, Strict, Synthesize, Task,
-                           explicit_tasks, validate)
+from sweeps.config import (ConfigError, Design, Evaluation, PartInline, Strict, Synthesize,
+                           Task, explicit_tasks, validate)
 from sweeps.terminal import Parser, fail, report_warnings, run_main
 
 MAX_SAMPLES = 100_000
@@ -103,6 +108,7 @@ class CertifyConfig(Evaluation):
     tasks: list[Task] = Field(min_length=1)
     margin_search: Optional[MarginSearch] = None
     synthesize: Optional[Synthesize] = None
+    design: Optional[Design] = None
 
     @field_validator("n_samples")
     @classmethod
@@ -134,14 +140,20 @@ def build_parser(prog: str = "nudge certify") -> Parser:
                    help="robust plan synthesis (push tasks): score many candidate plans on the "
                         "same selection draws, certify the best on fresh draws (the config's "
                         "synthesize: section sets the grid and the objective)")
+    p.add_argument("--design", action="store_true",
+                   help="tolerance design: the loosest value of each tolerance that still "
+                        "certifies the plan, what drives its failures, a joint design verified "
+                        "on fresh draws (the design table and report.html; the config's design: "
+                        "section sets the draws)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     return p
 
 
-def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = False):
-    """Read a certify config and apply command-line overrides (``synthesize``:
-    ``--synthesize``, the ``synthesize:`` section enabled, created with its
-    defaults when absent).
+def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = False,
+         design: bool = False):
+    """Read a certify config and apply command-line overrides (``synthesize``,
+    ``design``: ``--synthesize`` / ``--design``, that section enabled, created
+    with its defaults when absent).
 
     Returns:
       ``(config, document as run, its YAML text, part, tasks)``.
@@ -171,9 +183,10 @@ def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = F
         if v != "auto" and v < (1 if key != "seed" else 0):
             raise ConfigError(f"{flag}: must be >= {1 if key != 'seed' else 0}, got {v}")
         doc[key] = v
-    if synthesize:
-        sec = doc.get("synthesize")
-        doc["synthesize"] = {**(sec if isinstance(sec, dict) else {}), "enabled": True}
+    for flag, name in ((synthesize, "synthesize"), (design, "design")):
+        if flag:
+            sec = doc.get(name)
+            doc[name] = {**(sec if isinstance(sec, dict) else {}), "enabled": True}
     try:
         cfg = validate(CertifyConfig, doc)
         part = load_part_ref(cfg.part, path.parent)
@@ -201,7 +214,7 @@ def main(argv=None, prog: str = "nudge certify") -> int:
     path = pathlib.Path(args.config)
     try:
         cfg, doc, text, part, tasks = load(path, args.n_samples, args.max_samples, args.seed,
-                                           args.synthesize)
+                                           args.synthesize, args.design)
     except UserError as exc:
         for line in exc.lines:
             fail(line)
@@ -259,6 +272,12 @@ def _run(cfg, text, part, tasks, out, run_id, quiet):
             store.mark_done(key, [path])
             certs.append(row)
     status = Exit.OK if all(c["verdict"] == "certified" for c in certs) else Exit.NEGATIVE
+    if cfg.design is not None and cfg.design.enabled or cfg.synthesize is not None \
+            and cfg.synthesize.enabled:
+        from sweeps.report import write_certify_report
+
+        path = write_certify_report(store, part.name, text)
+        _log(quiet, f"wrote {path}")
     return status, certs
 
 
@@ -325,7 +344,62 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
             row["note"] = "; ".join(x for x in (row["note"], "no margin / safety factor of the "
                                                 "grid certifies") if x)
     _log(quiet, f"[{name}] {cert.verdict}: {cert.claim}")
+    if cfg.design is not None and cfg.design.enabled:
+        line = design_task(cfg, part, plan, name, key, store, ti)
+        row["note"] = "; ".join(x for x in (row["note"], f"tolerance design: {line}") if x)
+        _log(quiet, f"[{name}] tolerance design: {line}")
     return row
+
+
+def design_task(cfg, part, plan, name, key, store, ti) -> str:
+    """Tolerance design of one task's plan (:mod:`robustness.tolerance_design`,
+    under the quasi-static or exact kinematics on the design draws of ``key``);
+    writes the task's ``design`` rows and returns the drawing line."""
+    import jax
+    import jax.numpy as jnp
+
+    from robustness import tables, tolerance_design as td
+
+    kind = "push" if part.kind == "polygon" else "tumble"
+    model = cfg.model if cfg.model in ("quasistatic", "exact") and kind == "push" else \
+        model_for("quasistatic" if cfg.model == "mujoco" else cfg.model, kind)
+    d = cfg.design
+    axes = tuple(a for a in (d.axes or td.axes_for(plan)) if a in td.axes_for(plan))
+    p, conf = cfg.required.probability, cfg.required.confidence
+    dkey = td.design_key(key)
+    sampler = cfg.sampler()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        judge = td.Judge(plan, d.n_samples, dkey, p=p, confidence=conf, model=model,
+                         dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
+                         pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad)
+        designs = [td.loosest(judge, sampler, a, rel_tol=d.rel_tol) for a in axes]
+        sens = {s.axis: s for s in td.sensitivity(judge, sampler, axes)}
+        base = 1.0 - judge.successes(td.all_perfect(sampler, axes)) / judge.n
+        joint = td.joint_design(judge, sampler, designs, jax.random.fold_in(dkey, 1))
+    line = td.drawing_line(designs, joint, p, conf, model)
+    scale = {dz.axis: dz.scale if math.isfinite(dz.scale) else math.inf for dz in designs}
+    # most failures removed first; then the axis closest to its limit (smallest headroom)
+    order = sorted(axes, key=lambda a: (-sens[a].failures_removed, scale[a]))
+    rows = []
+    for dz in designs:
+        s = sens[dz.axis]
+        rows.append(dict(run_id=store.run_id, task=name, axis=dz.axis, fields=", ".join(dz.fields),
+                         configured=list(dz.configured), loosest=list(dz.loosest), scale=dz.scale,
+                         certified_at_configured=dz.certified_at_configured,
+                         ci_low_at_loosest=dz.ci_low, limit=dz.limit, failure_rate=s.failure_rate,
+                         failure_rate_without=s.failure_rate_without,
+                         failure_rate_alone=s.failure_rate_alone,
+                         failures_removed=s.failures_removed, failure_rate_all_perfect=base,
+                         rank=order.index(dz.axis) + 1, joint=list(joint.values[dz.axis]),
+                         joint_t=joint.t, joint_ci_low_design=joint.ci_low_design,
+                         joint_n_fresh=joint.n_fresh, joint_k_fresh=joint.k_fresh,
+                         joint_ci_low_fresh=joint.ci_low_fresh, joint_certified=joint.certified,
+                         drawing=line, model=model, n_samples=judge.n,
+                         evaluations=dz.evaluations, confidence=conf, required_probability=p))
+    schema = tables.DESIGN_SCHEMA
+    store.write("design", 0, f"t{ti:04d}", tables.rows_table(rows, schema), schema)
+    return line
 
 
 class Blocks:

@@ -154,6 +154,17 @@ class Synthesize(Strict):
                     per_setting=self.per_setting, limit=self.max_candidates)
 
 
+class Design(Strict):
+    """Tolerance design (:mod:`robustness.tolerance_design`): the design draws
+    and the bisection's precision."""
+
+    enabled: bool = True
+    n_samples: StrictInt = Field(1000, ge=10, le=1_000_000)
+    rel_tol: float = Field(0.05, gt=0, le=1)
+    axes: Optional[list[Literal["tau_v", "tau_com", "start", "fence_angle", "push_distance",
+                                "fence_friction", "tumble_slip"]]] = None
+
+
 class Eps(Strict):
     """Success tolerances: position (m) and orientation (rad)."""
 

@@ -146,3 +146,107 @@ def _config_rows(summary, plans, design, labels):
                      fmt(float(s["err_pos_m_q99"].max()) * 1e3) if len(s) and "err_pos_m_q99" in s else "-",
                      modes.index[0] if len(modes) else "none"])
     return header, rows
+
+
+CERTIFY_TEMPLATE = jinja2.Template("""<!doctype html>
+<html lang="en"><head><meta charset="utf-8">
+<title>nudge certification {{ part }} ({{ run_id }})</title>
+<style>
+body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1150px; color: #222; }
+h1 { font-size: 1.5em; } h2 { font-size: 1.15em; margin-top: 1.6em; border-bottom: 1px solid #ccc; }
+h3 { font-size: 1.0em; }
+table { border-collapse: collapse; font-size: 0.82em; margin: 0.6em 0; }
+td, th { border: 1px solid #ccc; padding: 2px 6px; text-align: right; }
+th { background: #f3f3f3; } td.l, th.l { text-align: left; }
+pre { background: #f7f7f7; padding: 0.8em; font-size: 0.8em; overflow-x: auto; }
+.drawing { background: #eef6ee; border: 1px solid #9c9; padding: 0.6em; font-family: monospace; }
+.drawing.no { background: #fbeeee; border-color: #c99; }
+.note { color: #555; font-size: 0.9em; }
+</style></head><body>
+<h1>nudge certification of <code>{{ part }}</code></h1>
+<p>run <code>{{ run_id }}</code> &middot; tables: <code>pd.read_parquet("{{ root }}/certificates")</code>
+(also <code>candidates</code>, <code>design</code>, <code>samples</code>, <code>plans</code>).</p>
+<h2>Certificates</h2>
+<table><tr><th class="l">task</th><th class="l">verdict</th><th>n</th><th>success</th><th>CP low</th>
+<th class="l">selection</th></tr>
+{% for c in certs %}<tr><td class="l">{{ c.task }}</td><td class="l">{{ c.verdict }}</td><td>{{ c.n }}</td>
+<td>{{ c.rate }}</td><td>{{ c.low }}</td><td class="l">{{ c.selection }}</td></tr>
+<tr><td></td><td class="l" colspan="5">{{ c.claim }}</td></tr>{% endfor %}</table>
+{% for t in synth %}<h3>Robust synthesis: {{ t.task }}</h3>
+<p class="note">{{ t.n }} candidates on the same {{ t.draws }} selection draws ({{ t.model }} model);
+the ten with the highest lower bound, and the default plan. Bounds here are on the selection draws
+(the chosen one's is optimistic); the certificate above is on fresh draws.</p>
+<table><tr><th>#</th><th class="l">candidate</th><th>successes</th><th>CP low</th><th>distance m</th>
+<th>pushes</th><th class="l"></th></tr>
+{% for r in t.rows %}<tr><td>{{ r.candidate }}</td><td class="l">{{ r.label }}</td><td>{{ r.k }}</td>
+<td>{{ r.low }}</td><td>{{ r.dist }}</td><td>{{ r.pushes }}</td><td class="l">{{ r.tag }}</td></tr>{% endfor %}
+</table>{% endfor %}
+{% for t in design %}<h2>Tolerance design: {{ t.task }}</h2>
+<p class="drawing{% if not t.certified %} no{% endif %}">{{ t.drawing }}</p>
+<p class="note">One axis at a time, the others as configured: the loosest value whose one-sided
+Clopper-Pearson lower bound of success at {{ t.confidence }} confidence still reaches {{ t.p }}
+(bisection on the same {{ t.n }} design draws, {{ t.model }} model). The line above is all axes at
+{{ t.t }} of those limits together, verified on {{ t.n_fresh }} fresh draws. Failures with every axis
+perfect: {{ t.base }} (what no axis covers, e.g. the support).</p>
+<table><tr><th>rank</th><th class="l">axis</th><th class="l">fields</th><th class="l">configured</th>
+<th class="l">loosest alone</th><th>certified as configured</th><th>failure rate</th>
+<th>without this axis</th><th>this axis alone</th><th class="l">joint design</th></tr>
+{% for r in t.rows %}<tr><td>{{ r.rank }}</td><td class="l">{{ r.axis }}</td><td class="l">{{ r.fields }}</td>
+<td class="l">{{ r.configured }}</td><td class="l">{{ r.loosest }}</td><td>{{ r.ok }}</td>
+<td>{{ r.f }}</td><td>{{ r.fw }}</td><td>{{ r.fa }}</td><td class="l">{{ r.joint }}</td></tr>{% endfor %}
+</table>{% endfor %}
+<h2>Config as run</h2><pre>{{ config }}</pre>
+</body></html>
+""", autoescape=True)
+
+
+def _values(v) -> str:
+    return ", ".join(f"{x:.4g}" for x in v)
+
+
+def write_certify_report(store, part: str, config_text: str) -> pathlib.Path:
+    """``report.html`` of a certification run: its certificates, the candidates
+    of synthesized tasks and the tolerance design (read from the run's tables)."""
+    import math
+
+    import pandas as pd
+
+    certs = store.read("certificates")
+    cands = store.read("candidates")
+    design = store.read("design")
+    f = lambda x, fmt=".4f": "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, fmt)  # noqa: E731
+    crow = [dict(task=c.task, verdict=c.verdict, n=int(c.n_samples), rate=f(c.success_rate),
+                 low=f(c.ci_low_one_sided), selection=c.selection or "default plan",
+                 claim=c.claim) for c in certs.itertuples()]
+    synth = []
+    for task, g in (cands.groupby("task", sort=False) if not cands.empty else ()):
+        g = g.sort_values(["ci_low_one_sided", "total_distance_m"], ascending=[False, True])
+        top = g.head(10)
+        if not (top["candidate"] == 0).any():
+            top = pd.concat([top, g[g["candidate"] == 0]])
+        rows = [dict(candidate=int(r.candidate), label=r.label, k=int(r.n_success),
+                     low=f(r.ci_low_one_sided), dist=f(r.total_distance_m, ".3f"),
+                     pushes=int(r.n_pushes),
+                     tag=("chosen" if r.chosen else "") + (" default" if r.candidate == 0 else ""))
+                for r in top.itertuples()]
+        synth.append(dict(task=task, n=len(g), draws=int(g["n_samples"].iloc[0]),
+                          model=g["model"].iloc[0], rows=rows))
+    des = []
+    for task, g in (design.groupby("task", sort=False) if not design.empty else ()):
+        g = g.sort_values("rank")
+        r0 = g.iloc[0]
+        rows = [dict(rank=int(r.rank), axis=r.axis, fields=r.fields, configured=_values(r.configured),
+                     loosest=_values(r.loosest) + (f" ({r.limit})" if r.limit else ""),
+                     ok="yes" if r.certified_at_configured else "no", f=f(r.failure_rate, ".3f"),
+                     fw=f(r.failure_rate_without, ".3f"), fa=f(r.failure_rate_alone, ".3f"),
+                     joint=_values(r.joint)) for r in g.itertuples()]
+        des.append(dict(task=task, drawing=r0.drawing, certified=bool(r0.joint_certified),
+                        confidence=f"{r0.confidence:.4g}", p=f"{r0.required_probability:g}",
+                        n=int(r0.n_samples), model=r0.model, t=f"{r0.joint_t:.3g}",
+                        n_fresh=int(r0.joint_n_fresh), base=f(r0.failure_rate_all_perfect, ".3f"),
+                        rows=rows))
+    page = CERTIFY_TEMPLATE.render(part=part, run_id=store.run_id, root=str(store.root),
+                                   certs=crow, synth=synth, design=des, config=config_text)
+    path = store.root / "report.html"
+    atomic_write(path, lambda fh: fh.write(page), mode="w")
+    return path
