@@ -22,7 +22,7 @@ from planning.pushing.plan import Push, PushPlan
 from planning.pushing.planner import plan_pose
 from planning.tumbling.analysis import TumbleAnalysis
 from planning.tumbling.plan import Tumble, TumblePlan
-from planning.tumbling.planner import analyze_polyhedron, plan_tumble
+from planning.tumbling.planner import analyze_polyhedron, plan_tumble, tumble_alternatives
 
 # used by the layers above (the one boundary: tests/test_layers.py)
 from planning.pushing import stability  # noqa: F401  (modules other layers use)
@@ -33,7 +33,7 @@ from planning.tumbling.reachability import lattice_count_bound, radius_for_count
 from planning.tumbling.trajectory import plan_trajectory, quiet_polyhedron, sample_reached_positions
 
 __all__ = [
-    "plan_pose", "plan_alternatives", "plan_pose_batch", "PushOptions", "prepare_part", "PushPart", "PushPlanBatch", "Push",
+    "plan_pose", "plan_alternatives", "tumble_alternatives", "plan_pose_batch", "PushOptions", "prepare_part", "PushPart", "PushPlanBatch", "Push",
     "PushPlan", "PlanningError", "WorkspaceError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
     "Tumble", "TumblePlan",
     "stability", "PushStability", "development_poses", "face_footprint", "lattice_count_bound",

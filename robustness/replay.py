@@ -539,18 +539,13 @@ def _nominal_polyhedron(vertices: tuple, com: tuple, tau_v):
         return make_polyhedron(np.asarray(vertices), np.asarray(com), tau_v=tau_v)
 
 
-def run_tumble(plan, draws, dtype, chunk, merge_tol=None, slip_theta=math.inf):
-    """Replay a tumble plan on the samples ``draws`` (and, with ``merge_tol``, check
-    every perturbed hull); returns ``(poly, TumbleReplay)`` (``face`` and ``ok``
-    the same for every sample; ``changed`` all False without the check).
-    ``slip_theta``: a bound on the rotational slips (rad; the tolerance)."""
-    poly = tumble_nominal(plan)
+def _tumble_nominal_of(plan, poly, Lp: int, dtype) -> tuple:
+    """``(TumbleNominal, final face, every step valid)`` of a plan, its walk
+    padded to ``Lp`` steps (no-ops)."""
     topo = poly.topology
     idx, final_face, ok = _tumble_walk(plan, topo)
-    L = len(idx)
-    Lp = _bucket(L, 16)
     seq = np.full(Lp, topo.n_faces * topo.max_face_size, np.int32)
-    seq[:L] = idx
+    seq[:len(idx)] = idx
     nom = TumbleNominal(V0=jnp.asarray(poly.vertices, dtype), com0=jnp.asarray(poly.com, dtype),
                         origins=jnp.asarray(poly.face_origins, dtype),
                         xaxes=jnp.asarray(poly.face_rotations[:, 0, :], dtype),
@@ -558,25 +553,114 @@ def run_tumble(plan, draws, dtype, chunk, merge_tol=None, slip_theta=math.inf):
                         start_face=jnp.asarray(int(plan.start[3]), jnp.int32),
                         final_face=jnp.asarray(final_face, jnp.int32), idx=jnp.asarray(seq),
                         V64=jnp.asarray(poly.vertices, jnp.float64))
-    n, rows_of = draws.n, draws.rows
+    return nom, final_face, ok
+
+
+def _tumble_samples_of(draws, Lp: int, dtype) -> TumbleSamples:
+    """The draws as per-sample :class:`TumbleSamples` rows (slips padded to ``Lp``)."""
+    rows_of = draws.rows
     g, e = draws.params.geometry, draws.params.execution
     ga, ea = draws.in_axes.geometry, draws.in_axes.execution
     dv64 = rows_of(g.vertex_offset, ga.vertex_offset).astype(jnp.float64)
-    rows = TumbleSamples(dv=dv64.astype(dtype), dc=rows_of(g.com_offset, ga.com_offset).astype(dtype),
+    return TumbleSamples(dv=dv64.astype(dtype),
+                         dc=rows_of(g.com_offset, ga.com_offset).astype(dtype),
                          start=rows_of(e.start_offset, ea.start_offset).astype(dtype),
                          slip=_pad_axis(rows_of(e.tumble_slip, ea.tumble_slip), Lp).astype(dtype),
                          dv64=dv64)
+
+
+def _host_hull_check(poly, changed, undecided, dv64, merge_tol) -> np.ndarray:
+    """The compiled hull check's verdict, its undecided samples decided on the host."""
+    und = np.asarray(undecided).astype(bool)
+    changed = np.asarray(changed).astype(bool).copy()
+    if und.any():   # a point the nominal hull dropped pops out by < the merge distance
+        V = poly.vertices[None] + np.asarray(dv64)[und]
+        changed[und] = polyhedron_combinatorics_changed(V, poly, merge_tol)
+    return changed
+
+
+def run_tumble(plan, draws, dtype, chunk, merge_tol=None, slip_theta=math.inf):
+    """Replay a tumble plan on the samples ``draws`` (and, with ``merge_tol``, check
+    every perturbed hull); returns ``(poly, TumbleReplay)`` (``face`` and ``ok``
+    the same for every sample; ``changed`` all False without the check).
+    ``slip_theta``: a bound on the rotational slips (rad; the tolerance)."""
+    poly = tumble_nominal(plan)
+    topo = poly.topology
+    Lp = _bucket(plan.n_tumbles, 16)
+    nom, final_face, ok = _tumble_nominal_of(plan, poly, Lp, dtype)
+    n = draws.n
+    rows = _tumble_samples_of(draws, Lp, dtype)
     check = merge_tol is not None
     tol = jnp.asarray(0.0 if merge_tol is None else merge_tol, jnp.float64)
     res = _run_chunks(_tumble_batch, nom, rows, n, chunk, tol, topo, check,
                       bool(slip_theta <= SLIP_SERIES_MAX))
-    if check:
-        und = res.undecided.astype(bool)
-        changed = res.changed.astype(bool)
-        if und.any():   # a point the nominal hull dropped pops out by < the merge distance
-            V = poly.vertices[None] + np.asarray(dv64)[und]
-            changed[und] = polyhedron_combinatorics_changed(V, poly, merge_tol)
-    else:
-        changed = np.zeros(n, bool)
+    changed = (_host_hull_check(poly, res.changed, res.undecided, rows.dv64, merge_tol) if check
+               else np.zeros(n, bool))
     return poly, dataclasses.replace(res, changed=changed, undecided=None,
                                      face=np.full(n, final_face, np.int64), ok=np.full(n, ok))
+
+
+@functools.partial(jax.jit, static_argnames=("topology", "slip_series"))
+def _tumble_batch_many(noms, q, topology, slip_series):
+    return jax.lax.map(lambda nom: _blocks(
+        lambda b: _tumble_block(nom, b, topology, slip_series), q, BLOCK), noms)
+
+
+@functools.partial(jax.jit, static_argnames=("topology",))
+def _hull_batch(V64, dv64, merge_tol, topology):
+    from kernels import polyhedron_hull_tables, polyhedron_hull_verdict_batch
+
+    return polyhedron_hull_verdict_batch(V64 + dv64, polyhedron_hull_tables(topology), merge_tol)
+
+
+def run_tumble_many(plans, draws, dtype, chunk: int = 4096, merge_tol=None,
+                    slip_theta=math.inf) -> TumbleReplay:
+    """Replay ``K`` tumble plans of one part (the same vertices, centre of mass,
+    tolerance and start) on the SAME samples ``draws`` (common random numbers)
+    in one compiled call per chunk (the plans padded to the longest, mapped
+    over inside the call); the perturbed hulls, the same for every plan, are
+    checked once.  Tumble ``j`` of every plan sees the sample's slip ``j``, so
+    ``draws`` must carry at least the longest plan's tumbles.
+
+    Returns:
+      A :class:`TumbleReplay` with a leading plan axis ``(K, n)``; ``face`` and
+      ``ok`` ``(K, n)``; ``changed`` ``(K, n)`` (the same row for every plan).
+    """
+    plans = list(plans)
+    if not plans:
+        raise ValueError("plans: expected at least one plan")
+    ref = plans[0]
+    for i, pl in enumerate(plans[1:], 1):
+        if (pl.vertices, pl.com, pl.start, pl.tau_v) != (ref.vertices, ref.com, ref.start,
+                                                          ref.tau_v):
+            raise ValueError(f"plans[{i}]: another part, tolerance or start than plans[0] "
+                             "(candidates of one task share them)")
+    poly = tumble_nominal(ref)
+    topo = poly.topology
+    L = max(pl.n_tumbles for pl in plans)
+    sl = draws.params.execution.tumble_slip
+    width = np.shape(sl)[-2] if draws.in_axes.execution.tumble_slip == 0 else 0
+    if width and width < L:
+        raise ValueError(f"draws: carry {width} tumbles, the longest plan has {L} (draw with "
+                         f"n_tumbles={L})")
+    Lp = _bucket(max(L, width), 16)
+    K = len(plans)
+    walks = [_tumble_nominal_of(pl, poly, Lp, dtype) for pl in plans]
+    noms = [w[0] for w in walks]
+    noms += [noms[0]] * (_bucket(K, 1) - K)
+    noms = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *noms)
+    n = draws.n
+    rows = _tumble_samples_of(draws, Lp, dtype)
+    res = _run_chunks(_tumble_batch_many, noms, rows, n, chunk, topo,
+                      bool(slip_theta <= SLIP_SERIES_MAX), sample_axis=1)
+    res = jax.tree_util.tree_map(lambda x: x[:K], res)
+    if merge_tol is not None:
+        ch, und = _run_chunks(lambda v, q, tol: _hull_batch(v, q, tol, topo), walks[0][0].V64,
+                              rows.dv64, n, chunk, jnp.asarray(merge_tol, jnp.float64))
+        changed = _host_hull_check(poly, ch, und, rows.dv64, merge_tol)
+    else:
+        changed = np.zeros(n, bool)
+    return dataclasses.replace(
+        res, changed=np.broadcast_to(changed, (K, n)).copy(), undecided=None,
+        face=np.array([[w[1]] * n for w in walks], np.int64),
+        ok=np.array([[w[2]] * n for w in walks], bool))

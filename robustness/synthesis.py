@@ -1,5 +1,5 @@
-"""Robust plan synthesis: many candidate plans for one push task, scored on the
-same Monte-Carlo draws, the best chosen by an explicit objective.
+"""Robust plan synthesis: many candidate plans for one task, scored on the same
+Monte-Carlo draws, the best chosen by an explicit objective.
 
 Akella & Mason's plans are sensitive to uncertainty ("To generate robust plans,
 it is important to model uncertainty...").  The planner's choice is the
@@ -11,16 +11,22 @@ for robustness.  Here:
 * :func:`push_candidates` enumerates them: for every planner setting of a grid
   (margins x safety factors x strategies x distance rules) the plans of
   :func:`planning.plan_alternatives`, distinct, the configured planner's own
-  plan first (candidate 0: the default plan);
+  plan first (candidate 0: the default plan); :func:`tumble_candidates` the
+  same for a tumble task (Marigo & Bicchi words of equal or near length:
+  planned at tighter accuracies, at the part's tolerance, the paper's own
+  construction when it is short, the other landing words of the search);
 * :func:`score_candidates` replays every candidate on the SAME draws (common
   random numbers: a difference between two candidates is the plans', not the
   samples') in one compiled call (:func:`robustness.replay.run_push_many`),
   with the success rule of :func:`robustness.evaluate`;
 * :func:`select` chooses by the objective: ``max_lower_bound`` (the highest
   one-sided Clopper-Pearson lower bound of success; ties, within one success,
-  to the shorter push distance, then fewer pushes) or ``shortest_certifying``
-  (the shortest plan whose bound reaches the requirement; the highest bound
-  when none does).
+  to the lower cost: the shorter push distance, or for tumbles the smaller
+  first-order propagated error, :func:`robustness.bounds.tumble_plan_bound`;
+  then fewer steps) or ``shortest_certifying`` (the cheapest plan whose bound
+  reaches the requirement; the highest bound when none does).  Every
+  candidate's first-order bound is reported beside its Monte Carlo (and, for
+  tumbles, the certificate's summary carries the paper's eqs. 4-6).
 
 The chosen plan's bound on the draws it was chosen on is optimistic (the
 maximum of K noisy estimates is biased upward: ``tests/test_synthesis.py``
@@ -61,7 +67,8 @@ class Candidate:
 
     Attributes:
       plan: the verified :class:`~planning.PushPlan`.
-      options: the :class:`~planning.PushOptions` it was planned with.
+      options: the :class:`~planning.PushOptions` it was planned with (a
+        :class:`TumbleSetting` for a tumble plan).
       rank: its place among that setting's alternatives (0: the planner's own choice).
     """
 
@@ -72,8 +79,15 @@ class Candidate:
     @property
     def label(self) -> str:
         """One line: the setting and the plan (e.g. ``margin 12 deg, safety 1.5,
-        search, peshkin, alternative 2: 6 pushes, 0.331 m``)."""
+        search, peshkin, alternative 2: 6 pushes, 0.331 m``; ``eps 0.5 mm,
+        shortest: 6 tumbles, error 2.1e-05``)."""
         o, p = self.options, self.plan
+        if isinstance(o, TumbleSetting):
+            how = ("the paper's construction" if not o.shorten
+                   else "planner's choice" if self.rank == 0 else f"alternative {self.rank}")
+            tv = f", planned at tau_v {o.tau_v * 1e3:g} mm" if o.tau_v else ""
+            return (f"eps {o.eps * 1e3:g} mm{tv}, {how}: {p.n_tumbles} tumbles, exact error "
+                    f"{p.error:.2g}")
         slip = f", slip-aware mu_f >= {o.min_fence_mu:g}" if o.min_fence_mu is not None else ""
         alt = "planner's choice" if self.rank == 0 else f"alternative {self.rank}"
         return (f"margin {o.margin_deg:g} deg, safety {o.safety_factor:g}, {o.strategy}, "
@@ -88,15 +102,21 @@ class Scores:
     Attributes:
       success: (K, n) bool, sample i of candidate k succeeded.
       ci_low: (K,) one-sided Clopper-Pearson lower bounds at ``confidence``.
-      distance: (K,) total push distance (m); pushes: (K,) push counts.
+      cost: (K,) what a tie is broken by: the total push distance (m), or for
+        tumble plans the first-order propagated position error (m).
+      steps: (K,) pushes or tumbles.
       confidence: of the bounds; n: draws per candidate.
+      bound_position_m, bound_theta_rad: (K,) first-order bounds of the
+        final error over the sampler's tolerance box (NaN: not computed).
     """
 
     success: np.ndarray
     ci_low: np.ndarray
-    distance: np.ndarray
-    pushes: np.ndarray
+    cost: np.ndarray
+    steps: np.ndarray
     confidence: float
+    bound_position_m: Optional[np.ndarray] = None
+    bound_theta_rad: Optional[np.ndarray] = None
 
     @property
     def n(self) -> int:
@@ -222,39 +242,169 @@ def _signature(plan) -> tuple:
 @float64
 def score_candidates(plans: Sequence, sampler: Sampler, n: int, key, *,
                      model: str = "quasistatic", dtype=jnp.float64,
-                     pos_eps_m: float = SuccessCriterion.pos_eps_m,
-                     theta_eps_rad: float = SuccessCriterion.theta_eps_rad,
-                     confidence: float = 0.95, chunk: int = 4096) -> Scores:
-    """Replay push plans of one task on the same ``n`` draws of ``sampler``
-    (drawn with ``key`` for the longest plan's push count) under ``model``
-    (``quasistatic`` or ``exact``) and score them.
+                     pos_eps_m: Optional[float] = None, theta_eps_rad: Optional[float] = None,
+                     confidence: float = 0.95, chunk: int = 4096, merge_factor: float = 8.0,
+                     bounds: bool = True) -> Scores:
+    """Replay the plans of one task (push plans, or tumble plans) on the same
+    ``n`` draws of ``sampler`` (drawn with ``key`` for the longest plan's push
+    or tumble count) and score them, with the success rule of
+    :func:`robustness.evaluate` (inside the model, final pose within the eps
+    of the goal; tumbles: on the goal face, the perturbed hull's faces those of
+    the nominal part).
+
+    Args:
+      model: push plans: ``quasistatic`` or ``exact`` (tumbles are exact).
+      pos_eps_m, theta_eps_rad: the success tolerances (defaults: 1 mm / 1
+        degree for pushes, the plan's eps for tumbles).
+      merge_factor: tumbles: the combinatorics check's face-merging factor.
+      bounds: compute each candidate's first-order bound.
 
     Returns:
-      :class:`Scores` (success as :func:`robustness.evaluate` decides it:
-      inside the model, final pose within the eps of the goal).
+      :class:`Scores`.
     """
-    if model not in ("quasistatic", "exact"):
-        raise ValueError(f"model: robust synthesis scores candidates under the quasistatic or "
-                         f"exact kinematics, got {model!r}")
     plans = list(plans)
+    if not plans:
+        raise ValueError("plans: expected at least one candidate plan")
+    tumble = hasattr(plans[0], "tumbles")
+    if tumble:
+        success = _tumble_success(plans, sampler, int(n), key, dtype, pos_eps_m, theta_eps_rad,
+                                  chunk, merge_factor)
+    else:
+        if model not in ("quasistatic", "exact"):
+            raise ValueError(f"model: robust synthesis scores push candidates under the "
+                             f"quasistatic or exact kinematics, got {model!r}")
+        success = _push_success(plans, sampler, int(n), key, model, dtype,
+                                SuccessCriterion.pos_eps_m if pos_eps_m is None else pos_eps_m,
+                                SuccessCriterion.theta_eps_rad if theta_eps_rad is None
+                                else theta_eps_rad, chunk)
+    k = success.sum(axis=1)
+    low = np.array([stats.one_sided_lower(int(x), int(n), confidence) for x in k])
+    K = len(plans)
+    bp, bt = np.full(K, np.nan), np.full(K, np.nan)
+    if bounds or tumble:
+        from robustness.bounds import push_plan_bound, tumble_plan_bound
+
+        for i, pl in enumerate(plans):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                b = (tumble_plan_bound(pl, sampler.geometry, sampler.execution) if tumble
+                     else push_plan_bound(pl, sampler.geometry, sampler.execution))
+            bp[i], bt[i] = b.position_m, b.theta_rad
+    cost = bp if tumble else np.array([p.total_distance for p in plans], np.float64)
+    steps = np.array([p.n_tumbles if tumble else p.n_pushes for p in plans], np.int64)
+    return Scores(success=success, ci_low=low, cost=cost, steps=steps,
+                  confidence=float(confidence), bound_position_m=bp, bound_theta_rad=bt)
+
+
+def _push_success(plans, sampler, n, key, model, dtype, pe, te, chunk) -> np.ndarray:
     from kernels import polygon as pg
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pg.PartWarning)
         poly0 = pg.make_polygon(np.asarray(plans[0].vertices), np.asarray(plans[0].com))
     P = max(len(p.pushes) for p in plans)
-    draws = sampler.sample(key, int(n), body=poly0.body, dtype=jnp.float64,
+    draws = sampler.sample(key, n, body=poly0.body, dtype=jnp.float64,
                            n_vertices=len(plans[0].vertices), dim=2, n_pushes=P)
     r = run_push_many(plans, draws.astype(jnp.dtype(dtype)), model, jnp.dtype(dtype), chunk)
     _, _, _, ep, et = goal_errors(r.x, r.y, r.theta, plans[0].goal)
     valid = ~np.asarray(r.changed, bool) & ~np.asarray(r.truncated, bool)
-    success = kinematic_success(valid, ep, et, pos_eps_m, theta_eps_rad)
-    k = success.sum(axis=1)
-    low = np.array([stats.one_sided_lower(int(x), int(n), confidence) for x in k])
-    return Scores(success=success, ci_low=low,
-                  distance=np.array([p.total_distance for p in plans], np.float64),
-                  pushes=np.array([p.n_pushes for p in plans], np.int64),
-                  confidence=float(confidence))
+    return kinematic_success(valid, ep, et, pe, te)
+
+
+def _tumble_success(plans, sampler, n, key, dtype, pe, te, chunk, merge_factor) -> np.ndarray:
+    from robustness.hulls import face_merge_tol
+    from robustness.replay import run_tumble_many, tumble_nominal
+
+    pe = float(plans[0].eps) if pe is None else float(pe)
+    te = float(plans[0].eps) if te is None else float(te)
+    L = max(p.n_tumbles for p in plans)
+    draws = sampler.sample(key, n, dtype=jnp.float64, n_vertices=len(plans[0].vertices), dim=3,
+                           n_tumbles=L)
+    tol = None
+    if sampler.geometry.tau_v > 0:
+        v = np.asarray(tumble_nominal(plans[0]).vertices)
+        diam = float(np.max(np.linalg.norm(v[:, None] - v[None], axis=-1)))
+        tol = face_merge_tol(sampler.geometry.tau_v, diam, merge_factor)
+    r = run_tumble_many(plans, draws, jnp.dtype(dtype), chunk, merge_tol=tol,
+                        slip_theta=sampler.execution.tumble_slip_theta)
+    _, _, _, ep, et = goal_errors(r.x, r.y, r.theta, plans[0].goal)
+    on_face = np.asarray(r.ok, bool) & (np.asarray(r.face) == int(plans[0].goal[3]))
+    return kinematic_success(~np.asarray(r.changed, bool), ep, et, pe, te) & on_face
+
+
+@dataclasses.dataclass(frozen=True)
+class TumbleSetting:
+    """The tumble planner's setting of a candidate: its accuracy ``eps`` (m /
+    rad), the vertex tolerance it planned for ``tau_v`` (m), and whether its
+    word was shortened (False: the paper's own construction)."""
+
+    eps: float
+    tau_v: float = 0.0
+    shorten: bool = True
+
+
+@float64
+def tumble_candidates(vertices, start, goal, com=None, *, eps: float = 1e-3, tau_v: float = 0.0,
+                      tau_g: Optional[float] = None,
+                      eps_factors: Sequence[float] = (1.0, 0.5, 0.25), paper: bool = True,
+                      slack: int = 2,
+                      per_setting: int = 3, limit: int = 32) -> tuple[list, tuple]:
+    """Candidate tumble plans for one task: :func:`planning.tumble_alternatives`
+    at the configured ``eps`` and ``tau_v`` (its first: the default plan), at
+    tighter accuracies ``eps * eps_factors`` (other words, often of the same
+    length, that land closer), and the paper's own construction when it is
+    short; distinct words, at most ``slack`` tumbles longer than the shortest,
+    each replayed exactly and ``solved`` (all planned at the configured
+    ``tau_v``: the faces are named as the task names them).
+
+    Returns:
+      ``(candidates, skipped)`` as :func:`push_candidates`.
+
+    Raises:
+      PlanningError: the configured planner has no solved plan (its reason).
+    """
+    from planning import plan_tumble, tumble_alternatives
+
+    base = TumbleSetting(float(eps), float(tau_v), True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        first = plan_tumble(vertices, goal, start=start, com=com, eps=eps, tau_v=tau_v,
+                            tau_g=tau_g)
+    if first.verdict != "solved":
+        raise PlanningError(f"{first.verdict}: {first.reason}")
+    settings = [base] + [TumbleSetting(float(eps) * f, float(tau_v), True) for f in eps_factors]
+    settings = list(dict.fromkeys(settings))
+    per, skipped = [], []
+    for st in settings:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                per.append((st, tumble_alternatives(vertices, goal, start=start, com=com,
+                                                    eps=st.eps, tau_v=st.tau_v, tau_g=tau_g,
+                                                    limit=per_setting, slack=slack)))
+        except ValueError as exc:
+            skipped.append(f"eps {st.eps:g}, tau_v {st.tau_v:g}: {str(exc).splitlines()[0][:160]}")
+    if paper:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            pp = plan_tumble(vertices, goal, start=start, com=com, eps=eps, tau_v=tau_v,
+                             tau_g=tau_g, shorten=False)
+        if pp.verdict == "solved" and pp.n_tumbles <= first.n_tumbles + slack:
+            per.append((TumbleSetting(float(eps), float(tau_v), False), [pp]))
+        else:
+            skipped.append(f"the paper's construction: {pp.n_tumbles} tumbles"
+                           + ("" if pp.verdict == "solved" else f", {pp.verdict}"))
+    shortest = first.n_tumbles
+    out, seen = [Candidate(first, base, 0)], {first.faces}
+    for rank in range(per_setting):
+        for st, plans in per:
+            if rank < len(plans) and len(out) < limit:
+                pl = plans[rank]
+                if pl.faces in seen or pl.n_tumbles > shortest + slack:
+                    continue
+                seen.add(pl.faces)
+                out.append(Candidate(pl, st, rank))
+    return out, tuple(skipped)
 
 
 def select(scores: Scores, objective: str = "max_lower_bound",
@@ -262,15 +412,16 @@ def select(scores: Scores, objective: str = "max_lower_bound",
     """The chosen candidate's index and one line saying why.
 
     ``max_lower_bound``: the highest lower bound; candidates within one
-    success of the best count as tied and the shortest push distance, then
-    the fewest pushes, then the lowest index wins among them.
-    ``shortest_certifying``: the shortest (distance, then pushes) whose bound
-    reaches ``required_probability``; without one, ``max_lower_bound``.
+    success of the best count as tied and the lowest cost (push distance;
+    tumbles: propagated error), then the fewest steps, then the lowest index
+    wins among them.  ``shortest_certifying``: the cheapest (cost, then
+    steps) whose bound reaches ``required_probability``; without one,
+    ``max_lower_bound``.
     """
     if objective not in OBJECTIVES:
         raise ValueError(f"objective: expected one of {OBJECTIVES}, got {objective!r}")
     k = scores.n_success
-    order = lambda idx: min(idx, key=lambda i: (scores.distance[i], scores.pushes[i], i))  # noqa: E731
+    order = lambda idx: min(idx, key=lambda i: (scores.cost[i], scores.steps[i], i))  # noqa: E731
     if objective == "shortest_certifying":
         if required_probability is None:
             raise ValueError("required_probability: shortest_certifying needs the requirement")
@@ -292,16 +443,22 @@ def select(scores: Scores, objective: str = "max_lower_bound",
 def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key,
                options: Optional[PushOptions] = None, objective: str = "max_lower_bound",
                required_probability: Optional[float] = None, model: str = "quasistatic",
-               dtype=jnp.float64, pos_eps_m: float = SuccessCriterion.pos_eps_m,
-               theta_eps_rad: float = SuccessCriterion.theta_eps_rad,
-               confidence: float = 0.95, **grid) -> Synthesis:
-    """Candidates (:func:`push_candidates`, ``grid`` its keywords), scored on
-    ``n`` draws with ``key`` (:func:`score_candidates`; pass
+               dtype=jnp.float64, pos_eps_m: Optional[float] = None,
+               theta_eps_rad: Optional[float] = None, confidence: float = 0.95,
+               **grid) -> Synthesis:
+    """Candidates of a push task (2-d ``vertices``: :func:`push_candidates`) or a
+    tumble task (3-d: :func:`tumble_candidates`; ``grid`` the keywords of
+    either), scored on ``n`` draws with ``key`` (:func:`score_candidates`; pass
     :func:`selection_key` of the certification's key), chosen by ``objective``
-    (:func:`select`).  Certify the chosen plan on other draws."""
+    (:func:`select`).  Certify the chosen plan on other draws.  ``model``:
+    push candidates are scored under the quasi-static or exact kinematics
+    (``mujoco``: the quasi-static model chooses, physics certifies)."""
     if model not in ("quasistatic", "exact"):
-        model = "quasistatic"   # physics certifies; the kinematics choose
-    cands, skipped = push_candidates(vertices, start, goal, com, options=options, **grid)
+        model = "quasistatic"
+    if np.asarray(vertices).shape[-1] == 3:
+        cands, skipped = tumble_candidates(vertices, start, goal, com, **grid)
+    else:
+        cands, skipped = push_candidates(vertices, start, goal, com, options=options, **grid)
     scores = score_candidates([c.plan for c in cands], sampler, n, key, model=model, dtype=dtype,
                               pos_eps_m=pos_eps_m, theta_eps_rad=theta_eps_rad,
                               confidence=confidence)
@@ -309,5 +466,5 @@ def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key
     return Synthesis(cands, scores, i, objective, why, skipped)
 
 
-__all__ = ["Candidate", "Scores", "Synthesis", "OBJECTIVES", "push_candidates",
-           "score_candidates", "select", "selection_key", "synthesize"]
+__all__ = ["Candidate", "Scores", "Synthesis", "TumbleSetting", "OBJECTIVES", "push_candidates",
+           "tumble_candidates", "score_candidates", "select", "selection_key", "synthesize"]

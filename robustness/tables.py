@@ -251,9 +251,12 @@ CANDIDATES_SCHEMA = pa.schema([
     pa.field("distance_rule", STR),                 # peshkin | quasi-static
     pa.field("support", STR),                       # what the distances are valid for
     pa.field("min_fence_mu", F64),                  # slip-aware bound (NaN: none)
+    pa.field("tumble_eps", F64),                    # tumble candidates: the planner's eps
     pa.field("alternative", I64),                   # 0: that setting's own plan
-    pa.field("n_pushes", I64),
-    pa.field("total_distance_m", F64),
+    pa.field("n_steps", I64),                       # pushes or tumbles
+    pa.field("total_distance_m", F64),              # push plans (NaN for tumbles)
+    pa.field("bound_position_m", F64),              # first-order bound over the tolerance box
+    pa.field("bound_theta_rad", F64),
     pa.field("model", STR),                         # the model the selection draws ran
     pa.field("n_samples", I64),                     # selection draws (common to every candidate)
     pa.field("n_success", I64),
@@ -282,7 +285,8 @@ DESIGN_SCHEMA = pa.schema([
     pa.field("failure_rate_all_perfect", F64),      # every axis perfect
     pa.field("rank", I64),                          # 1: removes most failures
     pa.field("joint", F64_LIST),                    # the joint design's values of this axis
-    pa.field("joint_t", F64),                       # its fraction of the one-axis limits
+    pa.field("joint_t", F64),                       # its fraction of the way to the one-axis limits
+    pa.field("joint_basis", STR),                   # where the way starts: configured | perfect
     pa.field("joint_ci_low_design", F64),
     pa.field("joint_n_fresh", I64),
     pa.field("joint_k_fresh", I64),

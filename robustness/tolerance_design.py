@@ -40,11 +40,11 @@ tighten?") directly and interactions show as removed shares that sum to more
 or less than the total.
 
 **The joint design** (:func:`joint_design`): the one-axis limits hold one at a
-time; together they fail.  All axes are moved together to a fraction ``t`` of
-their one-axis limits (friction: the same fraction of the way from the range's
-high end down to its limit), the largest ``t`` that certifies with headroom
-(at a tenth of the stated error rate) found by bisection, and that design is
-then verified once, at the stated confidence, on FRESH draws (the design was
+time; together they fail.  All axes are moved together the same fraction ``t``
+of the way from the configured tolerances (when they certify; else from
+perfect) to their one-axis limits, the largest ``t`` that certifies with
+headroom (at a tenth of the stated error rate) found by bisection, and that
+design is then verified once, at the stated confidence, on FRESH draws (the design was
 chosen on the design draws, so its bound there is optimistic); the drawing
 line states the fresh verdict.
 
@@ -132,10 +132,12 @@ class Sensitivity:
 
 @dataclasses.dataclass(frozen=True)
 class JointDesign:
-    """All axes at fraction ``t`` of their one-axis limits, verified on fresh draws.
+    """All axes ``t`` of the way to their one-axis limits, verified on fresh draws.
 
     Attributes:
-      t: the fraction (1: every one-axis limit at once).
+      t: the fraction of the way (1: every one-axis limit at once); basis:
+        where the way starts, ``"configured"`` (the configured tolerances,
+        which certify) or ``"perfect"`` (they do not).
       values: ``{axis: values}`` of the design (SI).
       ci_low_design: the bound on the design draws (optimistic).
       n_fresh, k_fresh, ci_low_fresh: the verification on fresh draws.
@@ -149,6 +151,7 @@ class JointDesign:
     k_fresh: int
     ci_low_fresh: float
     certified: bool
+    basis: str = "configured"
 
 
 def axes_for(plan) -> tuple:
@@ -367,14 +370,17 @@ def sensitivity(judge: Judge, sampler: Sampler, axes: Sequence[str]) -> list[Sen
     return out
 
 
-def _joint_sampler(sampler: Sampler, designs: Sequence[AxisDesign], t: float) -> Sampler:
+def _joint_sampler(sampler: Sampler, designs: Sequence[AxisDesign], t: float,
+                   basis: str) -> Sampler:
+    """Every axis at ``t`` of the way: from its configured value to its one-axis
+    limit (``basis="configured"``), or from perfect (``"perfect"``: zero;
+    friction the range's high end) to it."""
     out = sampler
     for d in designs:
-        if d.axis == "fence_friction":
-            hi = float(sampler.friction.mu_f[1])
-            out = with_values(out, d.axis, (hi - t * (hi - d.loosest[0]),))
-        else:
-            out = with_values(out, d.axis, tuple(t * v for v in d.loosest))
+        start = d.configured if basis == "configured" else (
+            (float(sampler.friction.mu_f[1]),) if d.axis == "fence_friction"
+            else (0.0,) * len(d.loosest))
+        out = with_values(out, d.axis, tuple(a + t * (b - a) for a, b in zip(start, d.loosest)))
     return out
 
 
@@ -385,27 +391,33 @@ HEADROOM = 0.1
 
 def joint_design(judge: Judge, sampler: Sampler, designs: Sequence[AxisDesign], fresh_key,
                  n_fresh: Optional[int] = None, *, rel_tol: float = 0.02) -> JointDesign:
-    """Every axis at the largest common fraction ``t`` of its one-axis limit
-    whose bound on the design draws reaches ``p`` at the stricter confidence
-    ``1 - HEADROOM (1 - confidence)`` (a design at the edge of the design
-    draws would fail its fresh verification half of the time), then verified,
-    once, at ``confidence`` on ``n_fresh`` draws of ``fresh_key`` (default
-    ``judge.n``): the verification is the claim."""
+    """The joint design: every axis ``t`` of the way to its one-axis limit, the
+    largest ``t`` whose bound on the design draws reaches ``p`` at the stricter
+    confidence ``1 - HEADROOM (1 - confidence)`` (a design at the edge of the
+    design draws would fail its fresh verification half of the time), then
+    verified, once, at ``confidence`` on ``n_fresh`` draws of ``fresh_key``
+    (default ``judge.n``): the verification is the claim.
+
+    The way starts at the configured tolerances when they certify (no axis is
+    then tighter than configured: ``basis = "configured"``), else at perfect
+    (``"perfect"``: all axes the same fraction of their limits)."""
     strict = 1.0 - HEADROOM * (1.0 - judge.confidence)
 
-    def ok(t):
-        low = stats.one_sided_lower(judge.successes(_joint_sampler(sampler, designs, t)),
-                                    judge.n, strict)
+    def ok(t, basis):
+        low = stats.one_sided_lower(
+            judge.successes(_joint_sampler(sampler, designs, t, basis)), judge.n, strict)
         return low >= judge.p, low
 
-    good1, low1 = ok(1.0)
+    basis = "configured" if ok(0.0, "configured")[0] else "perfect"
+    good1, low1 = ok(1.0, basis)
     if good1:
         t, low = 1.0, low1
+    elif basis == "configured":
+        t, low = _bisect_linear(lambda x: ok(x, basis), 0.0, 1.0, ok(0.0, basis)[1], rel_tol)
     else:
-        lo, lo_val = None, None
-        t_try = 0.5
+        lo, lo_val, t_try = None, None, 0.5
         while t_try > 1e-4:
-            g, v = ok(t_try)
+            g, v = ok(t_try, basis)
             if g:
                 lo, lo_val = t_try, v
                 break
@@ -413,15 +425,28 @@ def joint_design(judge: Judge, sampler: Sampler, designs: Sequence[AxisDesign], 
         if lo is None:
             t, low = 0.0, 0.0
         else:
-            t, low = _bisect(ok, lo, min(1.0, 2.0 * lo), lo_val, rel_tol)
-    s = _joint_sampler(sampler, designs, t)
+            t, low = _bisect(lambda x: ok(x, basis), lo, min(1.0, 2.0 * lo), lo_val, rel_tol)
+    s = _joint_sampler(sampler, designs, t, basis)
     n = int(n_fresh or judge.n)
     fresh = Judge(judge.plan, n, fresh_key, p=judge.p, confidence=judge.confidence)
     fresh.kw = judge.kw
     k = fresh.successes(s)
     lowf = stats.one_sided_lower(k, n, judge.confidence)
     values = {d.axis: (configured(s, d.axis)) for d in designs}
-    return JointDesign(t, values, low, n, k, lowf, lowf >= judge.p)
+    return JointDesign(t, values, low, n, k, lowf, lowf >= judge.p, basis)
+
+
+def _bisect_linear(ok, lo: float, hi: float, lo_val, tol: float):
+    """Largest ``x`` in ``[lo, hi]`` with ``ok(x)`` (true at lo, false at hi), to ``tol``."""
+    best = (lo, lo_val)
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        g, v = ok(mid)
+        if g:
+            lo, best = mid, (mid, v)
+        else:
+            hi = mid
+    return best
 
 
 def design_key(key):

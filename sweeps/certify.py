@@ -300,8 +300,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     report_warnings(caught)
     key = jax.random.fold_in(jax.random.key(cfg.seed), ti)
     syn = None
-    if plan is not None and kind == "push" and cfg.synthesize is not None \
-            and cfg.synthesize.enabled:
+    if plan is not None and cfg.synthesize is not None and cfg.synthesize.enabled:
         syn = synthesize_task(cfg, part, name, start, goal, key, store, ti)
         plan = syn.plan
         _log(quiet, f"[{name}] {syn.describe()}")
@@ -392,7 +391,7 @@ def design_task(cfg, part, plan, name, key, store, ti) -> str:
                          failure_rate_alone=s.failure_rate_alone,
                          failures_removed=s.failures_removed, failure_rate_all_perfect=base,
                          rank=order.index(dz.axis) + 1, joint=list(joint.values[dz.axis]),
-                         joint_t=joint.t, joint_ci_low_design=joint.ci_low_design,
+                         joint_t=joint.t, joint_basis=joint.basis, joint_ci_low_design=joint.ci_low_design,
                          joint_n_fresh=joint.n_fresh, joint_k_fresh=joint.k_fresh,
                          joint_ci_low_fresh=joint.ci_low_fresh, joint_certified=joint.certified,
                          drawing=line, model=model, n_samples=judge.n,
@@ -477,28 +476,42 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
     from robustness import selection_key, synthesize
     from sweeps.tasks import plan_json
 
+    from sweeps.tasks import tumble_eps
+
     sy = cfg.synthesize
-    model = cfg.model if cfg.model in ("quasistatic", "exact") else "quasistatic"
+    push = part.kind == "polygon"
+    model = (cfg.model if cfg.model in ("quasistatic", "exact") else "quasistatic") if push \
+        else "exact"
+    grid = (dict(options=cfg.planner.push_options(), **sy.grid(cfg.friction)) if push
+            else sy.tumble_grid(tumble_eps(cfg.planner, cfg.eps), cfg.planner.tumble_tau_v,
+                                cfg.planner.tau_g))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         syn = synthesize(part.vertices, start, goal, part.com, sampler=cfg.sampler(),
-                         n=sy.n_samples, key=selection_key(key),
-                         options=cfg.planner.push_options(), objective=sy.objective,
+                         n=sy.n_samples, key=selection_key(key), objective=sy.objective,
                          required_probability=cfg.required.probability, model=model,
                          dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
                          pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                         confidence=cfg.required.confidence, **sy.grid(cfg.friction))
+                         confidence=cfg.required.confidence, **grid)
     report_warnings(caught)
     s = syn.scores
     rows = []
     for i, c in enumerate(syn.candidates):
         pl = c.plan
-        rows.append(dict(run_id=store.run_id, task=name, candidate=i, label=c.label,
-                         margin_deg=pl.margin_deg, safety_factor=pl.safety_factor,
-                         strategy=pl.strategy, distance_rule=pl.distance_rule, support=pl.support,
-                         min_fence_mu=math.nan if pl.min_fence_mu is None else pl.min_fence_mu,
-                         alternative=c.rank, n_pushes=pl.n_pushes,
-                         total_distance_m=pl.total_distance, model=model, n_samples=s.n,
+        if push:
+            how = dict(margin_deg=pl.margin_deg, safety_factor=pl.safety_factor,
+                       strategy=pl.strategy, distance_rule=pl.distance_rule, support=pl.support,
+                       min_fence_mu=math.nan if pl.min_fence_mu is None else pl.min_fence_mu,
+                       n_steps=pl.n_pushes, total_distance_m=pl.total_distance,
+                       tumble_eps=math.nan)
+        else:
+            how = dict(margin_deg=math.nan, safety_factor=math.nan,
+                       strategy="short" if c.options.shorten else "paper", distance_rule=None,
+                       support=None, min_fence_mu=math.nan, n_steps=pl.n_tumbles,
+                       total_distance_m=math.nan, tumble_eps=c.options.eps)
+        rows.append(dict(run_id=store.run_id, task=name, candidate=i, label=c.label, **how,
+                         alternative=c.rank, bound_position_m=float(s.bound_position_m[i]),
+                         bound_theta_rad=float(s.bound_theta_rad[i]), model=model, n_samples=s.n,
                          n_success=int(s.n_success[i]), ci_low_one_sided=float(s.ci_low[i]),
                          confidence=s.confidence, objective=syn.objective,
                          chosen=i == syn.chosen, plan_json=plan_json(pl)))

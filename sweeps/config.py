@@ -115,8 +115,10 @@ class Planner(Strict):
 
 
 class Synthesize(Strict):
-    """Robust plan synthesis (:mod:`robustness.synthesis`, push tasks): the
-    candidate grid, the selection draws and the objective."""
+    """Robust plan synthesis (:mod:`robustness.synthesis`): the candidate grid
+    (push tasks: margins, safety factors, strategies, distance rules; tumble
+    tasks: accuracies and the length slack), the selection draws and the
+    objective."""
 
     enabled: bool = True
     n_samples: StrictInt = Field(1000, ge=10, le=1_000_000)
@@ -130,6 +132,8 @@ class Synthesize(Strict):
     slip_aware: bool = True
     per_setting: StrictInt = Field(3, ge=1, le=32)
     max_candidates: StrictInt = Field(64, ge=1, le=1024)
+    eps_factors: list[float] = Field(default_factory=lambda: [1.0, 0.5, 0.25], min_length=1)
+    slack: StrictInt = Field(2, ge=0, le=100)
 
     @model_validator(mode="after")
     def _grid(self):
@@ -137,7 +141,16 @@ class Synthesize(Strict):
             raise ValueError("margins_deg: give margin angles in degrees, 0 < margin < 90")
         if any(sf < 1 for sf in self.safety_factors):
             raise ValueError("safety_factors: give safety factors >= 1")
+        if any(not (0 < f <= 1) for f in self.eps_factors):
+            raise ValueError("eps_factors: give factors of the tumble planner's eps, 0 < f <= 1")
         return self
+
+    def tumble_grid(self, eps: float, tau_v: float, tau_g) -> dict:
+        """The keywords of :func:`robustness.synthesis.tumble_candidates` for a
+        tumble planner with accuracy ``eps``, tolerance ``tau_v`` and ``tau_g``."""
+        return dict(eps=float(eps), tau_v=float(tau_v), tau_g=tau_g,
+                    eps_factors=tuple(self.eps_factors), slack=self.slack,
+                    per_setting=self.per_setting, limit=self.max_candidates)
 
     def grid(self, friction) -> dict:
         """The keywords of :func:`robustness.synthesis.push_candidates` for a

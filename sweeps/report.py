@@ -177,16 +177,17 @@ pre { background: #f7f7f7; padding: 0.8em; font-size: 0.8em; overflow-x: auto; }
 the ten with the highest lower bound, and the default plan. Bounds here are on the selection draws
 (the chosen one's is optimistic); the certificate above is on fresh draws.</p>
 <table><tr><th>#</th><th class="l">candidate</th><th>successes</th><th>CP low</th><th>distance m</th>
-<th>pushes</th><th class="l"></th></tr>
+<th>steps</th><th>first-order bound mm</th><th class="l"></th></tr>
 {% for r in t.rows %}<tr><td>{{ r.candidate }}</td><td class="l">{{ r.label }}</td><td>{{ r.k }}</td>
-<td>{{ r.low }}</td><td>{{ r.dist }}</td><td>{{ r.pushes }}</td><td class="l">{{ r.tag }}</td></tr>{% endfor %}
+<td>{{ r.low }}</td><td>{{ r.dist }}</td><td>{{ r.pushes }}</td><td>{{ r.bound }}</td><td class="l">{{ r.tag }}</td></tr>{% endfor %}
 </table>{% endfor %}
 {% for t in design %}<h2>Tolerance design: {{ t.task }}</h2>
 <p class="drawing{% if not t.certified %} no{% endif %}">{{ t.drawing }}</p>
 <p class="note">One axis at a time, the others as configured: the loosest value whose one-sided
 Clopper-Pearson lower bound of success at {{ t.confidence }} confidence still reaches {{ t.p }}
-(bisection on the same {{ t.n }} design draws, {{ t.model }} model). The line above is all axes at
-{{ t.t }} of those limits together, verified on {{ t.n_fresh }} fresh draws. Failures with every axis
+(bisection on the same {{ t.n }} design draws, {{ t.model }} model). The line above is all axes
+together, {{ t.t }} of the way from {{ t.basis }} to those limits, verified on {{ t.n_fresh }} fresh
+draws. Values in metres, radians, fractions (relative push distance) and friction coefficients. Failures with every axis
 perfect: {{ t.base }} (what no axis covers, e.g. the support).</p>
 <table><tr><th>rank</th><th class="l">axis</th><th class="l">fields</th><th class="l">configured</th>
 <th class="l">loosest alone</th><th>certified as configured</th><th>failure rate</th>
@@ -220,13 +221,14 @@ def write_certify_report(store, part: str, config_text: str) -> pathlib.Path:
                  claim=c.claim) for c in certs.itertuples()]
     synth = []
     for task, g in (cands.groupby("task", sort=False) if not cands.empty else ()):
-        g = g.sort_values(["ci_low_one_sided", "total_distance_m"], ascending=[False, True])
+        g = g.sort_values(["ci_low_one_sided", "total_distance_m", "bound_position_m"],
+                          ascending=[False, True, True])
         top = g.head(10)
         if not (top["candidate"] == 0).any():
             top = pd.concat([top, g[g["candidate"] == 0]])
         rows = [dict(candidate=int(r.candidate), label=r.label, k=int(r.n_success),
                      low=f(r.ci_low_one_sided), dist=f(r.total_distance_m, ".3f"),
-                     pushes=int(r.n_pushes),
+                     pushes=int(r.n_steps), bound=f(r.bound_position_m * 1e3, ".3g"),
                      tag=("chosen" if r.chosen else "") + (" default" if r.candidate == 0 else ""))
                 for r in top.itertuples()]
         synth.append(dict(task=task, n=len(g), draws=int(g["n_samples"].iloc[0]),
@@ -243,6 +245,8 @@ def write_certify_report(store, part: str, config_text: str) -> pathlib.Path:
         des.append(dict(task=task, drawing=r0.drawing, certified=bool(r0.joint_certified),
                         confidence=f"{r0.confidence:.4g}", p=f"{r0.required_probability:g}",
                         n=int(r0.n_samples), model=r0.model, t=f"{r0.joint_t:.3g}",
+                        basis=("the configured tolerances" if r0.joint_basis == "configured"
+                               else "perfect (the configured tolerances do not certify)"),
                         n_fresh=int(r0.joint_n_fresh), base=f(r0.failure_rate_all_perfect, ".3f"),
                         rows=rows))
     page = CERTIFY_TEMPLATE.render(part=part, run_id=store.run_id, root=str(store.root),

@@ -177,6 +177,7 @@ def test_certify_synthesize_end_to_end(tmp_path):
         assert g["chosen"].sum() == 1 and c["n_candidates"] == len(g) > 5
         ch = g[g.chosen].iloc[0]
         assert (g["candidate"] == 0).any() and ch["n_success"] >= g[g.candidate == 0].iloc[0]["n_success"]
+        assert g["bound_position_m"].notna().all() and (g["n_steps"] >= 1).all()
         # the certified plan is the chosen one; the verdict's samples are not the selection's
         assert plans[plans.task == task].iloc[0]["plan_json"] == ch["plan_json"]
         assert c["n_samples"] == 120 and c["selection_n_samples"] == 300 == ch["n_samples"]
@@ -195,3 +196,27 @@ def test_certify_synthesize_bad_field_is_one_line(tmp_path):
     lines = [x for x in r.stderr.splitlines() if x.strip()]
     assert len(lines) == 1 and "synthesize.objective" in lines[0], r.stderr
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_tumble_candidates_are_scored_like_evaluate_and_ties_go_to_the_smaller_bound():
+    from sweeps.study import load_part_ref
+
+    part = load_part_ref("truncated_pyramid", ROOT / "examples")
+    sampler = Sampler(GeometryTolerance(tau_v=5e-5),
+                      execution=ExecutionTolerance(tumble_slip_xy=2e-5, tumble_slip_theta=2e-4))
+    goal = (0.2, 0.0, 0.0, 0)
+    eps = dict(pos_eps_m=0.0025, theta_eps_rad=0.012)
+    syn = synthesize(part.vertices, (0, 0, 0, 0), goal, part.com, sampler=sampler, n=300,
+                     key=jax.random.key(0), eps=1e-3, **eps)
+    cands, s = syn.candidates, syn.scores
+    assert len(cands) >= 2 and all(c.plan.verdict == "solved" for c in cands)
+    assert len({c.plan.faces for c in cands}) == len(cands)
+    assert max(c.plan.n_tumbles for c in cands) <= cands[0].plan.n_tumbles + 2
+    longest = int(np.argmax([c.plan.n_tumbles for c in cands]))
+    ev = evaluate(cands[longest].plan, sampler, 300, jax.random.key(0), **eps, summary=False)
+    assert np.array_equal(ev.columns["success"], s.success[longest])
+    assert np.all(np.isfinite(s.bound_position_m)) and np.array_equal(s.cost, s.bound_position_m)
+    k = s.n_success
+    tied = [i for i in range(len(k)) if k[i] >= k.max() - 1]
+    assert syn.chosen == min(tied, key=lambda i: (s.bound_position_m[i], s.steps[i], i))

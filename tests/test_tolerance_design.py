@@ -86,8 +86,11 @@ def test_joint_design_is_verified_on_fresh_draws():
     assert 0 < j.t <= 1 and j.n_fresh == 200
     assert j.ci_low_fresh == pytest.approx(stats.one_sided_lower(j.k_fresh, 200, 0.95))
     assert j.certified == (j.ci_low_fresh >= 0.9)
-    for d in designs:                                # every axis at t of its one-axis limit
-        assert j.values[d.axis] == pytest.approx(tuple(j.t * v for v in d.loosest))
+    assert j.basis == "configured"                   # the configured tolerances certify
+    for d in designs:                    # every axis t of the way from configured to its limit
+        want = tuple(c + j.t * (v - c) for c, v in zip(d.configured, d.loosest))
+        assert j.values[d.axis] == pytest.approx(want)
+        assert all(w >= c for w, c in zip(j.values[d.axis], d.configured))   # none tighter
     line = td.drawing_line(designs, j, 0.9, 0.95, "exact")
     assert "fresh samples of the exact model" in line and "fence angle within" in line
 

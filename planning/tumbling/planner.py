@@ -37,6 +37,8 @@ between the replayed final configuration and the goal.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import math
 import numbers
 import warnings
@@ -369,6 +371,37 @@ def plan_tumble(vertices, goal, start=None, com=None, eps: float = 1e-3, tau_v: 
     (:mod:`planning.tumbling.verdict`), and it carries the best plan found.
     Raises ValueError naming the bad field and how to fix it.
     """
+    run = _search(vertices, goal, start, com, eps, tau_v, tau_g, shorten, effort, time_limit)
+    good = [c for c in run.checked if _lands(c, run.goal, run.eps)]
+    if run.checked:
+        pick = (min(good, key=lambda c: len(c[1])) if good else
+                min(run.checked, key=lambda c: (round(max(c[3], c[4] or 0.0) / run.A.size, 9),
+                                                len(c[1]))))
+    else:
+        pick = None
+    return _make_plan(run, vertices, pick)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Search:
+    """What :func:`plan_tumble`'s search found: the analysis, the paper's plan,
+    every replayed candidate ``(kind, word, final, err, err_given)``."""
+
+    A: object
+    P: object
+    paper: object
+    checked: list
+    exhausted: Optional[str]
+    budget: object
+    start: tuple
+    goal: tuple
+    eps: float
+    tau_v: float
+    tau_g: Optional[float]
+    shorten: bool
+
+
+def _search(vertices, goal, start, com, eps, tau_v, tau_g, shorten, effort, time_limit) -> _Search:
     eps, tau_v, tau_g, start_c, goal_c, P = _inputs(vertices, com, goal, start, eps, tau_v, tau_g,
                                                      effort, time_limit)
     A = analyze_polyhedron(vertices, com, tau_v=tau_v, tau_g=tau_g, start_face=start_c[3])
@@ -385,19 +418,24 @@ def plan_tumble(vertices, goal, start=None, com=None, eps: float = 1e-3, tau_v: 
     given = _given_hull(A, vertices, com)
     checked = _replay_candidates(A, start_c, goal_c, eps, [("short", w) for w in words], paper,
                                  budget, given)
-    if checked:
-        good = [c for c in checked if _lands(c, goal_c, eps)]
-        pick = (min(good, key=lambda c: len(c[1])) if good else
-                min(checked, key=lambda c: (round(max(c[3], c[4] or 0.0) / A.size, 9),
-                                            len(c[1]))))
+    return _Search(A, P, paper, checked, exhausted, budget, start_c, goal_c, eps, tau_v, tau_g,
+                   shorten)
+
+
+def _make_plan(run: _Search, vertices, pick) -> TumblePlan:
+    """The :class:`TumblePlan` of a candidate ``pick`` of the search (None: none)."""
+    A, P, paper, budget = run.A, run.P, run.paper, run.budget
+    start_c, goal_c, eps, tau_v, tau_g = run.start, run.goal, run.eps, run.tau_v, run.tau_g
+    G = goal_c[3]
+    if pick is not None:
         kind, word, final, err, err_given = pick
     else:
         kind, word, err_given = "none", (), None
         final, _ = replay_faces(A, start_c, ())
         err = config_error(final, goal_c)
 
-    verd, reason = verdict(A, paper, G, eps, err, int(final[3]), kind, len(word), shorten,
-                           exhausted, budget, err_given=err_given)
+    verd, reason = verdict(A, paper, G, eps, err, int(final[3]), kind, len(word), run.shorten,
+                           run.exhausted, budget, err_given=err_given)
     bounds = dict(paper.bounds)
     bounds["orientation_residual"] = float(paper.orientation_residual)
     bounds["position_residual"] = float(paper.position_residual)
@@ -419,3 +457,40 @@ def plan_tumble(vertices, goal, start=None, com=None, eps: float = 1e-3, tau_v: 
         reachable_class_exact=A.reachable_class_exact,
         step5_ok=(bool(paper.step5_ok) if tau_v > 0 else None), effort_used=int(budget.used),
     )
+
+
+@float64
+def tumble_alternatives(vertices, goal, start=None, com=None, eps: float = 1e-3,
+                        tau_v: float = 0.0, tau_g: Optional[float] = None, *,
+                        effort: Optional[int] = DEFAULT_EFFORT,
+                        time_limit: Optional[float] = DEFAULT_TIME_LIMIT_S, limit: int = 8,
+                        slack: int = 2) -> list[TumblePlan]:
+    """Up to ``limit`` solved tumble plans for one problem: :func:`plan_tumble`'s
+    (the shortest word that lands), then the other words its search replayed
+    that land within ``eps`` and are at most ``slack`` tumbles longer than the
+    shortest (shortest first, then by their exact error).  The arguments are
+    :func:`plan_tumble`'s; an empty list when no word lands (``plan_tumble``
+    says why).  Every plan has been replayed by the exact kinematics."""
+    if not (isinstance(limit, (int, np.integer)) and limit >= 1):
+        raise ValueError(f"limit: expected an integer >= 1, got {limit!r}")
+    if not (isinstance(slack, (int, np.integer)) and slack >= 0):
+        raise ValueError(f"slack: expected an integer >= 0, got {slack!r}")
+    run = _search(vertices, goal, start, com, eps, tau_v, tau_g, True, effort, time_limit)
+    good = [c for c in run.checked if _lands(c, run.goal, run.eps)]
+    if not good:
+        return []
+    first = min(good, key=lambda c: len(c[1]))
+    rest = sorted((c for c in good if c is not first and len(c[1]) <= len(first[1]) + slack),
+                  key=lambda c: (len(c[1]), c[3]))
+    out, seen = [], set()
+    for c in [first] + rest:
+        w = tuple(int(f) for f in c[1])
+        if w in seen:
+            continue
+        seen.add(w)
+        plan = _make_plan(run, vertices, c)
+        if plan.verdict == "solved":
+            out.append(plan)
+        if len(out) >= limit:
+            break
+    return out

@@ -1,0 +1,166 @@
+"""Benchmark of robust plan synthesis and tolerance design (``robustness.synthesis``,
+``robustness.tolerance_design``): the default plan against the synthesized one.
+
+Run by hand from the repository root (no assertions)::
+
+    python bench/synthesis.py                       # ~10 min on 2 cores
+    python bench/synthesis.py --mujoco-samples 0    # the quasi-static model only
+
+Tasks: the two tasks of ``examples/certify_triangle.yaml`` (a translation and
+a 60-degree turn, their positions scaled by the part's size against the
+triangle's) on every bundled polygon (rectangle, nice-stable, biplus-stable,
+uni-stable), with that config's tolerances and robot errors and fence friction
+uniform in [0.5, 0.8] (support ``any``).  For each task:
+
+* the default plan (the configured planner, ``plan_pose``) and the synthesized
+  one (``synthesize``: the default grid, at most 64 candidates, 1,000 selection
+  draws of ``selection_key``);
+* both evaluated on the same ``--fresh`` FRESH quasi-static draws (not the
+  selection's): the one-sided Clopper-Pearson lower bound of success at 95 %;
+* both rolled out in MuJoCo (C engine, ``--mujoco-samples`` fresh draws): the
+  success rate (tens of samples: a check that the choice holds in physics,
+  not a certificate);
+* the push distance ratio (synthesized / default) and the synthesis time
+  (candidates + scoring, warm).
+
+Then one task timed alone: 64 candidates x 1,000 samples (candidate generation
+and the one compiled scoring call, warm), and the tolerance design of its
+synthesized plan, 6 axes (warm).
+
+The last line is ``RESULT gain_qs=G gain_mujoco=M length_ratio=L
+seconds_per_task=S`` (``gain_qs``: the median over tasks of the synthesized
+minus the default plan's lower bound on the fresh quasi-static draws;
+``gain_mujoco``: the median difference of the MuJoCo success rates;
+``length_ratio``: the median distance ratio; ``seconds_per_task``: the median
+synthesis time) with ``tasks_not_worse_qs``, ``tasks_not_worse_mujoco``,
+``one_task_s`` and ``design_s``.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import pathlib
+import statistics
+import sys
+import time
+import warnings
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+os.environ.setdefault("JAX_PLATFORMS", "cpu")
+
+PARTS = ("rectangle", "nice_stable", "biplus_stable", "unistable")
+
+
+def _sampler():
+    from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler
+
+    return Sampler(GeometryTolerance(tau_v=2e-5, tau_com=1e-4),
+                   FrictionRange(mu_f=(0.5, 0.8), mu_s=(0.2, 0.5), support="any"),
+                   ExecutionTolerance(start_xy=5e-4, start_theta=0.01, fence_angle=0.002,
+                                      distance_abs=1e-4, distance_rel=0.005))
+
+
+def _size(v):
+    import numpy as np
+
+    v = np.asarray(v, float)
+    return float(np.max(np.linalg.norm(v[:, None] - v[None], axis=-1)))
+
+
+def main() -> int:
+    import jax
+    import numpy as np
+
+    from planning import plan_pose
+    from robustness import evaluate, one_sided_lower, selection_key, synthesize
+    from robustness import tolerance_design as td
+    from sweeps.executors import enable_compilation_cache
+    from sweeps.study import load_part_ref
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--fresh", type=int, default=2000, help="fresh quasi-static draws per plan")
+    ap.add_argument("--mujoco-samples", type=int, default=16, help="MuJoCo rollouts per plan")
+    args = ap.parse_args()
+    warnings.simplefilter("ignore")
+    enable_compilation_cache()
+    sampler = _sampler()
+    eps = dict(pos_eps_m=0.003, theta_eps_rad=0.05)
+    tri = load_part_ref("biplus_stable", ROOT / "examples")
+    ref = _size(tri.vertices)
+    tasks = (("translate", (0.08, 0.03, 0.0)), ("turn", (0.10, 0.05, np.pi / 3)))
+    rows = []
+    print(f"{'part':14s} {'task':10s} {'K':>3s} {'default':>24s} {'synthesized':>24s} "
+          f"{'CP low def':>10s} {'CP low syn':>10s} {'mj def':>7s} {'mj syn':>7s} "
+          f"{'length':>7s} {'s':>6s}")
+    for name in PARTS:
+        part = load_part_ref(name, ROOT / "examples")
+        k = _size(part.vertices) / ref
+        for ti, (task, goal) in enumerate(tasks):
+            goal = (goal[0] * k, goal[1] * k, goal[2])
+            key = jax.random.fold_in(jax.random.key(0), 10 * PARTS.index(name) + ti)
+            default = plan_pose(part.vertices, (0.0, 0.0, 0.0), goal, part.com)
+            synthesize(part.vertices, (0, 0, 0), goal, part.com, sampler=sampler, n=1000,
+                       key=selection_key(key), **eps)                      # warm-up
+            t0 = time.perf_counter()
+            syn = synthesize(part.vertices, (0, 0, 0), goal, part.com, sampler=sampler, n=1000,
+                             key=selection_key(key), **eps)
+            dt = time.perf_counter() - t0
+            fresh = jax.random.fold_in(key, 1)
+            lows = []
+            for plan in (default, syn.plan):
+                ev = evaluate(plan, sampler, args.fresh, fresh, **eps, summary=False)
+                lows.append(one_sided_lower(int(np.sum(ev.columns["success"])), args.fresh, 0.95))
+            mj = [float("nan"), float("nan")]
+            if args.mujoco_samples:
+                for j, plan in enumerate((default, syn.plan)):
+                    ev = evaluate(plan, sampler, args.mujoco_samples, jax.random.fold_in(key, 2),
+                                  model="mujoco", **eps, summary=False)
+                    mj[j] = float(np.mean(ev.columns["success"]))
+            ratio = syn.plan.total_distance / default.total_distance
+            rows.append(dict(part=name, task=task, K=len(syn.candidates), low=lows, mj=mj,
+                             ratio=ratio, s=dt))
+            d = f"{default.n_pushes} pushes {default.total_distance:.3f} m"
+            s = f"{syn.plan.n_pushes} pushes {syn.plan.total_distance:.3f} m"
+            print(f"{name:14s} {task:10s} {len(syn.candidates):3d} {d:>24s} {s:>24s} "
+                  f"{lows[0]:10.4f} {lows[1]:10.4f} {mj[0]:7.3f} {mj[1]:7.3f} {ratio:7.3f} "
+                  f"{dt:6.2f}", flush=True)
+    # one task alone: 64 candidates x 1000 samples, warm; then its tolerance design
+    part = load_part_ref("biplus_stable", ROOT / "examples")
+    goal = tasks[1][1]
+    key = jax.random.key(7)
+    t0 = time.perf_counter()
+    syn = synthesize(part.vertices, (0, 0, 0), goal, part.com, sampler=sampler, n=1000,
+                     key=selection_key(key), limit=64, **eps)
+    one = time.perf_counter() - t0
+
+    def design():
+        judge = td.Judge(syn.plan, 1000, td.design_key(key), p=0.9, confidence=0.95, **eps)
+        ds = [td.loosest(judge, sampler, a) for a in td.PUSH_AXES]
+        td.sensitivity(judge, sampler, td.PUSH_AXES)
+        td.joint_design(judge, sampler, ds, jax.random.fold_in(td.design_key(key), 1))
+        return judge.calls
+
+    design()                                       # warm-up (its compilations)
+    t0 = time.perf_counter()
+    calls = design()
+    design_s = time.perf_counter() - t0
+    print(f"\none task (biplus_stable turn): {len(syn.candidates)} candidates x 1000 samples "
+          f"in {one:.2f} s (warm); tolerance design, 6 axes, {calls} evaluations of 1000 "
+          f"samples: {design_s:.2f} s (warm)")
+    gq = [r["low"][1] - r["low"][0] for r in rows]
+    gm = [r["mj"][1] - r["mj"][0] for r in rows]
+    worse_q = sum(g >= -1e-12 for g in gq)
+    worse_m = sum(g >= -1e-12 for g in gm if g == g)
+    med = lambda xs: statistics.median(xs) if xs else float("nan")  # noqa: E731
+    print(f"\nRESULT gain_qs={med(gq):.4f} gain_mujoco={med([g for g in gm if g == g]):.4f} "
+          f"length_ratio={med([r['ratio'] for r in rows]):.3f} "
+          f"seconds_per_task={med([r['s'] for r in rows]):.2f} "
+          f"tasks_not_worse_qs={worse_q}/{len(rows)} "
+          f"tasks_not_worse_mujoco={worse_m}/{sum(g == g for g in gm)} one_task_s={one:.2f} "
+          f"design_s={design_s:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
