@@ -137,6 +137,7 @@ class Synthesis:
       chosen: index of the chosen candidate; objective: the objective used.
       why: one line saying why it was chosen.
       skipped: planner settings that gave no plan, one line each.
+      model: the model the selection draws ran (``quasistatic``, ``exact``).
     """
 
     candidates: list
@@ -145,6 +146,7 @@ class Synthesis:
     objective: str
     why: str
     skipped: tuple = ()
+    model: str = "quasistatic"
 
     @property
     def plan(self):
@@ -156,6 +158,7 @@ class Synthesis:
         k0, kc = int(s.n_success[0]), int(s.n_success[self.chosen])
         return (f"synthesized: {self.candidates[self.chosen].label}; chosen among "
                 f"{len(self.candidates)} candidates by {self.objective} on {s.n} selection draws "
+                f"of the {self.model} model "
                 f"({kc}/{s.n} succeeded, against {k0}/{s.n} for the default plan; its bound "
                 f"{s.ci_low[self.chosen]:.4f} on those draws is optimistic: the verdict is "
                 "taken on fresh draws)")
@@ -453,9 +456,12 @@ def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key
     (:func:`select`).  Certify the chosen plan on other draws.  ``model``:
     push candidates are scored under the quasi-static or exact kinematics
     (``mujoco``: the quasi-static model chooses, physics certifies)."""
-    if model not in ("quasistatic", "exact"):
+    tumble = np.asarray(vertices).shape[-1] == 3
+    if tumble:
+        model = "exact"
+    elif model not in ("quasistatic", "exact"):
         model = "quasistatic"
-    if np.asarray(vertices).shape[-1] == 3:
+    if tumble:
         cands, skipped = tumble_candidates(vertices, start, goal, com, **grid)
     else:
         cands, skipped = push_candidates(vertices, start, goal, com, options=options, **grid)
@@ -463,7 +469,7 @@ def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key
                               pos_eps_m=pos_eps_m, theta_eps_rad=theta_eps_rad,
                               confidence=confidence)
     i, why = select(scores, objective, required_probability)
-    return Synthesis(cands, scores, i, objective, why, skipped)
+    return Synthesis(cands, scores, i, objective, why, skipped, model)
 
 
 __all__ = ["Candidate", "Scores", "Synthesis", "TumbleSetting", "OBJECTIVES", "push_candidates",

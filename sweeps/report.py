@@ -38,6 +38,14 @@ Tables: <code>pd.read_parquet("{{ root }}/summary")</code> (also <code>samples</
 <h2>{{ section }}</h2><div class="figs">
 {% for title, png in figs %}<figure><img alt="{{ title }}" src="data:image/png;base64,{{ png }}"></figure>{% endfor %}
 </div>{% endfor %}
+{% if designs %}<h2>Tolerance design</h2>
+<p class="note">Per configuration and task: all tolerance axes together, as far toward their
+one-axis limits as still certifies, verified on fresh draws (table <code>design</code>: every
+axis's loosest value alone, the failures each removes).</p>
+<table><tr><th class="l">configuration</th><th class="l">task</th><th class="l">tighten first</th>
+<th class="l">joint design and what was shown</th></tr>
+{% for r in designs %}<tr><td class="l">{{ r.config }}</td><td class="l">{{ r.task }}</td>
+<td class="l">{{ r.first }}</td><td class="l">{{ r.drawing }}</td></tr>{% endfor %}</table>{% endif %}
 <h2>Configurations</h2>
 <table><tr>{% for h in header %}<th{% if loop.index0 == 0 %} class="l"{% endif %}>{{ h }}</th>{% endfor %}</tr>
 {% for r in rows %}<tr>{% for c in r %}<td{% if loop.index0 == 0 %} class="l"{% endif %}>{{ c }}</td>{% endfor %}</tr>
@@ -94,13 +102,24 @@ def write_report(store, design) -> pathlib.Path:
         if pngs:
             sections.append((title, pngs))
     header, rows = _config_rows(summary, plans, design, long_labels)
+    dz = store.read("design")
+    designs = []
+    if not dz.empty:
+        dz["config_id"] = dz["config_id"].astype(int)
+        for (cid, task), g in dz.groupby(["config_id", "task"], sort=True):
+            g = g.sort_values("rank")
+            lead = g.iloc[0]
+            first = (f"{lead.axis} (removes {lead.failures_removed:.1%} of failures)"
+                     if lead.failures_removed > 0 else "none fails as configured")
+            designs.append(dict(config=long_labels[cid], task=task, first=first,
+                                drawing=lead.drawing))
     page = TEMPLATE.render(
         name=design.name, run_id=design.run_id, kind=kind, part=design.part(0).name,
         model=model_for(top.model, kind), n_configs=len(design.configs),
         n_tasks=len(design.tasks(0)), samples=top.samples, seed=top.seed,
         pos_eps=top.eps.pos_eps_m, theta_eps=f"{top.eps.theta_eps_rad:.4g}", confidence=conf,
         root=html.escape(str(store.root)), sections=sections, header=header, rows=rows,
-        config=design.text)
+        designs=designs, config=design.text)
     path = store.root / "report.html"
     atomic_write(path, lambda fh: fh.write(page), mode="w")
     return path

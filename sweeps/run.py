@@ -153,7 +153,8 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
     from sweeps.executors import make_executor
     from sweeps.progress import Progress, StopFlag
     from sweeps.store import RunStore, manifest_for
-    from sweeps.work import Context, plan_units, run_block, run_summary, with_stats
+    from sweeps.work import (Context, design_units, plan_units, run_block, run_design,
+                             run_summary, with_stats)
 
     manifest = manifest_for(design.run_id, design.name, design.identity, design.top.seed,
                             {"paths": design.paths, "points": design.points},
@@ -161,12 +162,13 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
     store = RunStore.open(out, manifest)
     done = store.done()
     blocks, summaries = plan_units(design, done)
+    designs = design_units(design, done)
     ctx = Context(str(design.path), json.dumps(design.doc), str(out), json.dumps(store.manifest))
     total = sum(u.samples for u in blocks)
     resume = f"run the same command again to resume (results so far: {out})"
     if done:
         _say(quiet, f"resuming run {design.run_id}: {len(done)} chunk(s) already done, "
-                    f"{len(blocks) + len(summaries)} to go")
+                    f"{len(blocks) + len(summaries) + len(designs)} to go")
     bar = Progress(total, quiet=quiet)
     warned: set = set(design.warnings)   # shown before the run
     findings: dict = {}
@@ -174,7 +176,8 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
         with StopFlag(resume) as flag, make_executor(spec) as ex:
             records: dict = {}      # this run's block records: their statistics feed the summaries
             for phase, fn, units in (("samples", run_block, blocks),
-                                     ("summary", run_summary, summaries)):
+                                     ("summary", run_summary, summaries),
+                                     ("design", run_design, designs)):
                 if flag.stop:
                     break
                 if phase == "summary":

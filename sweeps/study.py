@@ -43,7 +43,8 @@ from pydantic import Discriminator, Field, StrictBool, Tag, model_validator
 from robustness.physics import check_pad_friction
 
 from sweeps import catalog
-from sweeps.config import (Angle, ConfigError, Evaluation, PartInline, Strict, Task, explicit_tasks,
+from sweeps.config import (Angle, ConfigError, Design as DesignSection, Evaluation, PartInline,
+                           Strict, Synthesize, Task, explicit_tasks,
                            parse_angle, parse_pose, validate)
 from sweeps.design import expand, parse_overrides, set_path
 from sweeps.plausible import check_design, wrap
@@ -117,6 +118,8 @@ class Study(Evaluation):
                         Discriminator(_executor_kind)] = "local"
     output: str = "results"
     bounds: StrictBool = True        # the analytic bounds in the summary (one compile per plan shape)
+    synthesize: Optional[Synthesize] = None   # robust synthesis of every task's plan
+    design: Optional[DesignSection] = None    # tolerance design of every task's plan
     report: StrictBool = True        # report.html at the end
 
     @property

@@ -91,6 +91,87 @@ def plan_task(part, start, goal, planner: Planner, eps: Eps, caught: Optional[li
     return plan, ""
 
 
+def synthesize_for(cfg, part, start, goal, key):
+    """Robust synthesis of one task under a config (a study's configuration or a
+    certification's: its ``synthesize`` section, planner, sampler, eps,
+    requirement) on the selection draws of the task's ``key``
+    (:func:`robustness.selection_key`); returns the
+    :class:`~robustness.Synthesis`."""
+    import jax.numpy as jnp
+
+    from robustness import selection_key, synthesize
+
+    sy = cfg.synthesize
+    push = part.kind == "polygon"
+    model = (cfg.model if cfg.model in ("quasistatic", "exact") else "quasistatic") if push \
+        else "exact"
+    grid = (dict(options=cfg.planner.push_options(), **sy.grid(cfg.friction)) if push
+            else sy.tumble_grid(tumble_eps(cfg.planner, cfg.eps), cfg.planner.tumble_tau_v,
+                                cfg.planner.tau_g))
+    return synthesize(part.vertices, start, goal, part.com, sampler=cfg.sampler(),
+                      n=sy.n_samples, key=selection_key(key), objective=sy.objective,
+                      required_probability=cfg.required.probability, model=model,
+                      dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
+                      pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+                      confidence=cfg.required.confidence, **grid)
+
+
+def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
+    """Tolerance design of one task's plan under a config (its ``design``
+    section, sampler, eps, requirement; :mod:`robustness.tolerance_design`,
+    the quasi-static or exact kinematics) on the design draws of the task's
+    ``key`` (:func:`robustness.tolerance_design.design_key`).
+
+    Returns:
+      ``(rows, drawing line)``: the ``design`` rows (without ``run_id``), one
+      per axis.
+    """
+    import jax
+    import jax.numpy as jnp
+
+    from robustness import model_for, tolerance_design as td
+
+    kind = "push" if part.kind == "polygon" else "tumble"
+    model = cfg.model if cfg.model in ("quasistatic", "exact") and kind == "push" else \
+        model_for("quasistatic" if cfg.model == "mujoco" else cfg.model, kind)
+    d = cfg.design
+    axes = tuple(a for a in (d.axes or td.axes_for(plan)) if a in td.axes_for(plan))
+    p, conf = cfg.required.probability, cfg.required.confidence
+    dkey = td.design_key(key)
+    sampler = cfg.sampler()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        judge = td.Judge(plan, d.n_samples, dkey, p=p, confidence=conf, model=model,
+                         dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
+                         pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad)
+        designs = [td.loosest(judge, sampler, a, rel_tol=d.rel_tol) for a in axes]
+        sens = {s.axis: s for s in td.sensitivity(judge, sampler, axes)}
+        base = 1.0 - judge.successes(td.all_perfect(sampler, axes)) / judge.n
+        joint = td.joint_design(judge, sampler, designs, jax.random.fold_in(dkey, 1))
+    line = td.drawing_line(designs, joint, p, conf, model)
+    scale = {dz.axis: dz.scale if math.isfinite(dz.scale) else math.inf for dz in designs}
+    # most failures removed first; then the axis closest to its limit (smallest headroom)
+    order = sorted(axes, key=lambda a: (-sens[a].failures_removed, scale[a]))
+    rows = []
+    for dz in designs:
+        s = sens[dz.axis]
+        rows.append(dict(task=name, axis=dz.axis, fields=", ".join(dz.fields),
+                         configured=list(dz.configured), loosest=list(dz.loosest), scale=dz.scale,
+                         certified_at_configured=dz.certified_at_configured,
+                         ci_low_at_loosest=dz.ci_low, limit=dz.limit, failure_rate=s.failure_rate,
+                         failure_rate_without=s.failure_rate_without,
+                         failure_rate_alone=s.failure_rate_alone,
+                         failures_removed=s.failures_removed, failure_rate_all_perfect=base,
+                         rank=order.index(dz.axis) + 1, joint=list(joint.values[dz.axis]),
+                         joint_t=joint.t, joint_basis=joint.basis,
+                         joint_ci_low_design=joint.ci_low_design, joint_n_fresh=joint.n_fresh,
+                         joint_k_fresh=joint.k_fresh, joint_ci_low_fresh=joint.ci_low_fresh,
+                         joint_certified=joint.certified, drawing=line, model=model,
+                         n_samples=judge.n, evaluations=dz.evaluations, confidence=conf,
+                         required_probability=p))
+    return rows, line
+
+
 def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[str] = None) -> dict:
     """The ``plans`` table's row of one task (``robustness.tables.PLANS_SCHEMA``)."""
     tumble = part.kind == "polyhedron"

@@ -47,7 +47,8 @@ class Context:
 
 @dataclasses.dataclass(frozen=True)
 class Unit:
-    """One unit of work: a sample block (``block >= 0``) or a task's summary (``block = -1``)."""
+    """One unit of work: a sample block (``block >= 0``), a task's summary
+    (``block = -1``) or its tolerance design (``block = -2``)."""
 
     config_id: int
     task_index: int
@@ -59,7 +60,7 @@ class Unit:
 
     @property
     def key(self) -> str:
-        tail = "summary" if self.block < 0 else f"b{self.block:04d}"
+        tail = {-1: "summary", -2: "design"}.get(self.block, f"b{self.block:04d}")
         return f"c{self.config_id:05d}-t{self.task_index:04d}-{tail}"
 
     @property
@@ -96,7 +97,10 @@ class Loaded:
                           start, goal, cfg.planner.model_dump(), cfg.eps.model_dump()],
                          sort_keys=True)
         try:
-            return _plan_cached(key, part, start, goal, cfg.planner, cfg.eps)
+            out = _plan_cached(key, part, start, goal, cfg.planner, cfg.eps)
+            if out[0] is not None and cfg.synthesize is not None and cfg.synthesize.enabled:
+                out = _synthesized(key, cfg, part, start, goal, task_index, out)
+            return out
         except PlanInputError as exc:
             point = self.design.points[config_id]
             where = f" ({', '.join(f'{p}={v!r}' for p, v in point.items())})" if point else ""
@@ -124,6 +128,33 @@ def _plan_cached(key: str, part, start, goal, planner, eps):
         plan, reason = plan_task(part, start, goal, planner, eps, caught)
         _PLANS[key] = (plan, reason, tuple(" ".join(str(w.message).split()) for w in caught))
     return _PLANS[key]
+
+
+_SYNTHESES: dict = {}
+
+
+def _synthesized(plan_key: str, cfg, part, start, goal, task_index: int, planned):
+    """The task's plan chosen by robust synthesis (:func:`sweeps.tasks.synthesize_for`
+    on the selection draws of the task's key: ``fold_in(key(seed), task)``, whose
+    blocks fold in 0, 1, ...), once per process for each distinct set of inputs;
+    ``(plan, "", warnings)`` with a line naming the choice."""
+    import jax
+
+    from sweeps.tasks import synthesize_for
+
+    key = json.dumps([plan_key, cfg.synthesize.model_dump(), cfg.tolerances.__dict__,
+                      cfg.friction.__dict__, cfg.execution.__dict__, cfg.seed, task_index,
+                      cfg.model, cfg.dtype, cfg.required.model_dump()], sort_keys=True,
+                     default=str)
+    if key not in _SYNTHESES:
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            syn = synthesize_for(cfg, part, start, goal,
+                                 jax.random.fold_in(jax.random.key(cfg.seed), task_index))
+        _SYNTHESES[key] = (syn.plan, "", planned[2])
+    return _SYNTHESES[key]
 
 
 def loaded(ctx: Context) -> Loaded:
@@ -176,7 +207,7 @@ def count_units(design) -> int:
     for cfg in design.configs:
         n_tasks = len(cfg.tasks) if isinstance(cfg.tasks, list) else cfg.tasks.sample.n
         size = cfg.chunk_samples or cfg.samples
-        total += n_tasks * (-(-cfg.samples // size) + 1)
+        total += n_tasks * (-(-cfg.samples // size) + 1 + _designs(cfg))
     return total
 
 
@@ -210,6 +241,23 @@ def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:
             if s.key not in done:
                 summaries.append(s)
     return blocks, summaries
+
+
+def _designs(cfg) -> bool:
+    return cfg.design is not None and cfg.design.enabled
+
+
+def design_units(design, done: dict) -> list[Unit]:
+    """The tolerance-design units (one per task of a configuration with an
+    enabled ``design:`` section) not yet in ``done``."""
+    out = []
+    for cid, cfg in enumerate(design.configs):
+        if _designs(cfg):
+            for ti in range(len(design.tasks(cid))):
+                u = Unit(cid, ti, -2)
+                if u.key not in done:
+                    out.append(u)
+    return out
 
 
 def with_stats(design, store, summaries: list, records: dict) -> list:
@@ -334,6 +382,33 @@ def run_summary(ctx: Context, unit: Unit) -> dict:
     return {"key": unit.key, "files": [path], "rows": 1, "seconds": time.perf_counter() - t0,
             "success_rate": _finite(s.get("success_rate")), "n": int(s.get("n", 0)),
             "findings": findings(s)}
+
+
+@_recording
+def run_design(ctx: Context, unit: Unit) -> dict:
+    """The tolerance design of a task's plan (:func:`sweeps.tasks.design_rows`, on
+    the design draws of the task's key); writes its ``design`` rows."""
+    import jax
+
+    from sweeps.tasks import design_rows
+
+    t0 = time.perf_counter()
+    L = loaded(ctx)
+    design, store = L.design, L.store
+    cfg = design.configs[unit.config_id]
+    name, _, _ = design.tasks(unit.config_id)[unit.task_index]
+    plan, _, _ = L.plan(unit.config_id, unit.task_index)
+    files = []
+    if plan is not None:
+        rows, _ = design_rows(cfg, design.part(unit.config_id), plan, name,
+                              jax.random.fold_in(jax.random.key(cfg.seed), unit.task_index))
+        cols = L.columns(unit.config_id)
+        rows = [{"run_id": store.run_id, **cols, **r} for r in rows]
+        schema = L.schema("design")
+        files.append(store.write("design", unit.config_id, f"t{unit.task_index:04d}",
+                                 tables.rows_table(rows, schema), schema))
+    return {"key": unit.key, "files": files, "rows": 6 if files else 0,
+            "seconds": time.perf_counter() - t0}
 
 
 #: The summary's finding columns: ``(column, kind, the bound's columns)``.

@@ -220,3 +220,38 @@ def test_tumble_candidates_are_scored_like_evaluate_and_ties_go_to_the_smaller_b
     k = s.n_success
     tied = [i for i in range(len(k)) if k[i] >= k.max() - 1]
     assert syn.chosen == min(tied, key=lambda i: (s.bound_position_m[i], s.steps[i], i))
+
+
+@pytest.mark.slow
+def test_a_study_sweeps_synthesis_on_and_off(tmp_path):
+    study = tmp_path / "syn.yaml"
+    study.write_text(f"""study: syn
+kind: push
+part: {ROOT / 'examples' / 'biplus_stable.yaml'}
+tasks:
+  - {{name: turn, start: [0, 0, 0], goal: [0.10, 0.05, 60deg]}}
+tolerances: {{tau_v: 2.0e-5, tau_com: 1.0e-4}}
+friction: {{mu_f: [0.3, 0.8], mu_s: [0.2, 0.5], support: any}}
+execution: {{start_xy: 5.0e-4, start_theta: 0.01, fence_angle: 0.002, distance_abs: 1.0e-4,
+            distance_rel: 0.005}}
+eps: {{pos_eps_m: 0.003, theta_eps_rad: 0.05}}
+samples: 120
+seed: 0
+report: false
+synthesize: {{n_samples: 200, margins_deg: [3, 20], safety_factors: [1.15, 2.0],
+              strategies: [search], per_setting: 2}}
+params:
+  synthesize.enabled: [false, true]
+""")
+    out = tmp_path / "out"
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "sweeps.run", str(study), "--out", str(out),
+                        "--quiet"], capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    s = pd.read_parquet(out / "summary").sort_values("config_id")
+    p = pd.read_parquet(out / "plans").sort_values("config_id")
+    assert s["synthesize_enabled"].tolist() == ["false", "true"]   # a swept bool: JSON text
+    assert p["plan_json"].iloc[0] != p["plan_json"].iloc[1]       # another plan was chosen
+    assert s["n_success"].iloc[1] > s["n_success"].iloc[0] + 50    # and it holds on the study's draws

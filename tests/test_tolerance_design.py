@@ -117,3 +117,43 @@ def test_certify_design_end_to_end(tmp_path):
     assert "Tolerance design: turn" in html and "fresh draws" in html
     certs = pd.read_parquet(out / "certificates")
     assert certs["note"].str.contains("tolerance design:").all()
+
+
+@pytest.mark.slow
+def test_a_study_designs_every_configuration_and_resumes(tmp_path):
+    import subprocess
+    import sys
+
+    study = tmp_path / "des.yaml"
+    study.write_text(f"""study: des
+kind: push
+part: {ROOT / 'examples' / 'biplus_stable.yaml'}
+tasks:
+  - {{name: translate, start: [0, 0, 0], goal: [0.08, 0.03, 0]}}
+tolerances: {{tau_v: 2.0e-5, tau_com: 1.0e-4}}
+friction: {{mu_f: [0.5, 0.8], mu_s: [0.2, 0.5], support: any}}
+execution: {{start_xy: 5.0e-4, start_theta: 0.01, fence_angle: 0.002, distance_abs: 1.0e-4,
+            distance_rel: 0.005}}
+eps: {{pos_eps_m: 0.003, theta_eps_rad: 0.05}}
+samples: 60
+seed: 0
+design: {{n_samples: 120, rel_tol: 0.3, axes: [tau_v, fence_angle, fence_friction]}}
+params:
+  execution.fence_angle: [0.002, 0.01]
+""")
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "sweeps.run", str(study), "--out", str(out), "--quiet"]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    d = pd.read_parquet(out / "design")
+    assert len(d) == 6 and sorted(d["execution_fence_angle"].unique()) == [0.002, 0.01]
+    for cid, g in d.groupby("config_id", observed=True):
+        assert set(g["axis"]) == {"tau_v", "fence_angle", "fence_friction"}
+        assert sorted(g["rank"]) == [1, 2, 3] and "fresh samples" in g["drawing"].iloc[0]
+    fa = d[d.axis == "fence_angle"].sort_values("execution_fence_angle")
+    assert [c[0] for c in fa["configured"]] == [0.002, 0.01]
+    assert "Tolerance design" in (out / "report.html").read_text()
+    before = sorted(p.stat().st_mtime_ns for p in (out / "design").rglob("*.parquet"))
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)   # resumes
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.stat().st_mtime_ns for p in (out / "design").rglob("*.parquet")) == before

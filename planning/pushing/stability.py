@@ -134,7 +134,7 @@ def push_stability(part_or_vertices, margin_deg: float = DEFAULTS.margin_deg, co
 
 
 def _stability(part: PushPart, n_grid: int) -> PushStability:
-    geom, body, n = part.geom, part.body, part.n
+    geom, body = part.geom, part.body
     theta = np.arange(n_grid) * (2 * math.pi / n_grid)
     edge_theta = np.mod(-0.5 * math.pi - part.nu, 2 * math.pi)
     pivot, roll_theta = _roll_off(part, edge_theta)
