@@ -21,7 +21,9 @@ uniform in [0.5, 0.8] (support ``any``).  For each task:
   success rate (tens of samples: a check that the choice holds in physics,
   not a certificate);
 * the push distance ratio (synthesized / default) and the synthesis time
-  (candidates + scoring, warm).
+  (candidates + scoring, warm; with ``--physics-samples N`` the selection's
+  tie is broken in MuJoCo on N draws, ``robustness.physics_tiebreak``, and its
+  rollouts are counted).
 
 Then one task timed alone: 64 candidates x 1,000 samples (candidate generation
 and the one compiled scoring call, warm), and the tolerance design of its
@@ -73,7 +75,8 @@ def main() -> int:
     import numpy as np
 
     from planning import plan_pose
-    from robustness import evaluate, one_sided_lower, selection_key, synthesize
+    from robustness import (evaluate, one_sided_lower, physics_tiebreak, selection_key,
+                            synthesize)
     from robustness import tolerance_design as td
     from sweeps.executors import enable_compilation_cache
     from sweeps.study import load_part_ref
@@ -81,6 +84,9 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--fresh", type=int, default=2000, help="fresh quasi-static draws per plan")
     ap.add_argument("--mujoco-samples", type=int, default=16, help="MuJoCo rollouts per plan")
+    ap.add_argument("--physics-samples", type=int, default=0,
+                    help="break the selection's tie in MuJoCo on this many draws "
+                         "(robustness.physics_tiebreak, 4 candidates); 0: the kinematics alone")
     args = ap.parse_args()
     warnings.simplefilter("ignore")
     enable_compilation_cache()
@@ -105,6 +111,9 @@ def main() -> int:
             t0 = time.perf_counter()
             syn = synthesize(part.vertices, (0, 0, 0), goal, part.com, sampler=sampler, n=1000,
                              key=selection_key(key), **eps)
+            if args.physics_samples:
+                syn = physics_tiebreak(syn, sampler, args.physics_samples,
+                                       jax.random.fold_in(selection_key(key), 1), **eps)
             dt = time.perf_counter() - t0
             fresh = jax.random.fold_in(key, 1)
             lows = []

@@ -31,7 +31,7 @@ from robustness.evaluation import MODELS, BoundViolation, Evaluation, evaluate
 from robustness.samplers import Draws, PerturbationParams, Sampler
 from robustness.stats import clopper_pearson, one_sided_lower, one_sided_upper
 from robustness.summary import summarise
-from robustness.synthesis import (Candidate, Scores, Synthesis, push_candidates,
+from robustness.synthesis import (Candidate, Scores, Synthesis, physics_tiebreak, push_candidates,
                                   score_candidates, select, selection_key, synthesize)
 from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTolerance,
                                    SuccessCriterion)
@@ -45,7 +45,7 @@ from robustness.summary import STAT_COLUMNS, empty_summary
 from robustness.tables import FAILURE_MODES, to_arrow
 
 __all__ = [
-    "synthesize", "push_candidates", "score_candidates", "select", "selection_key", "Candidate",
+    "synthesize", "physics_tiebreak", "push_candidates", "score_candidates", "select", "selection_key", "Candidate",
     "Scores", "Synthesis",
     "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Sampler",
     "Draws", "PerturbationParams",

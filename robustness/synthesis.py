@@ -138,6 +138,8 @@ class Synthesis:
       why: one line saying why it was chosen.
       skipped: planner settings that gave no plan, one line each.
       model: the model the selection draws ran (``quasistatic``, ``exact``).
+      physics: ``(indices, successes, n)`` when the tie was broken in MuJoCo
+        (:func:`physics_tiebreak`), else None.
     """
 
     candidates: list
@@ -147,6 +149,7 @@ class Synthesis:
     why: str
     skipped: tuple = ()
     model: str = "quasistatic"
+    physics: Optional[tuple] = None
 
     @property
     def plan(self):
@@ -161,7 +164,16 @@ class Synthesis:
                 f"of the {self.model} model "
                 f"({kc}/{s.n} succeeded, against {k0}/{s.n} for the default plan; its bound "
                 f"{s.ci_low[self.chosen]:.4f} on those draws is optimistic: the verdict is "
-                "taken on fresh draws)")
+                "taken on fresh draws)" + self._physics_text())
+
+    def _physics_text(self) -> str:
+        if self.physics is None:
+            return ""
+        idx, k, n = self.physics
+        best = k[list(idx).index(self.chosen)]
+        return (f"; the tie between {len(idx)} candidates broken by MuJoCo rollouts on {n} "
+                f"common draws ({best}/{n} for the chosen one; "
+                f"{', '.join(f'#{i}: {x}/{n}' for i, x in zip(idx, k))})")
 
 
 def selection_key(key):
@@ -442,6 +454,41 @@ def select(scores: Scores, objective: str = "max_lower_bound",
                "within one success of it, the shortest of them)")
 
 
+def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key, *, physics=None,
+                     top: int = 4, pos_eps_m: Optional[float] = None,
+                     theta_eps_rad: Optional[float] = None) -> Synthesis:
+    """Break the selection's tie in physics: the candidates within one success
+    of the chosen one on the selection draws (the kinematic model cannot tell
+    them apart; at most ``top`` of them, the lowest cost first, the chosen one
+    always among them) are rolled out in MuJoCo (:func:`robustness.evaluate`,
+    ``model="mujoco"``, ``physics`` a :class:`~robustness.physics.PhysicsRun`)
+    on ``n`` draws of ``key`` (the same part and friction draws for all), and
+    the one with the most successes is chosen (ties: the lower cost).  A check
+    on tens of samples, not a certificate: the verdict is still taken on fresh
+    draws.  Returns the :class:`Synthesis` with ``chosen`` and ``physics`` set."""
+    from robustness.evaluation import evaluate
+
+    s = syn.scores
+    k = s.n_success
+    tied = [i for i in range(len(k)) if k[i] >= k[syn.chosen] - 1]
+    tied = sorted(tied, key=lambda i: (i != syn.chosen, s.cost[i], s.steps[i], i))[:max(1, top)]
+    if len(tied) < 2:
+        return syn
+    got = []
+    for i in tied:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ev = evaluate(syn.candidates[i].plan, sampler, int(n), key, model="mujoco",
+                          physics=physics, pos_eps_m=pos_eps_m, theta_eps_rad=theta_eps_rad,
+                          summary=False)
+        got.append(int(np.sum(ev.columns["success"])))
+    best = max(range(len(tied)), key=lambda j: (got[j], -s.cost[tied[j]], -s.steps[tied[j]],
+                                                 -tied[j]))
+    return dataclasses.replace(syn, chosen=tied[best],
+                               why=f"{syn.why}; of the {len(tied)} tied, the best in MuJoCo",
+                               physics=(tuple(tied), tuple(got), int(n)))
+
+
 @float64
 def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key,
                options: Optional[PushOptions] = None, objective: str = "max_lower_bound",
@@ -472,5 +519,6 @@ def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key
     return Synthesis(cands, scores, i, objective, why, skipped, model)
 
 
-__all__ = ["Candidate", "Scores", "Synthesis", "TumbleSetting", "OBJECTIVES", "push_candidates",
+__all__ = ["Candidate", "Scores", "Synthesis", "TumbleSetting", "OBJECTIVES", "physics_tiebreak",
+           "push_candidates",
            "tumble_candidates", "score_candidates", "select", "selection_key", "synthesize"]

@@ -134,6 +134,8 @@ class Synthesize(Strict):
     max_candidates: StrictInt = Field(64, ge=1, le=1024)
     eps_factors: list[float] = Field(default_factory=lambda: [1.0, 0.5, 0.25], min_length=1)
     slack: StrictInt = Field(2, ge=0, le=100)
+    physics_samples: StrictInt = Field(0, ge=0, le=10_000)     # MuJoCo tie-break (push tasks)
+    physics_candidates: StrictInt = Field(4, ge=2, le=64)
 
     @model_validator(mode="after")
     def _grid(self):

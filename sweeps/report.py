@@ -109,8 +109,13 @@ def write_report(store, design) -> pathlib.Path:
         for (cid, task), g in dz.groupby(["config_id", "task"], sort=True):
             g = g.sort_values("rank")
             lead = g.iloc[0]
-            first = (f"{lead.axis} (removes {lead.failures_removed:.1%} of failures)"
-                     if lead.failures_removed > 0 else "none fails as configured")
+            if lead.failures_removed > 0:
+                first = (f"{lead.axis} (made perfect, {lead.failures_removed:.1%} of the samples "
+                         "no longer fail)")
+            else:
+                first = "nothing fails as configured" + (
+                    f"; least headroom: {lead.axis} (certifies up to {lead.scale:.3g}x its "
+                    "configured value)" if lead.scale == lead.scale else "")
             designs.append(dict(config=long_labels[cid], task=task, first=first,
                                 drawing=lead.drawing))
     page = TEMPLATE.render(

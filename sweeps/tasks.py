@@ -95,7 +95,8 @@ def synthesize_for(cfg, part, start, goal, key):
     """Robust synthesis of one task under a config (a study's configuration or a
     certification's: its ``synthesize`` section, planner, sampler, eps,
     requirement) on the selection draws of the task's ``key``
-    (:func:`robustness.selection_key`); returns the
+    (:func:`robustness.selection_key`), its tie broken in MuJoCo with
+    ``synthesize.physics_samples`` (push tasks); returns the
     :class:`~robustness.Synthesis`."""
     import jax.numpy as jnp
 
@@ -108,12 +109,23 @@ def synthesize_for(cfg, part, start, goal, key):
     grid = (dict(options=cfg.planner.push_options(), **sy.grid(cfg.friction)) if push
             else sy.tumble_grid(tumble_eps(cfg.planner, cfg.eps), cfg.planner.tumble_tau_v,
                                 cfg.planner.tau_g))
-    return synthesize(part.vertices, start, goal, part.com, sampler=cfg.sampler(),
-                      n=sy.n_samples, key=selection_key(key), objective=sy.objective,
-                      required_probability=cfg.required.probability, model=model,
-                      dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                      pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                      confidence=cfg.required.confidence, **grid)
+    syn = synthesize(part.vertices, start, goal, part.com, sampler=cfg.sampler(),
+                     n=sy.n_samples, key=selection_key(key), objective=sy.objective,
+                     required_probability=cfg.required.probability, model=model,
+                     dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
+                     pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+                     confidence=cfg.required.confidence, **grid)
+    if push and sy.physics_samples:   # the kinematic model's tie broken in MuJoCo
+        import jax
+
+        from robustness import physics_tiebreak
+
+        syn = physics_tiebreak(syn, cfg.sampler(), sy.physics_samples,
+                               jax.random.fold_in(selection_key(key), 1),
+                               physics=cfg.physics.run(part, cfg.friction),
+                               top=sy.physics_candidates, pos_eps_m=cfg.eps.pos_eps_m,
+                               theta_eps_rad=cfg.eps.theta_eps_rad)
+    return syn
 
 
 def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:

@@ -255,3 +255,22 @@ params:
     assert s["synthesize_enabled"].tolist() == ["false", "true"]   # a swept bool: JSON text
     assert p["plan_json"].iloc[0] != p["plan_json"].iloc[1]       # another plan was chosen
     assert s["n_success"].iloc[1] > s["n_success"].iloc[0] + 50    # and it holds on the study's draws
+
+
+@pytest.mark.slow
+def test_physics_breaks_the_kinematic_tie():
+    from robustness import physics_tiebreak
+
+    V, com = _part()
+    # the translation: many candidates succeed on every selection draw (a tie)
+    syn = synthesize(V, START, (0.08, 0.03, 0.0), com, sampler=SAMPLER, n=200,
+                     key=jax.random.key(0), **EPS, **SMALL)
+    k = syn.scores.n_success
+    tied = [i for i in range(len(k)) if k[i] >= k[syn.chosen] - 1]
+    assert len(tied) >= 2
+    out = physics_tiebreak(syn, SAMPLER, 3, jax.random.key(5), top=2, **EPS)
+    idx, got, n = out.physics
+    assert n == 3 and len(idx) == 2 and syn.chosen in idx and out.chosen in idx
+    assert got[idx.index(out.chosen)] == max(got)
+    assert "MuJoCo rollouts on 3 common draws" in out.describe()
+    assert out.scores is syn.scores and out.candidates is syn.candidates
