@@ -249,21 +249,38 @@ class Judge:
         return low >= self.p, low
 
 
-def _bisect(ok: Callable[[float], tuple], lo: float, hi: float, lo_val, rel_tol: float,
-            geometric: bool = True, max_iter: int = 40):
-    """Largest ``x`` in ``[lo, hi]`` with ``ok(x)`` (``ok(lo)`` true, ``ok(hi)`` false),
-    to ``rel_tol`` (geometric) or absolute ``rel_tol`` (arithmetic)."""
-    best = (lo, lo_val)
+def _boundary(ok: Callable[[float], tuple], good: float, bad: float, good_val, tol: float,
+              geometric: bool = True, max_iter: int = 60):
+    """Bisect between ``good`` (``ok`` true) and ``bad`` (false), either side of it:
+    the last good point and its value once they are within ``tol`` (relative
+    when ``geometric``, else absolute)."""
+    best = (good, good_val)
     for _ in range(max_iter):
-        if (hi / lo - 1.0 if geometric else hi - lo) <= rel_tol:
+        gap = (max(good, bad) / min(good, bad) - 1.0) if geometric else abs(good - bad)
+        if gap <= tol:
             break
-        mid = math.sqrt(lo * hi) if geometric else 0.5 * (lo + hi)
-        good, val = ok(mid)
-        if good:
-            lo, best = mid, (mid, val)
+        mid = math.sqrt(good * bad) if geometric else 0.5 * (good + bad)
+        g, val = ok(mid)
+        if g:
+            good, best = mid, (mid, val)
         else:
-            hi = mid
+            bad = mid
     return best
+
+
+def _walk(ok: Callable[[float], tuple], s: float, verdict: bool, val, factor: float,
+          stop: float):
+    """From ``s`` (``ok(s)`` gave ``verdict``, ``val``) multiply by ``factor`` until
+    the verdict changes or ``stop`` is passed: ``(last s with the verdict, its
+    value, (first s with the other verdict, its value) or None)``."""
+    while True:
+        t = s * factor
+        if (t > stop) if factor > 1 else (t < stop):
+            return s, val, None
+        g, v = ok(t)
+        if g != verdict:
+            return s, val, (t, v)
+        s, val = t, v
 
 
 def loosest(judge: Judge, sampler: Sampler, axis: str, *, rel_tol: float = 0.05) -> AxisDesign:
@@ -281,71 +298,37 @@ def loosest(judge: Judge, sampler: Sampler, axis: str, *, rel_tol: float = 0.05)
                 x, low = 0.0, low_z
                 limit = "no_limit"
             else:   # ok(x) false at 0, true at lo0: the smallest true, by bisection on -x
-                x, low = _bisect_down(ok, 0.0, lo0, low0, abs_tol=0.005)
+                x, low = _boundary(ok, lo0, 0.0, low0, 0.005, geometric=False)
         else:
             good_h, low_h = ok(hi)
             if not good_h:
                 x, low, limit = hi, low_h, "none_certifies"
             else:
-                x, low = _bisect_down(ok, lo0, hi, low_h, abs_tol=0.005)
+                x, low = _boundary(ok, hi, lo0, low_h, 0.005, geometric=False)
         return AxisDesign(axis, fields(axis), conf, (x,), math.nan, good0, low, limit,
                           judge.calls - calls0)
     unit = unit_values(sampler, axis, _size(judge.plan))
     scaled = lambda s: with_values(sampler, axis, tuple(s * u for u in unit))  # noqa: E731
     ok = lambda s: judge.certifies(scaled(s))  # noqa: E731
     nonzero = any(x > 0 for x in conf)
-    s, (good, low) = 1.0, ok(1.0)
+    good, low = ok(1.0)
     at_configured = good if nonzero else judge.certifies(sampler)[0]
-    limit, lo, lo_val, hi = "", None, None, None
-    if good:
-        lo, lo_val = s, low
-        while hi is None and limit == "":
-            s *= 4.0
-            if s > SCALE_MAX:
-                limit = "no_limit"
-                break
-            good, low = ok(s)
-            if good:
-                lo, lo_val = s, low
-            else:
-                hi = s
-    else:
-        hi = s
-        while lo is None and limit == "":
-            s /= 4.0
-            if s < SCALE_MIN:
-                limit = "none_certifies"
-                break
-            good, low = ok(s)
-            if good:
-                lo, lo_val = s, low
-            else:
-                hi = s
-    if limit == "none_certifies":
-        scale = 0.0
-    elif limit == "no_limit":
-        scale, low = lo, lo_val
-    else:
-        scale, low = _bisect(ok, lo, hi, lo_val, rel_tol)
+    limit = ""
+    if good:   # loosen by 4x while it certifies, then bisect
+        lo, lo_val, bad = _walk(ok, 1.0, True, low, 4.0, SCALE_MAX)
+        if bad is None:
+            limit, scale, low = "no_limit", lo, lo_val
+        else:
+            scale, low = _boundary(ok, lo, bad[0], lo_val, rel_tol)
+    else:      # tighten by 4x until it certifies, then bisect
+        hi, _, good_at = _walk(ok, 1.0, False, low, 0.25, SCALE_MIN)
+        if good_at is None:
+            limit, scale = "none_certifies", 0.0
+        else:
+            scale, low = _boundary(ok, good_at[0], hi, good_at[1], rel_tol)
     return AxisDesign(axis, fields(axis), conf, tuple(scale * u for u in unit),
                       scale if nonzero else math.nan, bool(at_configured), low, limit,
                       judge.calls - calls0)
-
-
-def _bisect_down(ok, bad: float, good: float, good_val, abs_tol: float):
-    """Smallest ``x`` in ``[bad, good]`` with ``ok(x)`` (``ok(bad)`` false, ``ok(good)``
-    true), to ``abs_tol``."""
-    best = (good, good_val)
-    for _ in range(60):
-        if good - bad <= abs_tol:
-            break
-        mid = 0.5 * (bad + good)
-        g, v = ok(mid)
-        if g:
-            good, best = mid, (mid, v)
-        else:
-            bad = mid
-    return best
 
 
 def all_perfect(sampler: Sampler, axes: Sequence[str]) -> Sampler:
@@ -410,22 +393,17 @@ def joint_design(judge: Judge, sampler: Sampler, designs: Sequence[AxisDesign], 
 
     basis = "configured" if ok(0.0, "configured")[0] else "perfect"
     good1, low1 = ok(1.0, basis)
+    at = lambda x: ok(x, basis)  # noqa: E731
     if good1:
         t, low = 1.0, low1
-    elif basis == "configured":
-        t, low = _bisect_linear(lambda x: ok(x, basis), 0.0, 1.0, ok(0.0, basis)[1], rel_tol)
-    else:
-        lo, lo_val, t_try = None, None, 0.5
-        while t_try > 1e-4:
-            g, v = ok(t_try, basis)
-            if g:
-                lo, lo_val = t_try, v
-                break
-            t_try /= 2.0
-        if lo is None:
+    elif basis == "configured":   # t = 0 certifies: bisect [0, 1]
+        t, low = _boundary(at, 0.0, 1.0, ok(0.0, basis)[1], rel_tol, geometric=False)
+    else:                         # halve t until it certifies, then bisect
+        _, _, good_at = _walk(at, 1.0, False, low1, 0.5, 1e-4)
+        if good_at is None:
             t, low = 0.0, 0.0
         else:
-            t, low = _bisect(lambda x: ok(x, basis), lo, min(1.0, 2.0 * lo), lo_val, rel_tol)
+            t, low = _boundary(at, good_at[0], min(1.0, 2.0 * good_at[0]), good_at[1], rel_tol)
     s = _joint_sampler(sampler, designs, t, basis)
     n = int(n_fresh or judge.n)
     fresh = Judge(judge.plan, n, fresh_key, p=judge.p, confidence=judge.confidence)
@@ -434,19 +412,6 @@ def joint_design(judge: Judge, sampler: Sampler, designs: Sequence[AxisDesign], 
     lowf = stats.one_sided_lower(k, n, judge.confidence)
     values = {d.axis: (configured(s, d.axis)) for d in designs}
     return JointDesign(t, values, low, n, k, lowf, lowf >= judge.p, basis)
-
-
-def _bisect_linear(ok, lo: float, hi: float, lo_val, tol: float):
-    """Largest ``x`` in ``[lo, hi]`` with ``ok(x)`` (true at lo, false at hi), to ``tol``."""
-    best = (lo, lo_val)
-    while hi - lo > tol:
-        mid = 0.5 * (lo + hi)
-        g, v = ok(mid)
-        if g:
-            lo, best = mid, (mid, v)
-        else:
-            hi = mid
-    return best
 
 
 def design_key(key):

@@ -13,18 +13,21 @@ import jinja2
 from robustness import model_for
 from sweeps.parquet import atomic_write
 
-TEMPLATE = jinja2.Template("""<!doctype html>
-<html lang="en"><head><meta charset="utf-8">
-<title>nudge study {{ name }} ({{ run_id }})</title>
-<style>
-body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1150px; color: #222; }
+#: the style both reports share
+STYLE = """body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1150px; color: #222; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.15em; margin-top: 1.6em; border-bottom: 1px solid #ccc; }
 table { border-collapse: collapse; font-size: 0.82em; margin: 0.6em 0; }
 td, th { border: 1px solid #ccc; padding: 2px 6px; text-align: right; }
 th { background: #f3f3f3; } td.l, th.l { text-align: left; }
-.figs { display: flex; flex-wrap: wrap; gap: 12px; } .figs img { max-width: 540px; }
 pre { background: #f7f7f7; padding: 0.8em; font-size: 0.8em; overflow-x: auto; }
 .note { color: #555; font-size: 0.9em; }
+"""
+
+TEMPLATE = jinja2.Template("""<!doctype html>
+<html lang="en"><head><meta charset="utf-8">
+<title>nudge study {{ name }} ({{ run_id }})</title>
+<style>
+{{ style | safe }}.figs { display: flex; flex-wrap: wrap; gap: 12px; } .figs img { max-width: 540px; }
 </style></head><body>
 <h1>nudge study <code>{{ name }}</code></h1>
 <p>run <code>{{ run_id }}</code> &middot; {{ kind }} study &middot; part <code>{{ part }}</code>
@@ -124,7 +127,7 @@ def write_report(store, design) -> pathlib.Path:
         n_tasks=len(design.tasks(0)), samples=top.samples, seed=top.seed,
         pos_eps=top.eps.pos_eps_m, theta_eps=f"{top.eps.theta_eps_rad:.4g}", confidence=conf,
         root=html.escape(str(store.root)), sections=sections, header=header, rows=rows,
-        designs=designs, config=design.text)
+        designs=designs, config=design.text, style=STYLE)
     path = store.root / "report.html"
     atomic_write(path, lambda fh: fh.write(page), mode="w")
     return path
@@ -176,16 +179,9 @@ CERTIFY_TEMPLATE = jinja2.Template("""<!doctype html>
 <html lang="en"><head><meta charset="utf-8">
 <title>nudge certification {{ part }} ({{ run_id }})</title>
 <style>
-body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 1150px; color: #222; }
-h1 { font-size: 1.5em; } h2 { font-size: 1.15em; margin-top: 1.6em; border-bottom: 1px solid #ccc; }
-h3 { font-size: 1.0em; }
-table { border-collapse: collapse; font-size: 0.82em; margin: 0.6em 0; }
-td, th { border: 1px solid #ccc; padding: 2px 6px; text-align: right; }
-th { background: #f3f3f3; } td.l, th.l { text-align: left; }
-pre { background: #f7f7f7; padding: 0.8em; font-size: 0.8em; overflow-x: auto; }
+{{ style | safe }}h3 { font-size: 1.0em; }
 .drawing { background: #eef6ee; border: 1px solid #9c9; padding: 0.6em; font-family: monospace; }
 .drawing.no { background: #fbeeee; border-color: #c99; }
-.note { color: #555; font-size: 0.9em; }
 </style></head><body>
 <h1>nudge certification of <code>{{ part }}</code></h1>
 <p>run <code>{{ run_id }}</code> &middot; tables: <code>pd.read_parquet("{{ root }}/certificates")</code>
@@ -274,7 +270,8 @@ def write_certify_report(store, part: str, config_text: str) -> pathlib.Path:
                         n_fresh=int(r0.joint_n_fresh), base=f(r0.failure_rate_all_perfect, ".3f"),
                         rows=rows))
     page = CERTIFY_TEMPLATE.render(part=part, run_id=store.run_id, root=str(store.root),
-                                   certs=crow, synth=synth, design=des, config=config_text)
+                                   certs=crow, synth=synth, design=des, config=config_text,
+                                   style=STYLE)
     path = store.root / "report.html"
     atomic_write(path, lambda fh: fh.write(page), mode="w")
     return path

@@ -161,7 +161,7 @@ def _config(tmp_path, extra=""):
 
 @pytest.mark.slow
 def test_certify_synthesize_end_to_end(tmp_path):
-    cfg = _config(tmp_path, "synthesize:\n  n_samples: 300\n  margins_deg: [3, 7, 20]\n"
+    cfg = _config(tmp_path, "synthesize:\n  n_samples: 300\n  margins_deg: [3, 20]\n"
                             "  safety_factors: [1.15, 2.0]\n  strategies: [search]\n"
                             "  per_setting: 2\n  enabled: false\n")
     out = tmp_path / "out"
@@ -261,9 +261,11 @@ params:
 def test_physics_breaks_the_kinematic_tie():
     from robustness import physics_tiebreak
 
-    V, com = _part()
-    # the translation: many candidates succeed on every selection draw (a tie)
-    syn = synthesize(V, START, (0.08, 0.03, 0.0), com, sampler=SAMPLER, n=200,
+    from sweeps.study import load_part_ref
+
+    part = load_part_ref("rectangle", ROOT / "examples")
+    # a short translation: many candidates succeed on every selection draw (a tie)
+    syn = synthesize(part.vertices, START, (0.05, 0.02, 0.0), part.com, sampler=SAMPLER, n=200,
                      key=jax.random.key(0), **EPS, **SMALL)
     k = syn.scores.n_success
     tied = [i for i in range(len(k)) if k[i] >= k[syn.chosen] - 1]

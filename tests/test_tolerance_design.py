@@ -101,7 +101,7 @@ def test_certify_design_end_to_end(tmp_path):
     text = text.replace("part: biplus_stable.yaml", f"part: {ROOT / 'examples' / 'biplus_stable.yaml'}")
     text = text.replace("n_samples: 300", "n_samples: 100")
     cfg = tmp_path / "c.yaml"
-    cfg.write_text(text + "design:\n  n_samples: 200\n  rel_tol: 0.2\n  enabled: false\n")
+    cfg.write_text(text + "design:\n  n_samples: 150\n  rel_tol: 0.3\n  enabled: false\n")
     out = tmp_path / "out"
     r = nudge("certify", cfg, "--design", "--out", out, "--quiet")
     assert r.returncode in (0, 1), r.stderr
@@ -112,7 +112,7 @@ def test_certify_design_end_to_end(tmp_path):
     for task, g in d.groupby("task"):
         assert sorted(g["rank"]) == list(range(1, 7))
         assert g["drawing"].nunique() == 1 and "fresh samples" in g["drawing"].iloc[0]
-        assert (g["n_samples"] == 200).all()
+        assert (g["n_samples"] == 150).all()
     html = (out / "report.html").read_text()
     assert "Tolerance design: turn" in html and "fresh draws" in html
     certs = pd.read_parquet(out / "certificates")
