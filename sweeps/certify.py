@@ -429,20 +429,18 @@ def _write_summary(store, ti, s: dict) -> None:
 
 
 def synthesize_task(cfg, part, name, start, goal, key, store, ti):
-    """Robust synthesis of one push task (:func:`robustness.synthesis.synthesize`
-    on the selection draws of ``key``, :func:`~robustness.synthesis.selection_key`);
-    writes the task's ``candidates`` rows and returns the :class:`Synthesis`."""
+    """Robust synthesis of one push or tumble task (:func:`sweeps.tasks.synthesize_for`
+    on the selection draws of ``key``, :func:`robustness.selection_key`); writes
+    the task's ``candidates`` rows and returns the :class:`~robustness.Synthesis`."""
     from robustness import tables
-    from sweeps.tasks import plan_json
-
-    from sweeps.tasks import synthesize_for
+    from sweeps.tasks import plan_json, synthesize_for
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         syn = synthesize_for(cfg, part, start, goal, key)
+    report_warnings(caught)
     push = part.kind == "polygon"
     model = syn.model
-    report_warnings(caught)
     s = syn.scores
     rows = []
     for i, c in enumerate(syn.candidates):
