@@ -421,28 +421,24 @@ def design_key(key):
     return jax.random.fold_in(key, 0xD5E16)
 
 
+#: each axis's values in a drawing's words (mm, degrees, percent)
+_WORDS = {
+    "fence_friction": lambda v: f"fence friction >= {v[0]:.3g}",
+    "tau_v": lambda v: f"vertices within +-{v[0] * 1e3:.3g} mm",
+    "tau_com": lambda v: f"centre of mass within {v[0] * 1e3:.3g} mm",
+    "start": lambda v: f"start within +-{v[0] * 1e3:.3g} mm / +-{math.degrees(v[1]):.3g} deg",
+    "fence_angle": lambda v: f"fence angle within +-{math.degrees(v[0]):.3g} deg",
+    "push_distance": lambda v: f"push distance within +-{v[0] * 1e3:.3g} mm +-{v[1] * 100:.3g} %",
+    "tumble_slip": lambda v: (f"slip per tumble within +-{v[0] * 1e3:.3g} mm / "
+                              f"+-{math.degrees(v[1]):.3g} deg"),
+}
+
+
 def drawing_line(designs: Sequence[AxisDesign], joint: JointDesign, p: float,
                  confidence: float, model: str) -> str:
     """The joint design in words an engineer can copy onto a drawing, with what
     was shown (model, confidence, fresh samples)."""
-    parts = []
-    for d in designs:
-        v = joint.values[d.axis]
-        if d.axis == "fence_friction":
-            parts.append(f"fence friction >= {v[0]:.3g}")
-        elif d.axis == "tau_v":
-            parts.append(f"vertices within +-{v[0] * 1e3:.3g} mm")
-        elif d.axis == "tau_com":
-            parts.append(f"centre of mass within {v[0] * 1e3:.3g} mm")
-        elif d.axis == "start":
-            parts.append(f"start within +-{v[0] * 1e3:.3g} mm / +-{math.degrees(v[1]):.3g} deg")
-        elif d.axis == "fence_angle":
-            parts.append(f"fence angle within +-{math.degrees(v[0]):.3g} deg")
-        elif d.axis == "push_distance":
-            parts.append(f"push distance within +-{v[0] * 1e3:.3g} mm +-{v[1] * 100:.3g} %")
-        elif d.axis == "tumble_slip":
-            parts.append(f"slip per tumble within +-{v[0] * 1e3:.3g} mm / "
-                         f"+-{math.degrees(v[1]):.3g} deg")
+    parts = [_WORDS[d.axis](joint.values[d.axis]) for d in designs]
     head = ", ".join(parts)
     pct = f"{confidence * 100:.4g}%"
     if joint.certified:
