@@ -168,6 +168,8 @@ PLANS_SCHEMA = pa.schema([
     pa.field("task", STR, nullable=False),
     pa.field("kind", STR, nullable=False),
     pa.field("part", STR),
+    pa.field("part_source", STR),                   # the geometry's file (CAD or part file)
+    pa.field("part_units", STR),                    # the unit that file was read in
     pa.field("start_x_m", F64), pa.field("start_y_m", F64), pa.field("start_theta_rad", F64),
     pa.field("start_face", I64),
     pa.field("goal_x_m", F64), pa.field("goal_y_m", F64), pa.field("goal_theta_rad", F64),
@@ -192,6 +194,8 @@ CERTIFICATES_SCHEMA = pa.schema([
     pa.field("task", STR, nullable=False),
     pa.field("kind", STR, nullable=False),
     pa.field("part", STR),
+    pa.field("part_source", STR),
+    pa.field("part_units", STR),
     pa.field("model", STR),
     pa.field("start_x_m", F64),
     pa.field("start_y_m", F64),

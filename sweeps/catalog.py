@@ -1,7 +1,8 @@
 """The bundled parts and studies, and how a name in a command or a config finds a file.
 
 Bundled files live in the repository's ``examples/`` folder (nudge is installed
-in place, ``pip install -e .``): parts (``examples/<name>.yaml``), certification
+in place, ``pip install -e .``): parts (``examples/<name>.yaml``; the CAD files
+some of them name, ``examples/bracket.stl``, ``examples/plate.dxf``), certification
 configs (``examples/certify_*.yaml``) and parameter studies
 (``examples/studies/<name>.yaml``).
 
@@ -42,7 +43,16 @@ def _find(ref: str, base: Optional[pathlib.Path], bundled: dict) -> Optional[pat
     name = p.name[:-5] if p.name.endswith(".yaml") else p.name
     if p.parent == pathlib.Path(".") and name in bundled:
         return bundled[name]
+    if p.parent == pathlib.Path(".") and bundled is not None and _is_cad(p) \
+            and (EXAMPLES / p.name).is_file():   # a bundled CAD file (examples/bracket.stl)
+        return EXAMPLES / p.name
     return None
+
+
+def _is_cad(p: pathlib.Path) -> bool:
+    from sweeps.cad import cad_kind
+
+    return cad_kind(p) is not None
 
 
 def find_part(ref: Union[str, pathlib.Path], base: Optional[pathlib.Path] = None) -> pathlib.Path:

@@ -71,7 +71,7 @@ from robustness import model_for
 from sweeps.errors import Exit, UserError
 from sweeps.config import (ConfigError, Design, Evaluation, PartInline, Strict, Synthesize,
                            Task, explicit_tasks, validate)
-from sweeps.terminal import Parser, fail, report_warnings, run_main
+from sweeps.terminal import Parser, fail, report_part, report_warnings, run_main
 
 MAX_SAMPLES = 100_000
 
@@ -219,6 +219,7 @@ def main(argv=None, prog: str = "nudge certify") -> int:
         for line in exc.lines:
             fail(line)
         return Exit.INPUT
+    report_part(part)   # a CAD part: its file, unit and what reading it found
     run_id = "r" + hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:10]
     out = pathlib.Path(args.out) if args.out else pathlib.Path("results") / f"certify-{path.stem}" / run_id
     try:
@@ -276,7 +277,7 @@ def _run(cfg, text, part, tasks, out, run_id, quiet):
             and cfg.synthesize.enabled:
         from sweeps.report import write_certify_report
 
-        path = write_certify_report(store, part.name, text)
+        path = write_certify_report(store, part, text)
         _log(quiet, f"wrote {path}")
     return status, certs
 
@@ -477,6 +478,7 @@ def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
                    selection_ci_low=float(syn.scores.ci_low[syn.chosen]),
                    default_selection_ci_low=float(syn.scores.ci_low[0]))
     return dict(**sel,task=name, kind="push" if push else "tumble", part=part.name,
+                part_source=part.source.name, part_units=part.units,
                 model=model_for(cfg.model, "push" if push else "tumble"),
                 start_x_m=start[0], start_y_m=start[1], start_theta_rad=start[2],
                 start_face=start[3] if not push else -1, goal_x_m=goal[0], goal_y_m=goal[1],

@@ -61,6 +61,8 @@ def list_parts() -> int:
                 warnings.simplefilter("ignore")
                 p = load_part(path)
             desc = f"{p.kind}, {len(p.vertices)} vertices"
+            if p.cad is not None:
+                desc += f" (hull of {p.source.name}, {p.units})"
             if p.description:
                 desc += f": {p.description}"
         except PartFileError as exc:

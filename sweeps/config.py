@@ -9,7 +9,7 @@ stdlib dataclasses that pydantic validates field by field and whose
 
 Every mistake becomes one line naming its dotted field path and the fix
 (:func:`describe`).  Units: metres, radians; an angle may be written with a
-``deg`` suffix (``90deg``).
+``deg`` suffix (``90deg``), a length with a unit (``0.05 mm``, :mod:`sweeps.units`).
 """
 from __future__ import annotations
 
@@ -49,9 +49,16 @@ class PartInline(Strict):
 
     name: Optional[str] = None
     kind: Optional[Literal["polygon", "polyhedron"]] = None
-    vertices: list[list[float]]
-    com: Optional[list[float]] = None
-    thickness: Optional[float] = None
+    vertices: Optional[list[list[float]]] = None
+    mesh: Optional[str] = None
+    outline: Optional[str] = None
+    footprint: Optional[str] = None
+    face: Optional[Union[StrictInt, str]] = None
+    layer: Optional[str] = None
+    chord_tolerance: Optional[Union[float, str]] = None
+    units: Optional[str] = None
+    com: Optional[list[Union[float, str]]] = None
+    thickness: Optional[Union[float, str]] = None
     density: Optional[float] = None
     mass: Optional[float] = None
     description: Optional[str] = None
@@ -446,9 +453,15 @@ def describe(exc: ValidationError, model, prefix: str = "") -> ConfigError:
 
 def validate(model, doc, prefix: str = ""):
     """``model.model_validate(doc)`` with errors as a :class:`ConfigError`."""
+    from sweeps.units import lengths_to_metres
+
     if not isinstance(doc, dict):
         raise ConfigError(f"{prefix}expected a mapping with keys {', '.join(_fields(model))}, "
                           f"got {type(doc).__name__}")
+    try:
+        doc = lengths_to_metres(doc)   # '0.05 mm' -> 5e-05 (sweeps.units), once, at the edge
+    except ValueError as exc:
+        raise ConfigError(prefix + str(exc)) from None
     try:
         return model.model_validate(doc)
     except ValidationError as exc:
@@ -475,6 +488,14 @@ def parse_angle(v, field: str) -> float:
 
 
 def _length(v, field: str) -> float:
+    """A number (metres) or a length with a unit (``'100 mm'``, :mod:`sweeps.units`)."""
+    from sweeps.units import is_length_string, parse_length
+
+    if is_length_string(v):
+        try:
+            return parse_length(v, field)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
     if isinstance(v, (str, bool)) or not isinstance(v, (int, float)):
         raise ConfigError(f"{field}: expected a number in metres, got {v!r}")
     x = float(v)

@@ -2,13 +2,19 @@
 
 Usage::
 
-    nudge plan-push PART.yaml --start X,Y,THETA --goal X,Y,THETA
-        [--margin-deg 7] [--safety-factor 1.15] [--objective distance|pushes]
+    nudge plan-push PART.yaml|PLATE.dxf|PART.stl --start X,Y,THETA --goal X,Y,THETA
+        [--units mm] [--face -z] [--margin-deg 7] [--safety-factor 1.15] [--objective distance|pushes]
         [--solver closed_form|cvxpy] [--strategy search|paper] [--support-c LO HI]
         [--support any|rigid|uniform|ring]
         [--min-fence-mu MU] [--workspace XMIN XMAX YMIN YMAX]
         [--max-reorients N] [--extra-steps N]
         [--json] [--plot FILE.png] [--psd FILE.png]
+
+The part: a part file (:mod:`sweeps.partfile`), a bundled part's name, or a
+CAD file given directly (:mod:`sweeps.cad`): a DXF outline, or a mesh's
+footprint resting on ``--face`` (``-z`` default, or a hull face number), read in
+``--units`` (else the file's own unit, else metres; a file with no unit whose
+size is implausible in metres is refused).
 
 Poses are ``x,y,theta`` in metres and radians (world frame; ``(x, y)`` is the
 centre of mass); ``theta`` may carry a ``deg`` suffix (``0.1,0,90deg``) or a
@@ -46,7 +52,8 @@ from typing import Optional, Sequence
 
 from sweeps.errors import Exit, UserError
 from sweeps.terminal import (EFFORT_BOUNDS, InputError, Parser, check_figure_path, fail,
-                             join_negative_values, load_part_of_kind, report_warnings)
+                             join_negative_values, load_part_of_kind, report_part,
+                             report_warnings)
 from sweeps.terminal import parse_pose as _parse_pose
 
 
@@ -69,7 +76,12 @@ def build_parser(prog: str = "nudge plan-push") -> argparse.ArgumentParser:
         epilog="Poses: x,y,theta in metres and radians, world frame, (x, y) = centre of mass; "
                "theta may end in 'deg' (e.g. 0.1,0,90deg). Lengths (--support-c, --workspace) "
                "in metres. Exit status: 0 ok, 1 no plan, 2 bad input.")
-    p.add_argument("part", metavar="PART.yaml", help="part file (see sweeps.partfile)")
+    p.add_argument("part", metavar="PART.yaml", help="part file (see sweeps.partfile), a bundled "
+                   "part's name, or a CAD file: a DXF outline or a mesh (STL, OBJ, PLY: its footprint)")
+    p.add_argument("--units", metavar="UNIT", default=None,
+                   help="a CAD file's unit (m, cm, mm, um, in); default: the file's own, else metres")
+    p.add_argument("--face", metavar="FACE", default=None,
+                   help="a mesh's face it rests on: -z (default), +z, -x, ... or a hull face number")
     p.add_argument("--start", metavar="X,Y,THETA", help="start pose (m, m, rad or ...deg)")
     p.add_argument("--goal", metavar="X,Y,THETA", help="goal pose (m, m, rad or ...deg)")
     p.add_argument("--margin-deg", type=float, default=7.0, metavar="DEG",
@@ -147,8 +159,9 @@ def _integer(flag: str):
 
 
 def _join_pose_args(argv: Sequence[str]) -> list[str]:
-    """``--start -0.1,0,0`` -> ``--start=-0.1,0,0`` (argparse would take the value for an option)."""
-    return join_negative_values(argv, ("--start", "--goal"))
+    """``--start -0.1,0,0`` -> ``--start=-0.1,0,0``, ``--face -z`` -> ``--face=-z``
+    (argparse would take the value for an option)."""
+    return join_negative_values(argv, ("--start", "--goal", "--face"))
 
 
 def _flag_names(message: str) -> str:
@@ -191,9 +204,14 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
         return fail(str(exc))
 
     try:
-        part = load_part_of_kind(args.part, "polygon", "nudge plan-tumble for polyhedra")
+        face = args.face
+        if face is not None and face.lstrip("+-").isdigit() and face[0] not in "+-":
+            face = int(face)
+        part = load_part_of_kind(args.part, "polygon", "nudge plan-tumble for polyhedra",
+                                 units=args.units, face=face)
     except UserError as exc:
         return fail(str(exc))
+    report_part(part)
     from sweeps import plausible
 
     shown = plausible.screen_cli(part, poses={"--start": args.start, "--goal": args.goal},
@@ -241,7 +259,7 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
         if args.json:
             sys.stdout.write(json.dumps(plan.to_dict(), indent=2) + "\n")
         else:
-            sys.stdout.write(f"{part.name}: {part.path}\n{plan.summary()}\n")
+            sys.stdout.write(f"{part.name}: {part.source}\n{plan.summary()}\n")
     elif not args.json:
         stable = [list(prepared.polygon.edge_vertices(e)) for e in prepared.stable]
         sys.stdout.write(f"{part.name}: {prepared.class_name} part, stable edges {stable}\n")
@@ -259,7 +277,7 @@ def _write_figures(args, part, plan, prepared) -> int:
             continue
         try:
             if flag == "--plot":
-                push_plots.plot_plan(plan, path, name=part.name)
+                push_plots.plot_plan(plan, path, name=part.name, outline=part.loops)
             else:
                 push_plots.plot_psd(prepared, path, name=part.name, plan=plan)
         except OSError as exc:

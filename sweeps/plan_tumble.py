@@ -2,10 +2,15 @@
 
 Usage::
 
-    nudge plan-tumble PART.yaml --goal X,Y,THETA,FACE --eps E
+    nudge plan-tumble PART.yaml|PART.stl --goal X,Y,THETA,FACE --eps E [--units mm]
         [--start X,Y,THETA,FACE] [--tau-v T] [--tau-g T] [--no-shorten]
         [--json] [--plot FILE.png] [--development FILE.png]
         [--lattice FILE.png] [--lattice-radius R]
+
+The part: a part file (:mod:`sweeps.partfile`), a bundled part's name, or a
+mesh given directly (STL, OBJ, PLY, ...: its convex hull, the mesh's own
+centre of mass; :mod:`sweeps.cad`) read in ``--units`` (else the file's own,
+else metres; a file with no unit whose size is implausible is refused).
 
 A configuration is ``x,y,theta,face`` (Marigo & Bicchi): ``face`` (a face
 number of :func:`kernels.polyhedron.make_polyhedron`, optionally written
@@ -41,7 +46,7 @@ from typing import Optional, Sequence
 
 from sweeps.errors import Exit, UserError
 from sweeps.terminal import (InputError, Parser, check_figure_path, fail, join_negative_values,
-                             load_part_of_kind, parse_pose, report_warnings)
+                             load_part_of_kind, parse_pose, report_part, report_warnings)
 
 
 
@@ -78,7 +83,9 @@ def build_parser(prog: str = "nudge plan-tumble") -> argparse.ArgumentParser:
                "Exit status: 0 solved, 1 not solvable or the effort budget ran out (the best plan "
                "found is printed), 2 bad input, 3 internal error.")
     p.add_argument("part", metavar="PART.yaml", help="part file with kind: polyhedron "
-                   "(see sweeps.partfile)")
+                   "(see sweeps.partfile), a bundled part's name, or a mesh file (STL, OBJ, PLY)")
+    p.add_argument("--units", metavar="UNIT", default=None,
+                   help="a mesh file's unit (m, cm, mm, um, in); default: the file's own, else metres")
     p.add_argument("--goal", metavar="X,Y,THETA,FACE", help="goal configuration")
     p.add_argument("--start", metavar="X,Y,THETA,FACE", default=None,
                    help="start configuration (default 0,0,0,0)")
@@ -167,9 +174,11 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
         return fail(str(exc))
 
     try:
-        part = load_part_of_kind(args.part, "polyhedron", "nudge plan-push for polygons")
+        part = load_part_of_kind(args.part, "polyhedron", "nudge plan-push for polygons",
+                                 units=args.units)
     except UserError as exc:
         return fail(str(exc))
+    report_part(part)
     from sweeps import plausible
 
     shown = plausible.screen_cli(part, poses={"--start": args.start, "--goal": args.goal},
@@ -220,14 +229,14 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-tumble") 
         if args.json:
             sys.stdout.write(json.dumps(plan.to_dict(), indent=2, default=_json_default) + "\n")
         else:
-            sys.stdout.write(f"{part.name}: {part.path}\n{plan.summary()}\n")
+            sys.stdout.write(f"{part.name}: {part.source}\n{plan.summary()}\n")
         if plan.verdict != "solved":
             code = Exit.NEGATIVE
             what = ("effort budget exhausted (raise --effort or --time-limit)"
                     if plan.verdict == "budget_exhausted" else "not solvable")
             sys.stderr.write(f"{what}: {' '.join(str(plan.reason).split())}\n")
     elif not args.json:
-        sys.stdout.write(f"{part.name}: {part.path}: {poly.n_faces} faces, {poly.n_vertices} "
+        sys.stdout.write(f"{part.name}: {part.source}: {poly.n_faces} faces, {poly.n_vertices} "
                          f"vertices, {poly.n_edges} edges\n")
 
     if args.plot or args.development or args.lattice:

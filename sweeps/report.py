@@ -31,6 +31,7 @@ TEMPLATE = jinja2.Template("""<!doctype html>
 </style></head><body>
 <h1>nudge study <code>{{ name }}</code></h1>
 <p>run <code>{{ run_id }}</code> &middot; {{ kind }} study &middot; part <code>{{ part }}</code>
+from <code>{{ part_source }}</code>
 &middot; model <code>{{ model }}</code> &middot; {{ n_configs }} configuration(s) &times; {{ n_tasks }} task(s)
 &middot; {{ samples }} samples per (configuration, task) &middot; seed {{ seed }}</p>
 <p class="note">Success: final position within {{ pos_eps }} m and orientation within {{ theta_eps }} rad
@@ -123,6 +124,7 @@ def write_report(store, design) -> pathlib.Path:
                                 drawing=lead.drawing))
     page = TEMPLATE.render(
         name=design.name, run_id=design.run_id, kind=kind, part=design.part(0).name,
+        part_source=design.part(0).source_label,
         model=model_for(top.model, kind), n_configs=len(design.configs),
         n_tasks=len(design.tasks(0)), samples=top.samples, seed=top.seed,
         pos_eps=top.eps.pos_eps_m, theta_eps=f"{top.eps.theta_eps_rad:.4g}", confidence=conf,
@@ -184,6 +186,7 @@ CERTIFY_TEMPLATE = jinja2.Template("""<!doctype html>
 .drawing.no { background: #fbeeee; border-color: #c99; }
 </style></head><body>
 <h1>nudge certification of <code>{{ part }}</code></h1>
+<p>part from <code>{{ part_source }}</code>{% if part_cad %}: {{ part_cad }}{% endif %}</p>
 <p>run <code>{{ run_id }}</code> &middot; tables: <code>pd.read_parquet("{{ root }}/certificates")</code>
 (also <code>candidates</code>, <code>design</code>, <code>samples</code>, <code>plans</code>).</p>
 <h2>Certificates</h2>
@@ -225,9 +228,10 @@ def _values(v) -> str:
     return ", ".join(f"{x:.4g}" for x in v)
 
 
-def write_certify_report(store, part: str, config_text: str) -> pathlib.Path:
+def write_certify_report(store, part, config_text: str) -> pathlib.Path:
     """``report.html`` of a certification run: its certificates, the candidates
-    of synthesized tasks and the tolerance design (read from the run's tables)."""
+    of synthesized tasks and the tolerance design (read from the run's tables);
+    ``part`` the :class:`~sweeps.partfile.PartFile` (its name, source file and unit)."""
     import math
 
     import pandas as pd
@@ -269,7 +273,9 @@ def write_certify_report(store, part: str, config_text: str) -> pathlib.Path:
                                else "perfect (the configured tolerances do not certify)"),
                         n_fresh=int(r0.joint_n_fresh), base=f(r0.failure_rate_all_perfect, ".3f"),
                         rows=rows))
-    page = CERTIFY_TEMPLATE.render(part=part, run_id=store.run_id, root=str(store.root),
+    page = CERTIFY_TEMPLATE.render(part=part.name, part_source=part.source_label,
+                                   part_cad=part.cad.description if part.cad is not None else "",
+                                   run_id=store.run_id, root=str(store.root),
                                    certs=crow, synth=synth, design=des, config=config_text,
                                    style=STYLE)
     path = store.root / "report.html"

@@ -34,7 +34,7 @@ import sys
 from typing import Optional, Sequence
 
 from sweeps.errors import Exit, UserError
-from sweeps.terminal import Parser, fail, run_main
+from sweeps.terminal import Parser, fail, report_part, run_main
 
 
 #: Rough throughput on 2 CPU cores (samples/s, float64) for --dry-run's estimate.
@@ -75,6 +75,8 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "python -m sweeps.run
         for line in exc.lines:
             fail(line)
         return Exit.INPUT
+    for part in design.parts():   # a CAD part: its file, unit and what reading it found
+        report_part(part)
     for line in design.warnings:   # implausible values (sweeps.plausible): shown even with --quiet
         sys.stderr.write(f"warning: {line}\n")
     if args.dry_run:

@@ -48,6 +48,7 @@ from sweeps.config import (Angle, ConfigError, Design as DesignSection, Evaluati
                            parse_angle, parse_pose, validate)
 from sweeps.design import expand, parse_overrides, set_path
 from sweeps.plausible import check_design, wrap
+from sweeps.units import at_path
 from sweeps.yamlio import dump_yaml, read_yaml
 
 KIND_OF_PART = {"polygon": "push", "polyhedron": "tumble"}
@@ -158,6 +159,10 @@ class Design:
         self.run_id = "r" + digest[:10]
         top = validate(Study, doc)
         self.paths, self.points = expand(doc.get("params") or {}, top.seed)
+        try:   # swept lengths with a unit ('0.05 mm') in metres: numeric columns in the tables
+            self.points = [{p: at_path(p, v) for p, v in pt.items()} for pt in self.points]
+        except ValueError as exc:
+            raise ConfigError(f"params.{exc}") from None
         self.configs = []
         for i, point in enumerate(self.points):
             d = copy.deepcopy(doc)
@@ -181,10 +186,19 @@ class Design:
     def part(self, config_id: int):
         """The :class:`~sweeps.partfile.PartFile` of a configuration (cached)."""
         cfg = self.configs[config_id]
-        key = _part_key(cfg)
+        key = _part_key(cfg) + cfg.kind   # a mesh named directly: footprint (push) or hull
         if key not in self._parts:
-            self._parts[key] = load_part_ref(cfg.part, self.base)
+            self._parts[key] = load_part_ref(cfg.part, self.base,
+                                             {v: k for k, v in KIND_OF_PART.items()}[cfg.kind])
         return self._parts[key]
+
+    def parts(self) -> list:
+        """The distinct parts of the configurations, in order of first use."""
+        seen = {}
+        for cid in range(len(self.configs)):
+            part = self.part(cid)
+            seen.setdefault(id(part), part)
+        return list(seen.values())
 
     def tasks(self, config_id: int) -> list[tuple[str, tuple, tuple]]:
         """``(name, start, goal)`` of a configuration's tasks (derived once per
@@ -206,8 +220,13 @@ def _part_key(cfg) -> str:
 
 
 def _apply(doc: dict, path: str, value) -> None:
-    """Set a swept value; a scalar on a range field (``friction.mu_f``) sets both ends."""
+    """Set a swept value; a scalar on a range field (``friction.mu_f``) sets both ends; a
+    length with a unit (``'0.05 mm'``) on a length field is read as metres (:mod:`sweeps.units`)."""
     head, _, last = path.rpartition(".")
+    try:
+        value = at_path(path, value)
+    except ValueError as exc:
+        raise ConfigError(f"params.{exc}") from None
     try:
         cur = doc
         for p in head.split(".") if head else []:
@@ -224,20 +243,22 @@ def _apply(doc: dict, path: str, value) -> None:
 RANGE_FIELDS = ("friction.mu_f", "friction.mu_s", "friction.c")
 
 
-def load_part_ref(ref, base: pathlib.Path):
-    """A part given as a bundled name, a path (relative to ``base``) or inline,
-    its geometry checked (:func:`sweeps.partfile.check_geometry`): a degenerate
-    part is a config error (``part.vertices: ...`` inline), before any work."""
-    from sweeps.partfile import PartFileError, check_geometry, load_part, parse_part
+def load_part_ref(ref, base: pathlib.Path, kind: Optional[str] = None):
+    """A part given as a bundled name, a path (relative to ``base``: a part file,
+    or a CAD file, read as ``kind`` ``polygon`` / ``polyhedron`` when a mesh) or
+    inline, its geometry checked (:func:`sweeps.partfile.check_geometry`): a
+    degenerate part is a config error (``part.vertices: ...`` inline), before
+    any work."""
+    from sweeps.partfile import INLINE, PartFileError, check_geometry, load_part, parse_part
 
-    inline = base / "<inline part>"
+    inline = base / INLINE
     try:
         if isinstance(ref, str):
             try:
                 path = catalog.find_part(ref, base)
             except FileNotFoundError as exc:
                 raise ConfigError(f"part: {ref!r}: {exc}") from None
-            part = load_part(path)
+            part = load_part(path, kind=kind)
         else:
             part = parse_part(ref.model_dump(exclude_none=True), inline)
         check_geometry(part)

@@ -189,6 +189,7 @@ def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[
     tumble = part.kind == "polyhedron"
     straight = math.hypot(goal[0] - start[0], goal[1] - start[1])
     row = dict(task=name, kind="tumble" if tumble else "push", part=part.name,
+               part_source=part.source.name, part_units=part.units,
                start_x_m=start[0], start_y_m=start[1], start_theta_rad=start[2],
                start_face=start[3] if tumble else -1, goal_x_m=goal[0], goal_y_m=goal[1],
                goal_theta_rad=goal[2], goal_face=goal[3] if tumble else -1,

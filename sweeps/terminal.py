@@ -163,10 +163,11 @@ def run_main(main: Callable[[], int]) -> None:
         sys.exit(Exit.INTERNAL)
 
 
-def load_part_of_kind(path, kind: str, other_tool: str):
+def load_part_of_kind(path, kind: str, other_tool: str, units=None, face=None):
     """Read a part file (:func:`sweeps.partfile.load_part`; a bundled part's
-    name works too, e.g. ``cube``) and check that it holds a ``kind`` part
-    (``polygon`` or ``polyhedron``).
+    name works too, e.g. ``cube``), or a CAD file given directly (a mesh, its
+    ``footprint`` on ``face`` for a polygon; ``units``: ``--units``), and check
+    that it holds a ``kind`` part (``polygon`` or ``polyhedron``).
 
     Raises:
       UserError: a bad file (a ``PartFileError``: the message names the field),
@@ -181,8 +182,18 @@ def load_part_of_kind(path, kind: str, other_tool: str):
     except FileNotFoundError as exc:
         if not str(path).endswith((".yaml", ".yml")) and "/" not in str(path):
             raise InputError(f"{path}: {exc}") from None
-    part = load_part(path)
+    part = load_part(path, kind=kind, units=units, face=face, units_field="--units")
     if part.kind != kind:
         raise InputError(f"{part.path}: kind: this planner takes {kind} parts, this file holds a "
                          f"{part.kind} (use {other_tool})")
     return part
+
+
+def report_part(part) -> None:
+    """On stderr: where a CAD part's geometry came from and its unit (one
+    ``part:`` line), then what reading it found (``warning:`` lines)."""
+    if part.cad is None and part.units == "m":
+        return
+    sys.stderr.write(f"part: {part.name}: {part.source_text}\n")
+    for w in part.warnings:
+        sys.stderr.write(f"warning: {w}\n")

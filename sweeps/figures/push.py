@@ -62,7 +62,7 @@ def _fence(world: np.ndarray, d: np.ndarray, extent: float):
 
 
 def plot_plan(plan: PushPlan, path, title: Optional[str] = None, name: Optional[str] = None,
-              dpi: int = 150) -> None:
+              dpi: int = 150, outline: tuple = ()) -> None:
     """Draw a pose plan (the paper's Figure 1) and save it to ``path``.
 
     The part's outline (its convex hull) is drawn at the start (blue, pose 0),
@@ -80,6 +80,11 @@ def plot_plan(plan: PushPlan, path, title: Optional[str] = None, name: Optional[
       title: optional title; default: part class, plan class, pushes, distance.
       name: the part's name, put in front of the default title.
       dpi: resolution.
+      outline: the part's real outline, loops in the frame of
+        ``plan.vertices`` (m; outer first, then holes: a CAD part's
+        :attr:`~sweeps.partfile.PartFile.loops`): drawn inside each hull at
+        the start and the goal (the hull, which the fence touches, stays the
+        outline drawn).
     """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pg.PartWarning)
@@ -108,6 +113,11 @@ def plot_plan(plan: PushPlan, path, title: Optional[str] = None, name: Optional[
             fc, ec, alpha, z, lw = MID_COLOR, MID_COLOR, 0.10, 3, 1.0
         ax.add_patch(PolyPatch(w, closed=True, facecolor=fc, alpha=alpha, edgecolor="none", zorder=z))
         ax.add_patch(PolyPatch(w, closed=True, fill=False, edgecolor=ec, lw=lw, zorder=z + 0.1))
+        if outline and i in (0, last):
+            for loop in outline:
+                lw_ = _world(np.asarray(loop, float) - np.asarray(poly.com), pose)
+                ax.add_patch(PolyPatch(lw_, closed=True, fill=False, edgecolor="k", lw=0.8,
+                                       zorder=z + 0.3))
         if mark_idx is not None:
             ax.plot(w[list(mark_idx), 0], w[list(mark_idx), 1], color=ec, lw=lw + 2.2,
                     solid_capstyle="butt", zorder=z + 0.2)
@@ -153,6 +163,9 @@ def plot_plan(plan: PushPlan, path, title: Optional[str] = None, name: Optional[
     head.append(Patch(facecolor=GOAL_COLOR, alpha=0.5, label=f"goal (pose {last}) {_fmt_pose(plan.goal)}"))
     if mark is not None:
         head.append(Line2D([], [], color="k", lw=3.5, label=f"edge {list(mark)} (thick side)"))
+    if outline:
+        head.append(Line2D([], [], color="k", lw=0.8,
+                           label="the part's outline (CAD; holes inside); coloured: its hull"))
     ax.legend(handles=head + handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8,
               frameon=False, title="fence at the start of each push; arrow = push distance",
               title_fontsize=8)
