@@ -247,8 +247,11 @@ def _run(cfg, text, part, tasks, out, run_id, quiet):
     from sweeps.progress import StopFlag
     from sweeps.store import RunStore, manifest_for
 
-    store = RunStore.open(out, manifest_for(run_id, f"certify-{part.name}", text, cfg.seed,
-                                            {"tasks": [t[0] for t in tasks]}))
+    from sweeps.partfile import geometry_identity
+
+    identity = text + geometry_identity([part])   # an edited CAD file does not resume this run
+    store = RunStore.open(out, manifest_for(run_id, f"certify-{part.name}", identity, cfg.seed,
+                                            {"tasks": [t[0] for t in tasks]}, config_as_run=text))
     done = store.done()
     certs = []
     with StopFlag(f"run the same command again to resume (results so far: {out})") as flag:

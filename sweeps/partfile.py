@@ -422,6 +422,18 @@ def _material(raw, kind: str, vertices: np.ndarray, k: float = 1.0, cad=None):
     return thickness, density, given
 
 
+def geometry_identity(parts) -> str:
+    """Lines for a run's identity naming the content of the CAD files its parts
+    were read from (``# part geometry: bracket.stl sha256 ...``), so that a run
+    folder refuses to resume on an edited CAD file; ``""`` when no part comes
+    from CAD (the identity of such runs is their config alone)."""
+    seen = {}
+    for part in parts:
+        if part.cad is not None:
+            seen[str(part.cad.source)] = f"# part geometry: {part.cad.source.name} sha256 {part.cad.sha256}"
+    return "".join(line + "\n" for line in seen.values())
+
+
 def load_part(path: Union[str, pathlib.Path], kind: Optional[str] = None,
               units: Optional[str] = None, face=None, units_field: str = "units") -> PartFile:
     """Read and validate a part file, or a CAD file given directly.

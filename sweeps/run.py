@@ -117,7 +117,8 @@ def describe_design(design, out: pathlib.Path, spec) -> str:
     blocks, summaries = plan_units(design, {})
     n_samples = sum(u.samples for u in blocks)
     lines = [f"study {design.name} ({design.top.kind}), run {design.run_id} -> {out}",
-             f"part: {design.part(0).name}; executor: {spec.kind}"
+             f"part: {design.part(0).name} ({design.part(0).kind}, from "
+             f"{design.part(0).source_label}); executor: {spec.kind}"
              + (f" ({spec.workers} workers)" if spec.kind == "dask" and not spec.address else ""),
              f"{len(design.configs)} configuration(s) x {len(design.tasks(0))} task(s) = "
              f"{len(summaries)} (configuration, task) pairs; {n_samples} samples in "
@@ -158,7 +159,10 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
     from sweeps.work import (Context, design_units, plan_units, run_block, run_design,
                              run_summary, with_stats)
 
-    manifest = manifest_for(design.run_id, design.name, design.identity, design.top.seed,
+    from sweeps.partfile import geometry_identity
+
+    identity = design.identity + geometry_identity(design.parts())   # an edited CAD file: refused
+    manifest = manifest_for(design.run_id, design.name, identity, design.top.seed,
                             {"paths": design.paths, "points": design.points},
                             config_as_run=design.text)
     store = RunStore.open(out, manifest)

@@ -258,7 +258,17 @@ def load_part_ref(ref, base: pathlib.Path, kind: Optional[str] = None):
                 path = catalog.find_part(ref, base)
             except FileNotFoundError as exc:
                 raise ConfigError(f"part: {ref!r}: {exc}") from None
-            part = load_part(path, kind=kind)
+            try:
+                part = load_part(path, kind=kind)
+            except PartFileError as exc:
+                from sweeps.cad import cad_kind
+
+                what = cad_kind(path)
+                if what is None or "carries no unit" not in str(exc):
+                    raise
+                key = "outline" if what == "outline" else (
+                    "footprint" if kind == "polygon" else "mesh")
+                raise PartFileError(f"{exc}; in a config: part: {{{key}: {ref}, units: mm}}") from None
         else:
             part = parse_part(ref.model_dump(exclude_none=True), inline)
         check_geometry(part)

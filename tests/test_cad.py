@@ -526,3 +526,52 @@ def test_plot_draws_the_real_outline(tmp_path, monkeypatch):
     sizes = sorted(len(p.get_xy()) for p in black)
     assert sizes[-1] >= len(part.loops[0])
     assert (tmp_path / "p.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("kind, want", [("push", "polygon"), ("tumble", "polyhedron")])
+def test_a_study_names_a_mesh_directly_read_as_its_kind(tmp_path, kind, want):
+    """``part: box.stl`` in a push study is the mesh's footprint, in a tumble study its hull."""
+    box_stl(tmp_path / "box.stl")
+    goal = "[0.1, 0, 0]" if kind == "push" else "[0.05, 0, 0, 1]"
+    study = write(tmp_path / "s.yaml", f"""study: direct
+kind: {kind}
+part: box.stl
+tasks:
+  - {{name: a, start: {"[0, 0, 0]" if kind == "push" else "[0, 0, 0, 0]"}, goal: {goal}}}
+samples: 8
+""")
+    proc = nudge("sweep", study, "--dry-run", "--out", tmp_path / "out", cwd=tmp_path)
+    # no unit and 72.8 across: refused before any work, naming the fix
+    line = _error_line(proc)
+    assert "units: box.stl carries no unit" in line
+    key = "footprint" if kind == "push" else "mesh"
+    assert line.endswith(f"in a config: part: {{{key}: box.stl, units: mm}}"), line
+    study.write_text(study.read_text().replace("part: box.stl", "part: {mesh: box.stl, units: mm}"
+                                                if kind == "tumble" else
+                                                "part: {footprint: box.stl, units: mm}"))
+    proc = nudge("sweep", study, "--dry-run", "--out", tmp_path / "out", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert f"part: box ({want}, from box.stl (mm, the part file))" in proc.stdout
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
+def test_an_edited_cad_file_does_not_resume_its_run(tmp_path):
+    rounded_plate_dxf(tmp_path / "plate.dxf", hole=None)
+    cfg = write(tmp_path / "c.yaml", """part: {outline: plate.dxf, chord_tolerance: 1}
+tolerances: {tau_v: 0.02 mm}
+model: exact
+n_samples: 16
+tasks:
+  - {name: t, start: [0, 0, 0], goal: [80 mm, 0, 0]}
+""")
+    out = tmp_path / "out"
+    first = nudge("certify", cfg, "--out", out, "--quiet", cwd=tmp_path)
+    assert first.returncode in (0, 1), first.stderr
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert "# part geometry: plate.dxf sha256 " in manifest["config"]
+    again = nudge("certify", cfg, "--out", out, "--quiet", cwd=tmp_path)   # resumes: nothing to do
+    assert again.returncode == first.returncode, again.stderr
+    rounded_plate_dxf(tmp_path / "plate.dxf", hole=None, r=6.0)   # the drawing changed
+    line = _error_line(nudge("certify", cfg, "--out", out, "--quiet", cwd=tmp_path))
+    assert "of another config" in line and "plate.dxf sha256" in line
