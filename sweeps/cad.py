@@ -113,10 +113,23 @@ def _turn_warning(verts: np.ndarray, field: str, path: pathlib.Path, how: str) -
     small = int(np.sum(turn < SMALL_TURN_DEG))
     if not small:
         return []
+    fix = "; a coarser chord_tolerance gives fewer, sharper corners" if "flattened" in how else ""
     return [f"{field}: {path.name}: {small} of the hull's {len(ring)} corners turn less than "
             f"{SMALL_TURN_DEG:g} deg (the smallest {turn.min():.3g} deg: {how}); a reorient push "
-            f"turns the part about one corner, so plans need many short pushes or none; "
-            f"a coarser chord_tolerance gives fewer, sharper corners"]
+            f"turns the part about one corner, so plans need many short pushes or none{fix}"]
+
+
+def _has_curves(entities) -> bool:
+    """Whether DXF entities hold arcs or curves (not only straight segments)."""
+    for e in entities:
+        t = e.dxftype()
+        if t in ("ARC", "CIRCLE", "ELLIPSE", "SPLINE"):
+            return True
+        if t == "LWPOLYLINE" and any(abs(p[0]) > 0 for p in e.get_points("b")):
+            return True
+        if t == "POLYLINE" and any(abs(v.dxf.get("bulge", 0)) > 0 for v in e.vertices):
+            return True
+    return False
 
 
 def cad_kind(path: Union[str, pathlib.Path]) -> Optional[str]:
@@ -631,7 +644,9 @@ def read_outline(path: Union[str, pathlib.Path], units: Optional[str] = None,
                      f"hull, which adds {added * k * k * 1e6:.4g} mm^2 ({100 * added / a_out:.3g}% "
                      f"of its area); a fence touches only the hull")
     verts = np.ascontiguousarray(coarse[hull.vertices] * k)
-    warns += _turn_warning(verts, field, path, f"arcs flattened to {chord * k * 1e3:.3g} mm")
+    warns += _turn_warning(verts, field, path,
+                           f"arcs flattened to {chord * k * 1e3:.3g} mm" if _has_curves(outer_ents)
+                           else "corners of the drawing")
     ccw = [outer_pts if _shoelace(outer_pts)[0] > 0 else outer_pts[::-1]]
     loops_m = tuple(np.ascontiguousarray(lp * k) for lp in ccw + [h[0] for h in holes])
     hole_text = f", {len(holes)} hole{'s' if len(holes) != 1 else ''}" if holes else ""

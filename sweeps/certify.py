@@ -32,9 +32,12 @@ same selection draws (:mod:`robustness.synthesis`), certified on fresh draws;
 ``--design`` (a ``design:`` section) adds the tolerance design of the certified
 plan (:mod:`robustness.tolerance_design`: table ``design``, ``report.html``).
 
-Config (YAML; unknown keys are errors; numbers such as ``1e-5`` are numbers)::
+Config (YAML; unknown keys are errors; numbers such as ``1e-5`` are numbers;
+a length may carry a unit, ``tau_v: 0.05 mm``, converted to metres once)::
 
-    part: biplus_stable              # a bundled name, a path relative to this file, or inline
+    part: biplus_stable              # a bundled name, a path relative to this file (a part
+                                     # file, or a CAD file: plate.dxf, bracket.stl), or inline
+                                     # ({mesh: bracket.stl, units: mm}: sweeps.partfile)
     tolerances: {tau_v: 2.0e-5, tau_com: 1.0e-4}       # robustness.GeometryTolerance
     friction: {mu_f: [0.4, 0.8], mu_s: [0.3, 0.6]}     # robustness.FrictionRange
     execution: {start_xy: 5.0e-4, fence_angle: 0.002}  # robustness.ExecutionTolerance

@@ -2,11 +2,14 @@
 and the design (one validated config per configuration id).
 
 A study (YAML; unknown keys are errors; units metres and radians, angles may
-carry ``deg``)::
+carry ``deg``, lengths a unit: ``tau_v: 0.05 mm``, :mod:`sweeps.units`)::
 
     study: margins                      # results/<study>/<run-id>/ (default: file stem)
     kind: push                          # push | tumble (must match the part)
-    part: nice_stable                   # bundled name, a path, or an inline part
+    part: nice_stable                   # bundled name, a path (a part file, or a CAD file:
+                                        # plate.dxf, bracket.stl), or an inline part (the
+                                        # part-file keys: vertices, or mesh / outline /
+                                        # footprint with units: mm, sweeps.partfile)
     tasks:                              # explicit list, or sampled goals:
       sample: {n: 6, annulus: [0.05, 0.15], heading: [-180deg, 180deg]}
     planner: {margin_deg: 7, safety_factor: 1.15}   # + objective, strategy (search | paper),

@@ -176,6 +176,44 @@ def test_chord_tolerance_sets_the_corner_count(tmp_path):
     assert fine.volume == pytest.approx(coarse.volume, rel=1e-12)
 
 
+@settings(max_examples=20, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 10_000), unit=st.sampled_from([("mm", ezdxf.units.MM, 1e-3),
+                                                           ("in", ezdxf.units.IN, 0.0254),
+                                                           ("m", ezdxf.units.M, 1.0)]))
+def test_random_outlines_as_shuffled_lines_read_back(tmp_path, seed, unit):
+    """A random convex polygon drawn as LINEs in random order and directions, in a random
+    unit, reads back as the metre polygon: the same hull and centroid (shoelace, numpy)."""
+    name, code, k = unit
+    rng = np.random.default_rng(seed)
+    from scipy.spatial import ConvexHull
+
+    pts = rng.normal(size=(9, 2)) * [0.04, 0.02]
+    ring = pts[ConvexHull(pts).vertices]            # CCW hull, metres
+    doc = ezdxf.new("R2010")
+    doc.units = code
+    msp = doc.modelspace()
+    segs = [(ring[i], ring[(i + 1) % len(ring)]) for i in range(len(ring))]
+    for j in rng.permutation(len(segs)):
+        a, b = segs[j]
+        if rng.random() < 0.5:
+            a, b = b, a
+        msp.add_line(tuple(a / k), tuple(b / k))
+    doc.saveas(tmp_path / f"r{seed}.dxf")
+    geo = cad.read_outline(tmp_path / f"r{seed}.dxf")
+    assert geo.units == name
+    # a straight-sided drawing: no convexity or chord warning (a corner that turns little is one)
+    assert all("corners of the drawing" in w and "chord" not in w for w in geo.warnings)
+    np.testing.assert_allclose(np.sort(geo.vertices, axis=0), np.sort(ring, axis=0), atol=1e-12)
+    x, y = ring[:, 0], ring[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    cross = x * yn - xn * y
+    area = cross.sum() / 2
+    com = np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6 * area)
+    assert geo.volume == pytest.approx(area, rel=1e-12)
+    np.testing.assert_allclose(geo.com, com, atol=1e-12)
+
+
 def test_non_convex_outline_warns_with_the_area_its_hull_adds(tmp_path):
     doc = ezdxf.new("R2010")
     doc.units = ezdxf.units.MM
