@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from sweeps import cad
 from sweeps.partfile import PartFileError, load_part
 from sweeps.units import LengthError, lengths_to_metres, parse_length
-from tests.commandline import ROOT, nudge
+from tests.commandline import ROOT, call, nudge
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
 
@@ -93,6 +93,24 @@ def wedge_stl(path, scale=1.0):
     m = trimesh.convex.convex_hull(v)
     m.export(path)
     return m, v
+
+
+class Ran:
+    """What a command printed and its exit status (as ``subprocess.CompletedProcess``)."""
+
+    def __init__(self, code, stdout, stderr):
+        self.returncode, self.stdout, self.stderr = code, stdout, stderr
+
+
+def run(*args, cwd=None, monkeypatch=None):
+    """``nudge ARGS`` in this process (:func:`tests.commandline.call` on the console
+    script's own dispatcher, ``sweeps.cli.main``): the commands' compiled kernels are
+    shared by the tests of this file.  ``cwd``: the working folder (``monkeypatch``)."""
+    from sweeps import cli
+
+    if cwd is not None:
+        monkeypatch.chdir(cwd)
+    return Ran(*call(cli.main, *args))
 
 
 def write(path, text):
@@ -379,8 +397,7 @@ def _plan(proc):
     return json.loads(proc.stdout)
 
 
-@pytest.mark.slow
-def test_plan_push_on_a_dxf_equals_its_metre_twin(tmp_path):
+def test_plan_push_on_a_dxf_equals_its_metre_twin(tmp_path, monkeypatch):
     """A mm DXF, given directly, plans as the YAML vertex list (metres) of its hull."""
     rounded_plate_dxf(tmp_path / "plate.dxf", hole=None)
     write(tmp_path / "coarse.yaml", "outline: plate.dxf\nchord_tolerance: 1\n")
@@ -388,14 +405,13 @@ def test_plan_push_on_a_dxf_equals_its_metre_twin(tmp_path):
     write(tmp_path / "twin.yaml", json.dumps({"vertices": part.vertices.tolist(),
                                               "com": part.com.tolist()}))
     pose = ["--start", "0,0,0", "--goal", "0.1,0.05,90deg", "--json"]
-    cad_plan = _plan(nudge("plan-push", tmp_path / "coarse.yaml", *pose, cwd=tmp_path))
-    twin_plan = _plan(nudge("plan-push", tmp_path / "twin.yaml", *pose, cwd=tmp_path))
+    cad_plan = _plan(run("plan-push", tmp_path / "coarse.yaml", *pose, cwd=tmp_path, monkeypatch=monkeypatch))
+    twin_plan = _plan(run("plan-push", tmp_path / "twin.yaml", *pose, cwd=tmp_path, monkeypatch=monkeypatch))
     assert cad_plan["pushes"] == twin_plan["pushes"]
     assert cad_plan["total_distance"] == pytest.approx(twin_plan["total_distance"], rel=1e-12)
 
 
-@pytest.mark.slow
-def test_plan_tumble_mesh_mm_and_metre_twin_and_vertex_list(tmp_path):
+def test_plan_tumble_mesh_mm_and_metre_twin_and_vertex_list(tmp_path, monkeypatch):
     """A mesh in mm given directly (OBJ), the same mesh in metres (PLY), and its hull as a
     YAML vertex list (with the mesh's centre of mass) give the same tumble plan."""
     m, _ = wedge_stl(tmp_path / "wedge_mm.obj")
@@ -406,23 +422,22 @@ def test_plan_tumble_mesh_mm_and_metre_twin_and_vertex_list(tmp_path):
     write(tmp_path / "wedge.yaml", json.dumps({"vertices": geo.vertices.tolist(),
                                                "com": geo.com.tolist()}))
     args = ["--goal", "0.1,0,0,2", "--eps", "0.002", "--json"]
-    a = _plan(nudge("plan-tumble", tmp_path / "wedge_mm.obj", "--units", "mm", *args, cwd=tmp_path))
-    b = _plan(nudge("plan-tumble", tmp_path / "wedge_m.ply", *args, cwd=tmp_path))
-    c = _plan(nudge("plan-tumble", tmp_path / "wedge.yaml", *args, cwd=tmp_path))
+    a = _plan(run("plan-tumble", tmp_path / "wedge_mm.obj", "--units", "mm", *args, cwd=tmp_path, monkeypatch=monkeypatch))
+    b = _plan(run("plan-tumble", tmp_path / "wedge_m.ply", *args, cwd=tmp_path, monkeypatch=monkeypatch))
+    c = _plan(run("plan-tumble", tmp_path / "wedge.yaml", *args, cwd=tmp_path, monkeypatch=monkeypatch))
     assert a["verdict"] == "solved"
     assert a["tumbles"] == b["tumbles"] == c["tumbles"]
     np.testing.assert_allclose(a["predicted_final"][:3], c["predicted_final"][:3], atol=1e-12)
 
 
-@pytest.mark.slow
-def test_plan_push_on_a_mesh_is_its_footprint(tmp_path):
+def test_plan_push_on_a_mesh_is_its_footprint(tmp_path, monkeypatch):
     box_stl(tmp_path / "box.stl", size=(60, 40, 10))
     write(tmp_path / "twin.yaml", "vertices: [[0, 0], [0.06, 0], [0.06, 0.04], [0, 0.04]]\n")
     pose = ["--start", "0,0,0", "--goal", "0.1,0.05,90deg", "--json"]
-    proc = nudge("plan-push", tmp_path / "box.stl", "--units", "mm", *pose, cwd=tmp_path)
+    proc = run("plan-push", tmp_path / "box.stl", "--units", "mm", *pose, cwd=tmp_path, monkeypatch=monkeypatch)
     assert "part: box: " in proc.stderr and "(mm, --units)" in proc.stderr
     a = _plan(proc)["pushes"]
-    b = _plan(nudge("plan-push", tmp_path / "twin.yaml", *pose, cwd=tmp_path))["pushes"]
+    b = _plan(run("plan-push", tmp_path / "twin.yaml", *pose, cwd=tmp_path, monkeypatch=monkeypatch))["pushes"]
     assert [(p["kind"], p["edge"], p["contact_vertex"]) for p in a] == \
         [(p["kind"], p["edge"], p["contact_vertex"]) for p in b]
     np.testing.assert_allclose([p["distance"] for p in a], [p["distance"] for p in b], atol=1e-12)
@@ -493,10 +508,10 @@ def test_bundled_bracket_is_a_closed_mesh_planned_from_its_hull():
 
 
 @pytest.mark.slow
-def test_bundled_certify_configs_run_and_name_their_source(tmp_path):
+def test_bundled_certify_configs_run_and_name_their_source(tmp_path, monkeypatch):
     for name, source in (("certify_bracket", "bracket.stl"), ("certify_plate", "plate.dxf")):
         out = tmp_path / name
-        proc = nudge("certify", EXAMPLES / f"{name}.yaml", "--n-samples", "40", "--out", out,
+        proc = run("certify", EXAMPLES / f"{name}.yaml", "--n-samples", "40", "--out", out,
                      "--quiet")
         assert proc.returncode in (0, 1), proc.stderr
         assert f"{source} (mm, " in proc.stderr
@@ -507,7 +522,7 @@ def test_bundled_certify_configs_run_and_name_their_source(tmp_path):
 
 
 @pytest.mark.slow
-def test_sweep_with_an_inline_cad_part_and_lengths_in_mm(tmp_path):
+def test_sweep_with_an_inline_cad_part_and_lengths_in_mm(tmp_path, monkeypatch):
     rounded_plate_dxf(tmp_path / "plate.dxf")
     study = write(tmp_path / "cad.yaml", """study: cad
 kind: push
@@ -524,10 +539,8 @@ seed: 3
 params:
   tolerances.tau_v: [0.01 mm, 0.05 mm]
 """)
-    from tests.test_sweep import run_module
-
     out = tmp_path / "out"
-    proc = run_module(study, "--out", out, "--quiet", cwd=tmp_path)
+    proc = run("sweep", study, "--out", out, "--quiet", cwd=tmp_path, monkeypatch=monkeypatch)
     assert proc.returncode == 0, proc.stderr
     assert "part: plate: " in proc.stderr and "(mm, the file (DXF header))" in proc.stderr
     plans = pd.read_parquet(out / "plans")
@@ -567,7 +580,7 @@ def test_plot_draws_the_real_outline(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("kind, want", [("push", "polygon"), ("tumble", "polyhedron")])
-def test_a_study_names_a_mesh_directly_read_as_its_kind(tmp_path, kind, want):
+def test_a_study_names_a_mesh_directly_read_as_its_kind(tmp_path, kind, want, monkeypatch):
     """``part: box.stl`` in a push study is the mesh's footprint, in a tumble study its hull."""
     box_stl(tmp_path / "box.stl")
     goal = "[0.1, 0, 0]" if kind == "push" else "[0.05, 0, 0, 1]"
@@ -578,7 +591,7 @@ tasks:
   - {{name: a, start: {"[0, 0, 0]" if kind == "push" else "[0, 0, 0, 0]"}, goal: {goal}}}
 samples: 8
 """)
-    proc = nudge("sweep", study, "--dry-run", "--out", tmp_path / "out", cwd=tmp_path)
+    proc = run("sweep", study, "--dry-run", "--out", tmp_path / "out", cwd=tmp_path, monkeypatch=monkeypatch)
     # no unit and 72.8 across: refused before any work, naming the fix
     line = _error_line(proc)
     assert "units: box.stl carries no unit" in line
@@ -587,14 +600,14 @@ samples: 8
     study.write_text(study.read_text().replace("part: box.stl", "part: {mesh: box.stl, units: mm}"
                                                 if kind == "tumble" else
                                                 "part: {footprint: box.stl, units: mm}"))
-    proc = nudge("sweep", study, "--dry-run", "--out", tmp_path / "out", cwd=tmp_path)
+    proc = run("sweep", study, "--dry-run", "--out", tmp_path / "out", cwd=tmp_path, monkeypatch=monkeypatch)
     assert proc.returncode == 0, proc.stderr
     assert f"part: box ({want}, from box.stl (mm, the part file))" in proc.stdout
     assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.slow
-def test_an_edited_cad_file_does_not_resume_its_run(tmp_path):
+def test_an_edited_cad_file_does_not_resume_its_run(tmp_path, monkeypatch):
     rounded_plate_dxf(tmp_path / "plate.dxf", hole=None)
     cfg = write(tmp_path / "c.yaml", """part: {outline: plate.dxf, chord_tolerance: 1}
 tolerances: {tau_v: 0.02 mm}
@@ -604,12 +617,12 @@ tasks:
   - {name: t, start: [0, 0, 0], goal: [80 mm, 0, 0]}
 """)
     out = tmp_path / "out"
-    first = nudge("certify", cfg, "--out", out, "--quiet", cwd=tmp_path)
+    first = run("certify", cfg, "--out", out, "--quiet", cwd=tmp_path, monkeypatch=monkeypatch)
     assert first.returncode in (0, 1), first.stderr
     manifest = json.loads((out / "manifest.json").read_text())
     assert "# part geometry: plate.dxf sha256 " in manifest["config"]
-    again = nudge("certify", cfg, "--out", out, "--quiet", cwd=tmp_path)   # resumes: nothing to do
+    again = run("certify", cfg, "--out", out, "--quiet", cwd=tmp_path, monkeypatch=monkeypatch)   # resumes: nothing to do
     assert again.returncode == first.returncode, again.stderr
     rounded_plate_dxf(tmp_path / "plate.dxf", hole=None, r=6.0)   # the drawing changed
-    line = _error_line(nudge("certify", cfg, "--out", out, "--quiet", cwd=tmp_path))
+    line = _error_line(run("certify", cfg, "--out", out, "--quiet", cwd=tmp_path, monkeypatch=monkeypatch))
     assert "of another config" in line and "plate.dxf sha256" in line

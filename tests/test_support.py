@@ -17,9 +17,17 @@ PENT = np.array([[0.0, 0.0], [0.028, 0.0], [0.034, 0.016], [0.016, 0.027], [-0.0
 THIN = np.array([[0.0, 0.0], [0.04, 0.0], [0.003, 0.006]])   # an obtuse sliver
 
 
+#: one compiled centring per shape (the op-by-op vmap of the Newton loop took seconds per call)
+_centre = jax.jit(jax.vmap(centre_weights))
+
+
 def _draw(body, n, S, k, seed):
     u = jax.random.uniform(jax.random.key(seed), (n, S * (3 + k)), jnp.float64)
-    return support_from_u(u, body, S, k, jnp.float64)
+    return _support(u, jnp.asarray(body), S, k)
+
+
+_support = jax.jit(lambda u, body, S, k: support_from_u(u, body, S, k, jnp.float64),
+                   static_argnums=(2, 3))
 
 
 @pytest.mark.slow
@@ -31,7 +39,7 @@ def test_centred_weights_balance_the_part(seed, case):
     body = pg.make_polygon(poly).body
     a = float(np.max(np.linalg.norm(body, axis=1)))
     pts, w = _draw(body, 8, S, k, seed)
-    q = jax.vmap(centre_weights)(pts, w)
+    q = _centre(pts, w)
     q, pts = np.asarray(q), np.asarray(pts)
     assert np.all(q >= 0) and np.allclose(q.sum(axis=1), 1.0, atol=1e-12)
     off = np.linalg.norm(np.einsum("ns,nsd->nd", q, pts), axis=1)

@@ -38,9 +38,15 @@ def _body(name):
     return part, np.asarray(poly.body, np.float64)
 
 
+_JITTED: dict = {}
+
+
 def _x64(f, *a):
+    """``f(*a)`` compiled, in float64 (one compilation per function and shape: the
+    op-by-op dispatch of the kernels' Newton loops took seconds per call)."""
     with jax.enable_x64(True):
-        return np.asarray(f(*(jnp.asarray(x) for x in a)))
+        jf = _JITTED.setdefault(f, jax.jit(f))
+        return np.asarray(jf(*(jnp.asarray(x) for x in a)))
 
 
 @pytest.mark.slow
