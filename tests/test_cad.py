@@ -583,7 +583,7 @@ def test_plot_draws_the_real_outline(tmp_path, monkeypatch):
 def test_a_study_names_a_mesh_directly_read_as_its_kind(tmp_path, kind, want, monkeypatch):
     """``part: box.stl`` in a push study is the mesh's footprint, in a tumble study its hull."""
     box_stl(tmp_path / "box.stl")
-    goal = "[0.1, 0, 0]" if kind == "push" else "[0.05, 0, 0, 1]"
+    goal = "[0.1, 0, 0]" if kind == "push" else "[0.05, 0, 0, 3]"   # one tumble onto face 3
     study = write(tmp_path / "s.yaml", f"""study: direct
 kind: {kind}
 part: box.stl
@@ -604,6 +604,13 @@ samples: 8
     assert proc.returncode == 0, proc.stderr
     assert f"part: box ({want}, from box.stl (mm, the part file))" in proc.stdout
     assert not (tmp_path / "out").exists()
+    if kind == "tumble":   # and the run itself: a mesh through python -m sweeps.run
+        proc = run("sweep", study, "--out", tmp_path / "out", "--quiet", cwd=tmp_path,
+                   monkeypatch=monkeypatch)
+        assert proc.returncode == 0, proc.stderr
+        plans = pd.read_parquet(tmp_path / "out" / "plans")
+        assert plans.planned.all() and set(plans.part_source) == {"box.stl"}
+        assert len(pd.read_parquet(tmp_path / "out" / "samples")) == 8
 
 
 @pytest.mark.slow
