@@ -17,12 +17,14 @@ import dataclasses
 import math
 from typing import Literal, Optional, Union
 
-from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, model_validator
+from pydantic import (BaseModel, ConfigDict, Field, StrictInt, ValidationError, create_model,
+                      model_validator)
 
 from robustness.physics import PhysicsSettings
 from planning import PushOptions
 from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, SuccessCriterion
 from sweeps.errors import UserError
+from sweeps.partfile import part_fields
 from sweeps.plausible import wrap
 from sweeps.terminal import EFFORT_BOUNDS, angle_value
 
@@ -44,24 +46,10 @@ class Strict(BaseModel):
 Angle = Union[float, str]
 
 
-class PartInline(Strict):
-    """An inline part (the part-file format of :mod:`sweeps.partfile`)."""
-
-    name: Optional[str] = None
-    kind: Optional[Literal["polygon", "polyhedron"]] = None
-    vertices: Optional[list[list[float]]] = None
-    mesh: Optional[str] = None
-    outline: Optional[str] = None
-    footprint: Optional[str] = None
-    face: Optional[Union[StrictInt, str]] = None
-    layer: Optional[str] = None
-    chord_tolerance: Optional[Union[float, str]] = None
-    units: Optional[str] = None
-    com: Optional[list[Union[float, str]]] = None
-    thickness: Optional[Union[float, str]] = None
-    density: Optional[float] = None
-    mass: Optional[float] = None
-    description: Optional[str] = None
+#: An inline part: the part-file format of :mod:`sweeps.partfile`, its keys and types
+#: declared there once (vertices, or mesh / outline / footprint with units, ...)
+PartInline = create_model("PartInline", __base__=Strict, __module__=__name__, **part_fields())
+PartInline.__doc__ = "An inline part (the part-file format of :mod:`sweeps.partfile`)."
 
 
 class Planner(Strict):

@@ -84,6 +84,12 @@ class _PartSchema(BaseModel):
 ALLOWED_KEYS = tuple(_PartSchema.model_fields)
 
 
+def part_fields() -> dict:
+    """``{key: (type, default)}`` of a part document: the one list of a part's keys,
+    which an inline part of a config (:class:`sweeps.config.PartInline`) declares too."""
+    return {k: (f.annotation, f.default) for k, f in _PartSchema.model_fields.items()}
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class PartFile:
     """A part read from a YAML file.
