@@ -269,6 +269,11 @@ def read_mesh(path: Union[str, pathlib.Path], units: Optional[str] = None, *,
     _check_size(pts, unit, units_from, path, units_field)
     com, volume, desc, more = _solid(mesh, path, field)
     warns += more
+    bodies = int(mesh.body_count)
+    if bodies > 1:
+        warns.append(f"{field}: {path.name} holds {bodies} separate bodies (unconnected pieces): "
+                     f"nudge plans one rigid part, the hull of all of them with their joint "
+                     f"centre of mass; keep one part per file")
     k = UNITS[unit]
     hull = _hull(pts * k, "mesh", path)
     verts = np.ascontiguousarray(hull.points[hull.vertices])

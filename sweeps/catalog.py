@@ -34,7 +34,8 @@ def bundled_certify_configs() -> dict[str, pathlib.Path]:
     return {p.stem: p for p in sorted(EXAMPLES.glob("certify_*.yaml"))}
 
 
-def _find(ref: str, base: Optional[pathlib.Path], bundled: dict) -> Optional[pathlib.Path]:
+def _find(ref: str, base: Optional[pathlib.Path], bundled: dict,
+          cad: bool = False) -> Optional[pathlib.Path]:
     p = pathlib.Path(ref).expanduser()
     candidates = [p] if p.is_absolute() else ([base / p] if base is not None else []) + [p]
     for c in candidates:
@@ -43,7 +44,7 @@ def _find(ref: str, base: Optional[pathlib.Path], bundled: dict) -> Optional[pat
     name = p.name[:-5] if p.name.endswith(".yaml") else p.name
     if p.parent == pathlib.Path(".") and name in bundled:
         return bundled[name]
-    if p.parent == pathlib.Path(".") and bundled is not None and _is_cad(p) \
+    if cad and p.parent == pathlib.Path(".") and _is_cad(p) \
             and (EXAMPLES / p.name).is_file():   # a bundled CAD file (examples/bracket.stl)
         return EXAMPLES / p.name
     return None
@@ -61,7 +62,7 @@ def find_part(ref: Union[str, pathlib.Path], base: Optional[pathlib.Path] = None
     Raises:
       FileNotFoundError: with a message listing the bundled part names.
     """
-    got = _find(str(ref), base, bundled_parts())
+    got = _find(str(ref), base, bundled_parts(), cad=True)
     if got is None:
         raise FileNotFoundError(f"no such part file, and no bundled part of that name (bundled: "
                                 f"{', '.join(bundled_parts())})")

@@ -288,6 +288,15 @@ def test_an_open_mesh_is_planned_on_its_hull_with_a_warning(tmp_path):
     assert part.com is None and part.kind == "polyhedron"
 
 
+def test_a_mesh_of_several_bodies_warns(tmp_path):
+    a, b = trimesh.creation.box((10, 10, 10)), trimesh.creation.box((10, 10, 10))
+    b.apply_translation((30, 0, 0))
+    trimesh.util.concatenate([a, b]).export(tmp_path / "two.stl")
+    geo = cad.read_mesh(tmp_path / "two.stl", "mm")
+    assert any("holds 2 separate bodies" in w for w in geo.warnings)
+    np.testing.assert_allclose(geo.com, [0.015, 0, 0], atol=1e-12)
+
+
 def test_tessellation_noise_on_a_face_is_a_sliver_warning(tmp_path):
     """A box whose top face is split by a 0.01 mm bump: two hull faces 0.014 deg from flat."""
     v = np.array([[0, 0, 0], [60, 0, 0], [60, 40, 0], [0, 40, 0],
