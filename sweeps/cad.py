@@ -172,10 +172,10 @@ def _check_size(points: np.ndarray, unit: str, units_from: str, path: pathlib.Pa
     lo, hi = PLAUSIBLE_SIZE_M
     if lo <= size <= hi or size == 0:
         return
-    guess = "mm" if size > hi else "m"
+    hint = f"{units_field}: mm; one of {UNIT_NAMES}" if size > hi else \
+        f"{units_field}: one of {UNIT_NAMES}"
     raise ValueError(f"{units_field}: {path.name} carries no unit and is {size:.4g} across: read as "
-                     f"metres that is a part {size:.4g} m across; give its unit ({units_field}: "
-                     f"{guess}; one of {UNIT_NAMES})")
+                     f"metres that is a part {size:.4g} m across; give its unit ({hint})")
 
 
 def _hull(points: np.ndarray, what: str, path: pathlib.Path):
@@ -577,15 +577,25 @@ def read_outline(path: Union[str, pathlib.Path], units: Optional[str] = None,
     # area and centre of mass within ~1e-4 and ~1 um of the curves'); the hull's vertices
     # from the chord tolerance asked for
     fine = min(chord, MASS_CHORD_TOL_M / k)
-    closed, pieces = [], []
+    closed, pieces, skipped = [], [], []
     for e in entities:
-        pts = _points_of(e, fine)
+        try:
+            pts = _points_of(e, fine)
+        except Exception:   # noqa: BLE001 - a 3D or mesh polyline ezdxf cannot flatten
+            skipped.append(e)
+            continue
         if len(pts) < 2:
             continue
         if is_closed_entity(e) or e.dxftype() == "CIRCLE":
             closed.append((pts, [e]))
         else:
             pieces.append((pts, e))
+    if skipped:
+        warns.append(f"{field}: {path.name}: {len(skipped)} entities cannot be flattened into the "
+                     f"drawing's plane and are ignored ({', '.join(map(_entity_name, skipped[:4]))})")
+    if not closed and not pieces:
+        raise ValueError(f"{field}: {path.name} has no lines or curves nudge can read in its "
+                         f"model space")
     allpts = np.concatenate([c[0] for c in closed] + [p[0] for p in pieces])
     _check_size(allpts, unit, units_from, path, units_field)
     gap = 1e-6 * float(np.linalg.norm(allpts.max(axis=0) - allpts.min(axis=0)))

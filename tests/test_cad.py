@@ -255,6 +255,18 @@ def test_a_drawing_border_needs_the_layer(tmp_path):
     assert geo.volume == pytest.approx(plate_exact()[0] * 1e-6, rel=2e-4)
 
 
+def test_empty_and_foreign_unit_drawings_say_one_line(tmp_path):
+    doc = ezdxf.new("R2010")
+    doc.modelspace().add_text("no geometry here")
+    doc.saveas(tmp_path / "empty.dxf")
+    with pytest.raises(ValueError, match="empty.dxf has no lines or curves in its model space"):
+        cad.read_outline(tmp_path / "empty.dxf")
+    feet = rounded_plate_dxf(tmp_path / "feet.dxf", units=ezdxf.units.FT)
+    with pytest.raises(ValueError, match=r"drawn in Feet \(\$INSUNITS 2\).*give units:"):
+        cad.read_outline(feet)
+    assert cad.read_outline(feet, units="in").units == "in"   # the part file's unit is used
+
+
 def test_units_of_the_part_file_win_over_the_header_with_a_warning(tmp_path):
     f = rounded_plate_dxf(tmp_path / "plate.dxf", scale=1 / 25.4, units=ezdxf.units.IN)
     inches = cad.read_outline(f)
