@@ -106,6 +106,20 @@ class Loaded:
             where = f" ({', '.join(f'{p}={v!r}' for p, v in point.items())})" if point else ""
             raise PlanInputError(f"configuration {config_id}{where}, task {name}: {exc}") from None
 
+    def task(self, unit) -> tuple:
+        """``(config, (name, start, goal), (plan or None, reason, warnings))`` of a unit's task."""
+        cid, ti = unit.config_id, unit.task_index
+        return self.design.configs[cid], self.design.tasks(cid)[ti], self.plan(cid, ti)
+
+    def write_rows(self, table: str, unit, rows: list) -> pathlib.Path:
+        """A task's rows of ``table``, each with the run id and the configuration's
+        swept columns, written as that task's file; returns its path."""
+        cols = self.columns(unit.config_id)
+        schema = self.schema(table)
+        rows = [{"run_id": self.store.run_id, **cols, **r} for r in rows]
+        return self.store.write(table, unit.config_id, f"t{unit.task_index:04d}",
+                                tables.rows_table(rows, schema), schema)
+
     def columns(self, config_id: int) -> dict:
         """The swept columns' values of a configuration."""
         point = self.design.points[config_id]
@@ -306,19 +320,15 @@ def run_block(ctx: Context, unit: Unit) -> dict:
 
     t0 = time.perf_counter()
     L = loaded(ctx)
-    design, store = L.design, L.store
-    cfg = design.configs[unit.config_id]
-    part = design.part(unit.config_id)
-    name, start, goal = design.tasks(unit.config_id)[unit.task_index]
-    plan, reason, warns = L.plan(unit.config_id, unit.task_index)
+    store = L.store
+    cfg, (name, start, goal), (plan, reason, warns) = L.task(unit)
+    part = L.design.part(unit.config_id)
     files, stats = [], None
     cols = L.columns(unit.config_id)
     if unit.block == 0:
         from sweeps.tasks import plan_row
 
-        row = {"run_id": store.run_id, **cols, **plan_row(part, name, start, goal, plan, reason)}
-        files.append(store.write("plans", unit.config_id, f"t{unit.task_index:04d}",
-                                 tables.rows_table([row], L.schema("plans")), L.schema("plans")))
+        files.append(L.write_rows("plans", unit, [plan_row(part, name, start, goal, plan, reason)]))
     rows = 0
     if plan is not None:
         from sweeps.blocks import sample_block
@@ -361,10 +371,7 @@ def run_summary(ctx: Context, unit: Unit) -> dict:
 
     t0 = time.perf_counter()
     L = loaded(ctx)
-    design, store = L.design, L.store
-    cfg = design.configs[unit.config_id]
-    name, _, _ = design.tasks(unit.config_id)[unit.task_index]
-    plan, reason, _ = L.plan(unit.config_id, unit.task_index)
+    cfg, (name, _, _), (plan, _, _) = L.task(unit)
     kind = cfg.kind
     model = model_for(cfg.model, kind)
     if plan is None:
@@ -375,10 +382,7 @@ def run_summary(ctx: Context, unit: Unit) -> dict:
 
         s = summarise_blocks([b for b in unit.stats or () if b is not None], plan, cfg, name,
                              bound=cfg.bounds)
-    row = {"run_id": store.run_id, **L.columns(unit.config_id), **s}
-    schema = L.schema("summary")
-    path = store.write("summary", unit.config_id, f"t{unit.task_index:04d}",
-                       tables.rows_table([row], schema), schema)
+    path = L.write_rows("summary", unit, [s])
     return {"key": unit.key, "files": [path], "rows": 1, "seconds": time.perf_counter() - t0,
             "success_rate": _finite(s.get("success_rate")), "n": int(s.get("n", 0)),
             "findings": findings(s)}
@@ -394,19 +398,12 @@ def run_design(ctx: Context, unit: Unit) -> dict:
 
     t0 = time.perf_counter()
     L = loaded(ctx)
-    design, store = L.design, L.store
-    cfg = design.configs[unit.config_id]
-    name, _, _ = design.tasks(unit.config_id)[unit.task_index]
-    plan, _, _ = L.plan(unit.config_id, unit.task_index)
-    files = []
+    cfg, (name, _, _), (plan, _, _) = L.task(unit)
+    files, rows = [], []
     if plan is not None:
-        rows, _ = design_rows(cfg, design.part(unit.config_id), plan, name,
+        rows, _ = design_rows(cfg, L.design.part(unit.config_id), plan, name,
                               jax.random.fold_in(jax.random.key(cfg.seed), unit.task_index))
-        cols = L.columns(unit.config_id)
-        rows = [{"run_id": store.run_id, **cols, **r} for r in rows]
-        schema = L.schema("design")
-        files.append(store.write("design", unit.config_id, f"t{unit.task_index:04d}",
-                                 tables.rows_table(rows, schema), schema))
+        files.append(L.write_rows("design", unit, rows))
     return {"key": unit.key, "files": files, "rows": 6 if files else 0,
             "seconds": time.perf_counter() - t0}
 
