@@ -404,7 +404,7 @@ def run_design(ctx: Context, unit: Unit) -> dict:
         rows, _ = design_rows(cfg, L.design.part(unit.config_id), plan, name,
                               jax.random.fold_in(jax.random.key(cfg.seed), unit.task_index))
         files.append(L.write_rows("design", unit, rows))
-    return {"key": unit.key, "files": files, "rows": 6 if files else 0,
+    return {"key": unit.key, "files": files, "rows": len(rows),
             "seconds": time.perf_counter() - t0}
 
 

@@ -153,6 +153,12 @@ params:
     fa = d[d.axis == "fence_angle"].sort_values("execution_fence_angle")
     assert [c[0] for c in fa["configured"]] == [0.002, 0.01]
     assert "Tolerance design" in (out / "report.html").read_text()
+    # the log records the rows each design unit wrote (three axes, not a fixed six)
+    import json
+
+    logged = [json.loads(ln) for ln in (out / "chunks.jsonl").read_text().splitlines()]
+    design_recs = [rec for rec in logged if any("design/" in f for f in rec["files"])]
+    assert len(design_recs) == 2 and all(rec["rows"] == 3 for rec in design_recs)
     before = sorted(p.stat().st_mtime_ns for p in (out / "design").rglob("*.parquet"))
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)   # resumes
     assert r.returncode == 0, r.stderr
