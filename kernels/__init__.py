@@ -36,7 +36,7 @@ from kernels.facets import extent, merge_distance
 from kernels.hulls import (polygon_hull_changed, polyhedron_hull_tables,
                            polyhedron_hull_verdict_batch)
 from kernels.planar import TWO_PI, angle_distance, mod_2pi, rot2_np, wrap_angle_near, wrap_angle_np
-from kernels.polyhedron import DEFAULT_MERGE_TOL, combinatorics_changed
+from kernels.polyhedron import DEFAULT_MERGE_TOL, NEARLY_FLAT_RAD, combinatorics_changed
 from kernels.precision import float64
 from kernels.support import FAMILIES, FOOT_INSET
 from kernels.tumble import replay_trajectory
@@ -47,7 +47,7 @@ __all__ = [
     "PushOutcome", "replay_push", "replay_pushes", "SimOutcome", "limit_surface_ratio",
     "simulate_push", "simulate_pushes", "TumbleConfig", "make_config", "replay", "tumble",
     "SUPPORT_FAMILIES", "corner_weights", "equilibrium_weights", "family_c_range", "tripod_fit",
-    "polygon", "reorient", "support", "DEFAULT_MERGE_TOL", "FAMILIES", "FOOT_INSET", "TWO_PI",
+    "polygon", "reorient", "support", "DEFAULT_MERGE_TOL", "NEARLY_FLAT_RAD", "FAMILIES", "FOOT_INSET", "TWO_PI",
     "angle_distance", "combinatorics_changed", "extent", "float64", "merge_distance", "mod_2pi",
     "polygon_hull_changed", "polyhedron_hull_tables", "polyhedron_hull_verdict_batch",
     "replay_trajectory", "rot2_np", "warn_implausible_size", "wrap_angle_near", "wrap_angle_np",

@@ -34,7 +34,7 @@ from typing import Optional, Union
 
 import numpy as np
 
-from sweeps.units import UNIT_NAMES, UNITS, parse_length, unit_factor
+from sweeps.units import UNIT_NAMES, UNITS, UnitMissingError, parse_length, unit_factor
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off", ".glb", ".gltf", ".3mf", ".dae")
 OUTLINE_SUFFIXES = (".dxf",)
@@ -102,11 +102,9 @@ class CadGeometry:
 SMALL_TURN_DEG = 14.0
 
 
-def _turn_warning(verts: np.ndarray, field: str, path: pathlib.Path, how: str) -> list:
-    """A warning when a polygon's hull corners turn less than :data:`SMALL_TURN_DEG`."""
-    from scipy.spatial import ConvexHull
-
-    ring = verts[ConvexHull(verts).vertices]
+def _turn_warning(ring: np.ndarray, field: str, path: pathlib.Path, how: str) -> list:
+    """A warning when a polygon's hull corners turn less than :data:`SMALL_TURN_DEG`
+    (``ring``: the hull's vertices counter-clockwise, as scipy's 2-D hull gives them)."""
     e = np.roll(ring, -1, axis=0) - ring
     ang = np.arctan2(e[:, 1], e[:, 0])
     turn = np.degrees(np.mod(np.roll(ang, -1) - ang, 2 * np.pi))
@@ -174,8 +172,9 @@ def _check_size(points: np.ndarray, unit: str, units_from: str, path: pathlib.Pa
         return
     hint = f"{units_field}: mm; one of {UNIT_NAMES}" if size > hi else \
         f"{units_field}: one of {UNIT_NAMES}"
-    raise ValueError(f"{units_field}: {path.name} carries no unit and is {size:.4g} across: read as "
-                     f"metres that is a part {size:.4g} m across; give its unit ({hint})")
+    raise UnitMissingError(f"{units_field}: {path.name} carries no unit and is {size:.4g} across: "
+                           f"read as metres that is a part {size:.4g} m across; give its unit "
+                           f"({hint})")
 
 
 def _hull(points: np.ndarray, what: str, path: pathlib.Path):
@@ -262,6 +261,12 @@ def read_mesh(path: Union[str, pathlib.Path], units: Optional[str] = None, *,
       ValueError: one line: unreadable, empty, flat, or no unit with an
         implausible size.
     """
+    return _read_mesh(path, units, field, units_field)[0]
+
+
+def _read_mesh(path, units, field: str, units_field: str):
+    """:func:`read_mesh`'s geometry and the kernel's polyhedron of its hull (``None``
+    when the kernel refuses it: the planner says why when the part is used)."""
     path = pathlib.Path(path)
     mesh = _load_mesh(path, field)
     unit, units_from, warns = _resolve_units(units, _mesh_units(mesh), path, units_field)
@@ -277,23 +282,21 @@ def read_mesh(path: Union[str, pathlib.Path], units: Optional[str] = None, *,
     k = UNITS[unit]
     hull = _hull(pts * k, "mesh", path)
     verts = np.ascontiguousarray(hull.points[hull.vertices])
-    warns += _sliver_warning(verts, None if com is None else com * k, field, path)
-    return CadGeometry(kind="polyhedron", vertices=verts,
-                       com=None if com is None else com * k,
-                       volume=None if volume is None else volume * k ** 3, height=None, loops=(),
-                       source=path, sha256=_digest(path), units=unit, units_from=units_from,
-                       description=f"{desc}; convex hull of {len(verts)} vertices",
-                       warnings=tuple(warns))
+    com = None if com is None else com * k
+    poly = _polyhedron(verts, com)
+    warns += _sliver_warning(poly, verts, field, path)
+    geo = CadGeometry(kind="polyhedron", vertices=verts, com=com,
+                      volume=None if volume is None else volume * k ** 3, height=None, loops=(),
+                      source=path, sha256=_digest(path), units=unit, units_from=units_from,
+                      description=f"{desc}; convex hull of {len(verts)} vertices",
+                      warnings=tuple(warns))
+    return geo, poly
 
 
-#: Hull faces meeting at less than this from flat (rad, 1 deg) are CAD noise on one face
-SLIVER_RAD = math.radians(1.0)
-
-
-def _sliver_warning(verts: np.ndarray, com, field: str, path: pathlib.Path) -> list:
-    """A warning when hull faces meet nearly flat (tessellation noise: a face of the
-    part split in several for the tumble planner), beyond what the kernel merges
-    or warns about itself (:data:`kernels.polyhedron.NEARLY_FLAT_RAD`)."""
+def _polyhedron(verts: np.ndarray, com, raise_errors: bool = False):
+    """The kernel's polyhedron of a hull (:func:`kernels.make_polyhedron`, its warnings
+    muted: the planner raises them again); ``None`` when it refuses the hull, unless
+    ``raise_errors``."""
     import warnings
 
     from kernels import make_polyhedron
@@ -301,11 +304,28 @@ def _sliver_warning(verts: np.ndarray, com, field: str, path: pathlib.Path) -> l
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            poly = make_polyhedron(verts, com)
+            return make_polyhedron(verts, com)
         except ValueError:
-            return []   # the planner answers it when the part is used
+            if raise_errors:
+                raise
+            return None
+
+
+#: Hull faces meeting at less than this from flat (rad, 1 deg) are CAD noise on one face
+SLIVER_RAD = math.radians(1.0)
+
+
+def _sliver_warning(poly, verts: np.ndarray, field: str, path: pathlib.Path) -> list:
+    """A warning when hull faces meet nearly flat (tessellation noise: a face of the
+    part split in several for the tumble planner), beyond what the kernel merges
+    or warns about itself (:data:`kernels.polyhedron.NEARLY_FLAT_RAD`); ``poly``
+    the hull's polyhedron (``None``: nothing to say here)."""
+    from kernels import NEARLY_FLAT_RAD, TOLERANCE_MERGE_FACTOR
+
+    if poly is None:
+        return []
     bend = math.pi - np.asarray(poly.dihedral_angles, np.float64)
-    near = np.flatnonzero((bend < SLIVER_RAD) & (bend > 1e-6))
+    near = np.flatnonzero((bend < SLIVER_RAD) & (bend > NEARLY_FLAT_RAD))
     if not len(near):
         return []
     worst = float(bend[near].min())
@@ -315,19 +335,12 @@ def _sliver_warning(verts: np.ndarray, com, field: str, path: pathlib.Path) -> l
             f"{math.degrees(worst):.2g} deg of flat (edges {[poly.edges[i] for i in near[:4]]}): "
             f"tessellation noise splits a face for the tumble planner (long plans, sliver faces); "
             f"a vertex tolerance merges them (--tau-v / planner.tumble_tau_v of about "
-            f"{worst * size / 8:.2g} m or more) or fix the mesh"]
+            f"{worst * size / TOLERANCE_MERGE_FACTOR:.2g} m or more) or fix the mesh"]
 
 
-def _face_normal(face, hull_pts: np.ndarray, com: Optional[np.ndarray], path: pathlib.Path,
-                 field: str) -> tuple[np.ndarray, str]:
-    """The outward normal of the hull face the part rests on, and its name."""
-    import warnings
-
-    from kernels import make_polyhedron
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        poly = make_polyhedron(hull_pts, com)
+def _face_normal(face, poly, path: pathlib.Path, field: str) -> tuple[np.ndarray, str]:
+    """The outward normal of the hull face (of the polyhedron ``poly``) the part
+    rests on, and its name."""
     normals = np.asarray(poly.normals, np.float64)
     normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     if isinstance(face, str) and face.strip().lower() in AXES:
@@ -391,8 +404,10 @@ def read_footprint(path: Union[str, pathlib.Path], face="-z", units: Optional[st
       ValueError: as :func:`read_mesh`; a face that does not exist or that the
         part does not rest on.
     """
-    geo = read_mesh(path, units, field=field, units_field=units_field)
-    n, name = _face_normal(face, geo.vertices, geo.com, geo.source, field)
+    geo, poly = _read_mesh(path, units, field, units_field)
+    if poly is None:   # the kernel's own message for a hull it refuses
+        poly = _polyhedron(geo.vertices, geo.com, raise_errors=True)
+    n, name = _face_normal(face, poly, geo.source, field)
     e1, e2 = _plane_frame(n)
     basis = np.stack([e1, e2]).T
     pts2 = geo.vertices @ basis

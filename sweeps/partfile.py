@@ -45,7 +45,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, StrictFloat, StrictInt, ValidationError
 
 from sweeps.errors import UserError
-from sweeps.units import UNITS, parse_length, unit_factor
+from sweeps.units import UNITS, UnitMissingError, parse_length, unit_factor
 from sweeps.yamlio import YamlError, read_yaml
 
 KINDS = ("polygon", "polyhedron")
@@ -56,7 +56,11 @@ Number = Union[StrictInt, StrictFloat]
 
 
 class PartFileError(UserError):
-    """A part file that cannot be read; the one-line message names the file and the field."""
+    """A part file that cannot be read; the one-line message names the file and the field.
+    ``missing_unit``: the cause is a CAD file with no unit and an implausible size
+    (:class:`sweeps.units.UnitMissingError`), for a caller to name its own fix."""
+
+    missing_unit = False
 
 
 class _PartSchema(BaseModel):
@@ -241,7 +245,9 @@ def parse_part(doc, path: Union[str, pathlib.Path] = "<part>", units_field: str 
     try:
         return _parse(doc, path, units_field)
     except ValueError as exc:
-        raise PartFileError(f"{path}: {exc}") from None
+        err = PartFileError(f"{path}: {exc}")
+        err.missing_unit = isinstance(exc, UnitMissingError)
+        raise err from None
 
 
 def _parse(doc, path: pathlib.Path, units_field: str = "units") -> PartFile:

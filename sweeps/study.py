@@ -264,12 +264,11 @@ def load_part_ref(ref, base: pathlib.Path, kind: Optional[str] = None):
             try:
                 part = load_part(path, kind=kind)
             except PartFileError as exc:
-                from sweeps.cad import cad_kind
-
-                what = cad_kind(path)
-                if what is None or "carries no unit" not in str(exc):
+                if not exc.missing_unit:
                     raise
-                key = "outline" if what == "outline" else (
+                from sweeps.cad import cad_kind   # a CAD file named directly: the config's fix
+
+                key = "outline" if cad_kind(path) == "outline" else (
                     "footprint" if kind == "polygon" else "mesh")
                 raise PartFileError(f"{exc}; in a config: part: {{{key}: {ref}, units: mm}}") from None
         else:

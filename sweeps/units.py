@@ -31,6 +31,11 @@ class LengthError(ValueError):
     """A length that cannot be read (the message names the field and the fix)."""
 
 
+class UnitMissingError(ValueError):
+    """A file that carries no unit and whose size is implausible in metres (the
+    message names the file, its size and the fix)."""
+
+
 def unit_factor(name, field: str = "units") -> float:
     """Metres per ``name`` (one of :data:`UNITS`).
 

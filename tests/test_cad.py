@@ -5,6 +5,7 @@ Every CAD file here is written by the test itself (trimesh, ezdxf)."""
 import json
 import math
 import re
+import subprocess
 import warnings
 
 import ezdxf
@@ -95,13 +96,6 @@ def wedge_stl(path, scale=1.0):
     return m, v
 
 
-class Ran:
-    """What a command printed and its exit status (as ``subprocess.CompletedProcess``)."""
-
-    def __init__(self, code, stdout, stderr):
-        self.returncode, self.stdout, self.stderr = code, stdout, stderr
-
-
 def run(*args, cwd=None, monkeypatch=None):
     """``nudge ARGS`` in this process (:func:`tests.commandline.call` on the console
     script's own dispatcher, ``sweeps.cli.main``): the commands' compiled kernels are
@@ -110,7 +104,7 @@ def run(*args, cwd=None, monkeypatch=None):
 
     if cwd is not None:
         monkeypatch.chdir(cwd)
-    return Ran(*call(cli.main, *args))
+    return subprocess.CompletedProcess(args, *call(cli.main, *args))
 
 
 def write(path, text):
