@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Optional
 
 #: metres per unit (the names a part file's ``units:`` and a unit string accept)
 UNITS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}
@@ -127,9 +126,3 @@ def _convert(v, field: str):
     if isinstance(v, (list, tuple)):
         return [_convert(x, f"{field}[{i}]") for i, x in enumerate(v)]
     return v
-
-
-def format_length(x_m: float, unit: Optional[str] = None) -> str:
-    """``x_m`` metres as text in ``unit`` (default: mm below 1 m, else m)."""
-    unit = unit or ("mm" if abs(x_m) < 1.0 else "m")
-    return f"{x_m / UNITS[unit]:.4g} {unit}"
