@@ -23,8 +23,10 @@ realises the family the sampler drew, ``kernels.support``).  For every run:
   the planned pose) ends within 1 % of the start-goal distance and 1 degree
   of the goal;
 * **agreement**: the rollout with contact strokes (every stroke from where
-  the part is, the models' semantics) against the quasi-static and exact
-  models' rows of the same sample: success at 3 mm / 1 degree the same in
+  the part is, the models' semantics) against the quasi-static (ellipsoidal
+  limit surface of the sample's ``c``: ``qs``), limit-surface (the exact
+  limit surface of the sample's support points: ``ls``,
+  :mod:`kernels.quasistatic_points`) and exact models' rows of the same sample: success at 3 mm / 1 degree the same in
   both, and the median / p95 of the final pose differences.  Every
   disagreement is listed with the physics and model outcomes (slip, landed
   edges, the support and the c MuJoCo realised) so that its class can be named.
@@ -38,9 +40,9 @@ seeded random walk of 4 tumbles from ``(0, 0, 0, 0)``, planned with
 ``plan_tumble`` (eps 1 mm), rolled out with pads of friction 1.5; the
 fraction of plans that land every planned face.
 
-Last line: ``RESULT push_ok=F qs_agreement=A qs_agreement_rigid=R c_vs_mjx_mm=M
-tumble_faces_ok=T`` (push_ok over the default plans, qs_agreement over every
-run, qs_agreement_rigid over the runs on rigid support).
+Last line: ``RESULT push_ok=F qs_agreement=A qs_agreement_rigid=R ls_agreement=L
+ls_agreement_rigid=LR c_vs_mjx_mm=M tumble_faces_ok=T`` (push_ok over the default
+plans, the agreements over every run and over the runs on rigid support).
 """
 from __future__ import annotations
 
@@ -150,6 +152,7 @@ def _run_one(args, support, kind, name, gi, goal, plan):
                             settings=args.settings)
     secs = time.perf_counter() - t0
     qs = _model_rows(plan, draws, "quasistatic")
+    ls = _model_rows(plan, draws, "limit_surface")
     ex = _model_rows(plan, draws, "exact")
     g = np.asarray(plan.goal)
     cell_ok = _ok(cell["x"], cell["y"], cell["theta"], g, 0.01 * straight, EPS_TH)
@@ -161,7 +164,7 @@ def _run_one(args, support, kind, name, gi, goal, plan):
                    cell_err=(cell["err_pos"][j], cell["err_theta"][j]),
                    cell_mode=cell["failure_mode"][j], strike=bool(cell["fence_strike"][j]),
                    secs=secs / 3)
-        for tag, m in (("qs", qs), ("ex", ex)):
+        for tag, m in (("qs", qs), ("ls", ls), ("ex", ex)):
             ok = _ok(m["x"][j], m["y"][j], m["theta"][j], g, EPS_POS, EPS_TH)
             dpos = math.hypot(con["x"][j] - m["x"][j], con["y"][j] - m["y"][j])
             dth = abs(wrap_angle_np(con["theta"][j] - m["theta"][j]))
@@ -177,14 +180,15 @@ def _run_one(args, support, kind, name, gi, goal, plan):
           f"{plan.total_distance:.3f} m, {secs:.1f} s; {out[0]['phys']['family']} c "
           f"{out[0]['phys']['c'] * 1e3:.1f}/{out[0]['phys']['c_phys'] * 1e3:.1f} mm; cell ok "
           f"{cell_ok.astype(int).tolist()}, physics/qs/exact success {ph_s.astype(int).tolist()}/"
-          f"{[int(r['qs']['ok']) for r in out]}/{[int(r['ex']['ok']) for r in out]}", flush=True)
+          f"{[int(r['qs']['ok']) for r in out]}/{[int(r['ex']['ok']) for r in out]}, limit surface "
+          f"{[int(r['ls']['ok']) for r in out]}", flush=True)
     return out
 
 
 def report_pushes(rows, skipped):
     print(f"\n{'support':<8}{'kind':<9}{'part':<14}{'mu_f':>5}{'runs':>5}{'push_ok':>8}"
-          f"{'qs_agree':>9}{'ex_agree':>9}{'dpos_qs med/p95 mm':>20}{'dth_qs med/p95 deg':>20}"
-          f"{'slip/push phys/qs mm':>22}{'strikes':>8}")
+          f"{'qs_agree':>9}{'ls_agree':>9}{'ex_agree':>9}{'dpos_ls med/p95 mm':>20}"
+          f"{'dth_ls med/p95 deg':>20}{'slip/push phys/qs/ls mm':>26}{'strikes':>8}")
     for support in dict.fromkeys(r["support"] for r in rows):
         for kind in dict.fromkeys(r["kind"] for r in rows):
             for name in PUSH_PARTS:
@@ -193,31 +197,33 @@ def report_pushes(rows, skipped):
                            == (support, kind, name, mu)]
                     if not sel:
                         continue
-                    dq = np.array([r["qs"]["dpos"] for r in sel]) * 1e3
-                    tq = np.degrees([r["qs"]["dth"] for r in sel])
+                    dq = np.array([r["ls"]["dpos"] for r in sel]) * 1e3
+                    tq = np.degrees([r["ls"]["dth"] for r in sel])
                     sp = np.array([r["phys"]["slip"] / r["pushes"] for r in sel]) * 1e3
                     sq = np.array([r["qs"]["slip"] / r["pushes"] for r in sel]) * 1e3
+                    sl = np.array([r["ls"]["slip"] / r["pushes"] for r in sel]) * 1e3
                     print(f"{support:<8}{kind:<9}{name:<14}{mu:>5.1f}{len(sel):>5}"
                           f"{np.mean([r['cell_ok'] for r in sel]):>8.2f}"
                           f"{np.mean([r['qs']['agree'] for r in sel]):>9.2f}"
+                          f"{np.mean([r['ls']['agree'] for r in sel]):>9.2f}"
                           f"{np.mean([r['ex']['agree'] for r in sel]):>9.2f}"
                           f"{np.median(dq):>10.3f}/{np.percentile(dq, 95):<9.3f}"
                           f"{np.median(tq):>10.3f}/{np.percentile(tq, 95):<9.3f}"
-                          f"{np.median(sp):>11.2f}/{np.median(sq):<10.2f}"
+                          f"{np.median(sp):>11.2f}/{np.median(sq):.2f}/{np.median(sl):<9.2f}"
                           f"{sum(r['strike'] for r in sel):>8d}")
     if skipped:
         print("set aside: " + ", ".join(f"{s} {k} {n} goal {g} ({why})"
                                         for s, k, n, g, why in skipped))
-    print("\ndisagreements (physics with contact strokes vs quasi-static, 3 mm / 1 deg):")
+    print("\ndisagreements (physics with contact strokes vs the limit-surface model, 3 mm / 1 deg):")
     for r in rows:
-        if not r["qs"]["agree"]:
+        if not r["ls"]["agree"]:
             p = r["phys"]
             print(f"  {r['support']} {r['kind']} {r['part']} goal {r['goal']} mu_f {r['mu']}: "
                   f"physics {'ok' if p['ok'] else p['mode']} ({p['family']} c {p['c'] * 1e3:.1f}"
                   f"/{p['c_phys'] * 1e3:.1f} mm, slip per push {p['slips']} mm, edges "
-                  f"{p['edges']}); qs {'ok' if r['qs']['ok'] else 'fail'} (slip "
-                  f"{r['qs']['slip'] * 1e3:.2f} mm, edges {r['qs']['edges']}); dpos "
-                  f"{r['qs']['dpos'] * 1e3:.2f} mm")
+                  f"{p['edges']}); ls {'ok' if r['ls']['ok'] else 'fail'} (slip "
+                  f"{r['ls']['slip'] * 1e3:.2f} mm, edges {r['ls']['edges']}); dpos "
+                  f"{r['ls']['dpos'] * 1e3:.2f} mm")
     print("\nopen-loop cell failures (1 % / 1 deg):")
     for r in rows:
         if not r["cell_ok"]:
@@ -323,13 +329,17 @@ def main():
     qs_agree = float(np.mean([r["qs"]["agree"] for r in rows])) if rows else math.nan
     rig = [r["qs"]["agree"] for r in rows if r["support"] == "rigid"]
     qs_rigid = float(np.mean(rig)) if rig else math.nan
+    ls_agree = float(np.mean([r["ls"]["agree"] for r in rows])) if rows else math.nan
+    lrig = [r["ls"]["agree"] for r in rows if r["support"] == "rigid"]
+    ls_rigid = float(np.mean(lrig)) if lrig else math.nan
     mjx_mm = math.nan if args.no_mjx else c_vs_mjx()
     ex_agree = float(np.mean([r["ex"]["agree"] for r in rows])) if rows else math.nan
     t_ok = float(np.mean([r["ok"] for r in trows])) if trows else math.nan
     print(f"\npush runs {len(rows)}, set aside {len(skipped)} plans; agreement with the exact model "
           f"{ex_agree:.3f}; tumble plans {len(trows)}; {time.perf_counter() - t0:.0f} s")
     print(f"RESULT push_ok={push_ok:.3f} qs_agreement={qs_agree:.3f} "
-          f"qs_agreement_rigid={qs_rigid:.3f} c_vs_mjx_mm={mjx_mm:.3f} tumble_faces_ok={t_ok:.3f}")
+          f"qs_agreement_rigid={qs_rigid:.3f} ls_agreement={ls_agree:.3f} "
+          f"ls_agreement_rigid={ls_rigid:.3f} c_vs_mjx_mm={mjx_mm:.3f} tumble_faces_ok={t_ok:.3f}")
 
 
 if __name__ == "__main__":

@@ -5,13 +5,15 @@ for one part and lifted with ``jax.vmap`` at the call site.
   (the push geometry as a pytree), :func:`replay_push` / :func:`replay_pushes`
   (the exact push kinematics of Akella & Mason), :func:`simulate_push` /
   :func:`simulate_pushes` (quasi-static pusher-slider with an ellipsoidal limit
-  surface and fence friction).
+  surface and fence friction), :func:`simulate_push_on_points` /
+  :func:`simulate_pushes_on_points` (the same on the exact limit surface of a
+  point support, :func:`push_motion` the instantaneous motion).
 * Polyhedra: :func:`make_polyhedron`, :func:`tumble_geometry`, :func:`tumble`,
   :func:`replay` (exact tumble kinematics of Marigo & Bicchi).
 * Supports: :mod:`kernels.support` (the support families a pushed part rests
   on, drawn by the sampler and realised by the MuJoCo scene):
   :func:`corner_weights`, :func:`equilibrium_weights`, :func:`family_c_range`,
-  :func:`tripod_fit`.
+  :func:`tripod_fit`, :func:`family_support` (a sample's points and loads).
 * Shared formulas: :mod:`kernels.planar` (angle wraps, rotations).
 
 Kernels take the dtype of their inputs (float32 or float64); planners and
@@ -25,9 +27,12 @@ from kernels.polyhedron import Polyhedron, make_polyhedron
 from kernels.tumble_geometry import TumbleGeometry, tumble_geometry
 from kernels.push import PushOutcome, replay_push, replay_pushes
 from kernels.quasistatic import SimOutcome, limit_surface_ratio, simulate_push, simulate_pushes
+from kernels.limit_surface import Motion, push_motion
+from kernels.quasistatic_points import simulate_push as simulate_push_on_points
+from kernels.quasistatic_points import simulate_pushes as simulate_pushes_on_points
 from kernels.tumble import TumbleConfig, make_config, replay, tumble
 from kernels.support import (SUPPORT_FAMILIES, corner_weights, equilibrium_weights,
-                             family_c_range, tripod_fit)
+                             family_c_range, family_support, tripod_fit)
 
 # used by the layers above (the one boundary: tests/test_layers.py)
 from kernels import polygon, reorient, support  # noqa: F401  (modules other layers use)
@@ -45,7 +50,8 @@ __all__ = [
     "TOLERANCE_MERGE_FACTOR", "wrap_angle", "rot2", "PartError", "PartWarning", "Polygon", "PolygonGeometry", "make_polygon",
     "polygon_geometry", "Polyhedron", "TumbleGeometry", "make_polyhedron", "tumble_geometry",
     "PushOutcome", "replay_push", "replay_pushes", "SimOutcome", "limit_surface_ratio",
-    "simulate_push", "simulate_pushes", "TumbleConfig", "make_config", "replay", "tumble",
+    "simulate_push", "simulate_pushes", "Motion", "push_motion", "simulate_push_on_points",
+    "simulate_pushes_on_points", "family_support", "TumbleConfig", "make_config", "replay", "tumble",
     "SUPPORT_FAMILIES", "corner_weights", "equilibrium_weights", "family_c_range", "tripod_fit",
     "polygon", "reorient", "support", "DEFAULT_MERGE_TOL", "NEARLY_FLAT_RAD", "FAMILIES", "FOOT_INSET", "TWO_PI",
     "angle_distance", "combinatorics_changed", "extent", "float64", "merge_distance", "mod_2pi",

@@ -328,6 +328,45 @@ def _slide_arg(pp: _Part, t):
     return (t - pp.ah) / (1.0 + t * pp.ah)
 
 
+def pivot_contact(body, normals, rho, d, st):
+    """The contact of a phase (shared with :mod:`kernels.quasistatic_points`):
+    from the state's orientation ``(st["c"], st["s"])`` (cos, sin), its flush
+    edge ``st["flush"]`` (-1: none) and pivot vertex ``st["kv"]``, with the
+    world push direction ``d``.
+
+    Returns ``(translate, k, r, sigma, target, t_land, t0)``: whether the part
+    translates (a stable flush edge, or the divergent equilibrium ``r x d =
+    0``), the pivot vertex ``k`` and its body-frame ``r``, the rotation sense
+    ``sigma = sign(r x d)``, the edge that lands next (``target``) and
+    ``tan(dt/2)`` of the rotation ``dt`` to its landing, and ``tan(beta0/2)``
+    (``beta0`` the angle between ``d`` and ``P -> C``).
+    """
+    n = body.shape[0]
+    dtype = body.dtype
+    c, s, flush, kv = st["c"], st["s"], st["flush"], st["kv"]
+    d_b = jnp.stack([c * d[0] + s * d[1], -s * d[0] + c * d[1]])   # push direction, body frame
+    is_flush = flush >= 0
+    fl = jnp.maximum(flush, 0)
+    fl1 = jnp.where(fl == n - 1, 0, fl + 1)
+    x1 = cross2(body[fl], d_b)
+    x2 = cross2(body[fl1], d_b)
+    hold = is_flush & (x1 * x2 < 0.0)     # line contact that translates (stable edge)
+    k = jnp.where(is_flush, jnp.where(jnp.abs(x1) <= jnp.abs(x2), fl, fl1), kv)
+    r = body[k]
+    a0 = jnp.dot(r, d_b)
+    b0 = cross2(r, d_b)
+    sigma = jnp.sign(b0)
+    translate = hold | (sigma == 0)
+    # rotation to the next edge landing: its normal turns onto the fence side -d_b (the
+    # body-frame fence side turns by -dtheta); an edge already past by rounding lands now
+    target = jnp.where(sigma < 0, k, jnp.where(k == 0, n - 1, k - 1))
+    nt = normals[target]
+    tiny = jnp.finfo(dtype).tiny
+    t_land = jnp.maximum(sigma * cross2(d_b, nt) / jnp.maximum(1.0 - jnp.dot(d_b, nt), tiny), 0.0)
+    t0 = jnp.abs(b0) / (rho[k] - a0)                 # tan(beta0 / 2); a0 <= 0: no cancellation
+    return translate, k, r, sigma, target, t_land, t0
+
+
 def _setup(pp: _Part, d, st):
     """Contact mode at the start of a phase and the travel to its event.
 
@@ -338,31 +377,10 @@ def _setup(pp: _Part, d, st):
     signed slip ``q_t`` to the event, and the sliding bracket ``(lo, hi)``
     (half-angle tangents clamped into the window).
     """
-    g = pp.geom
-    n = g.body.shape[0]
-    dtype = g.body.dtype
-    c, s, flush, kv = st["c"], st["s"], st["flush"], st["kv"]
-    d_b = jnp.stack([c * d[0] + s * d[1], -s * d[0] + c * d[1]])   # push direction, body frame
-    is_flush = flush >= 0
-    fl = jnp.maximum(flush, 0)
-    fl1 = jnp.where(fl == n - 1, 0, fl + 1)
-    x1 = cross2(g.body[fl], d_b)
-    x2 = cross2(g.body[fl1], d_b)
-    hold = is_flush & (x1 * x2 < 0.0)     # line contact that translates (stable edge)
-    k = jnp.where(is_flush, jnp.where(jnp.abs(x1) <= jnp.abs(x2), fl, fl1), kv)
-    r = g.body[k]
-    a0 = jnp.dot(r, d_b)
-    b0 = cross2(r, d_b)
-    sigma = jnp.sign(b0)
-    translate = hold | (sigma == 0)
-    # rotation to the next edge landing: its normal turns onto the fence side -d_b (the
-    # body-frame fence side turns by -dtheta); an edge already past by rounding lands now
-    target = jnp.where(sigma < 0, k, jnp.where(k == 0, n - 1, k - 1))
-    nt = pp.normals[target]
-    tiny = jnp.finfo(dtype).tiny
-    t_land = jnp.maximum(sigma * cross2(d_b, nt) / jnp.maximum(1.0 - jnp.dot(d_b, nt), tiny), 0.0)
+    dtype = pp.geom.body.dtype
+    translate, k, r, sigma, target, t_land, t0 = pivot_contact(pp.geom.body, pp.normals, pp.rho,
+                                                               d, st)
     rho = pp.rho[k]
-    t0 = jnp.abs(b0) / (rho - a0)                    # tan(beta0 / 2); a0 <= 0: no cancellation
     # rotation to the ends of the sliding window ahead; an end reached by rounding is behind
     ta, tb = pp.ta[k], pp.tb[k]
     tol = _flush_tolerance(dtype) * 0.5 * (1.0 + t0 * t0)

@@ -287,3 +287,51 @@ def family_c_range(family: str, body) -> tuple[float, float]:
             his = [family_c_range(f, b)[1] for f in ("rigid", "uniform", "ring")]
             return lo, max(his)
     raise ValueError(f"family: expected rigid, uniform, ring or any, got {family!r}")
+
+
+def family_support(families: tuple, code, body, c, lift, points, weights):
+    """The support points and loads of one sample (one part; ``jax.vmap`` over
+    samples), padded to one shape whatever its family, for the exact limit
+    surface (:mod:`kernels.quasistatic_points`).
+
+    Args:
+      families: static tuple of the family names the batch may hold (one
+        for a fixed family, :data:`ANY_COMPONENTS` under ``any``); only those
+        are built.
+      code: () int32, the sample's family (:data:`CODES`).
+      body: (h, 2) the (perturbed) hull, CCW, body frame (origin at the centre
+        of mass), m: the corners and the feet are the sampled part's.
+      c: () the tripod's circumradius, m.
+      lift: (h,) corner flatness ranks (rigid).
+      points, weights: (S, 2), (S,) the ``points`` family's sampled support.
+
+    Returns:
+      ``(points (T, 2), weights (T,))``: the family's points with their loads
+      (rigid: the corners, :func:`corner_weights`; uniform, ring, tripod: the
+      feet with :func:`equilibrium_weights`; points: as sampled), zero loads
+      on the padding; ``T`` the largest count among ``families``.
+    """
+    body = jnp.asarray(body)
+    built = []
+    for fam in families:
+        if fam == "rigid":
+            built.append((fam, body, corner_weights(body, lift)))
+        elif fam == "points":
+            built.append((fam, jnp.asarray(points, body.dtype), jnp.asarray(weights, body.dtype)))
+        else:
+            pts = family_points(fam, body, c)
+            built.append((fam, pts, equilibrium_weights(pts)))
+    T = max(p.shape[0] for _, p, _ in built)
+
+    def pad(p, w):
+        k = T - p.shape[0]
+        return (jnp.concatenate([p, jnp.zeros((k, 2), p.dtype)]),
+                jnp.concatenate([w, jnp.zeros((k,), w.dtype)]))
+
+    out_p, out_w = pad(*built[0][1:])
+    for fam, p, w in built[1:]:
+        pp, ww = pad(p, w)
+        sel = code == CODES[fam]
+        out_p = jnp.where(sel, pp, out_p)
+        out_w = jnp.where(sel, ww, out_w)
+    return out_p, out_w

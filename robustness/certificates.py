@@ -193,7 +193,7 @@ def perturbed_sources(sampler, kind: str, model: str) -> tuple:
             out.append("fence angle")
         if e.distance_abs > 0 or e.distance_rel > 0:
             out.append("push distance")
-        if model in ("quasistatic", "mujoco"):  # the exact replay does not depend on friction
+        if model in ("quasistatic", "limit_surface", "mujoco"):  # the exact replay does not depend on friction
             if f.mu_f[1] > f.mu_f[0]:
                 out.append("fence friction")
             if f.support in ("any", "rigid", "points") or (f.c is not None and f.c[1] > f.c[0]):

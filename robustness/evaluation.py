@@ -298,7 +298,7 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
             poly0 = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
         shape = dict(n_vertices=m, dim=2, n_pushes=len(plan.pushes))
         draws = sampler.sample(key, n, body=poly0.body, dtype=jnp.float64,
-                               keep_support=model == "mujoco", **shape)
+                               keep_support=model in ("mujoco", "limit_surface"), **shape)
     else:
         shape = dict(n_vertices=m, dim=3, n_tumbles=plan.n_tumbles)
         draws = sampler.sample(key, n, dtype=jnp.float64, **shape)

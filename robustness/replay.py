@@ -46,7 +46,9 @@ class PushSamples:
     """Per-sample perturbations of a push plan (leading axis: samples): vertex
     and centre-of-mass offsets (m), start-pose error (m, rad), per-push fence
     angle (rad), relative and absolute distance errors, the support's ``c``
-    (m) and ``mu`` the fence friction."""
+    (m) and ``mu`` the fence friction; for the exact limit surface the
+    support's family code, corner ranks and sampled points and loads
+    (:func:`kernels.support.family_support`)."""
 
     dv: jax.Array
     dc: jax.Array
@@ -56,6 +58,10 @@ class PushSamples:
     abs: jax.Array
     c: jax.Array
     mu: jax.Array
+    family: jax.Array = None
+    lift: jax.Array = None
+    points: jax.Array = None
+    weights: jax.Array = None
 
 
 @jax.tree_util.register_dataclass
@@ -208,6 +214,14 @@ def _push_one(nom: PushNominal, q: PushSamples, model: str) -> PushReplay:
 
         final, outs = replay_pushes(geom, pose0, dirs, dists)
         slip, trunc = jnp.zeros((), dt), jnp.asarray(False)
+    elif isinstance(model, tuple):          # ("limit_surface", families): the exact surface
+        from kernels import family_support, simulate_pushes_on_points
+
+        pts, wts = family_support(model[1], q.family, geom.body, q.c, q.lift, q.points, q.weights)
+        final, outs = simulate_pushes_on_points(geom, pose0, dirs, dists, pts, wts, q.mu,
+                                                expected_edges=nom.planned, active=active)
+        slip = jnp.sum(jnp.where(active, outs.slip, 0.0))
+        trunc = jnp.any(active & outs.truncated)
     else:
         from kernels import simulate_pushes
 
@@ -282,8 +296,27 @@ def _push_samples_of(draws, Pp: int, mp: int, dtype) -> PushSamples:
                        fence=_pad_axis(rows_of(e.fence_angle, ea.fence_angle), Pp),
                        rel=_pad_axis(rows_of(e.distance_rel, ea.distance_rel), Pp),
                        abs=_pad_axis(rows_of(e.distance_abs, ea.distance_abs), Pp),
-                       c=rows_of(f.c, fa.c), mu=rows_of(f.mu_f, fa.mu_f))
-    return jax.tree_util.tree_map(lambda v: v.astype(dtype), rows)
+                       c=rows_of(f.c, fa.c), mu=rows_of(f.mu_f, fa.mu_f),
+                       lift=rows_of(f.corner_lift, fa.corner_lift),
+                       points=rows_of(f.support_points, fa.support_points),
+                       weights=rows_of(f.support_weights, fa.support_weights))
+    rows = jax.tree_util.tree_map(lambda v: v.astype(dtype), rows)
+    return dataclasses.replace(rows, family=rows_of(f.family, fa.family).astype(jnp.int32))
+
+
+def _static_model(model: str, draws):
+    """The replay's static model: ``"limit_surface"`` becomes
+    ``("limit_surface", families)``, the support families the draws hold
+    (only those are built in the compiled replay)."""
+    if model != "limit_surface":
+        return model
+    from kernels import support as ks
+
+    f, fa = draws.params.friction, draws.in_axes.friction
+    if fa.family is None:
+        return ("limit_surface", (ks.FAMILIES[int(np.asarray(f.family))],))
+    present = {ks.FAMILIES[int(k)] for k in np.unique(np.asarray(f.family))}
+    return ("limit_surface", tuple(x for x in ks.FAMILIES if x in present))
 
 
 def run_push(plan, draws, model, dtype, chunk):
@@ -294,7 +327,7 @@ def run_push(plan, draws, model, dtype, chunk):
     Pp, mp = _bucket(P, 2), _bucket(m, 4)
     nom = _push_nominal_of(plan, poly, planned, Pp, mp, dtype)
     rows = _push_samples_of(draws, Pp, mp, dtype)
-    res = _run_chunks(_push_batch, nom, rows, draws.n, chunk, model)
+    res = _run_chunks(_push_batch, nom, rows, draws.n, chunk, _static_model(model, draws))
     res = dataclasses.replace(res, edges=res.edges[:, :P], complete=res.complete[:, :P])
     return poly, planned, res
 
@@ -341,7 +374,8 @@ def run_push_many(plans, draws, model, dtype, chunk: int = 4096) -> PushReplay:
     noms += [noms[0]] * (_bucket(K, 1) - K)   # a power of two of plans: shared compilations
     noms = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *noms)
     rows = _push_samples_of(draws, Pp, mp, dtype)
-    res = _run_chunks(_push_batch_many, noms, rows, draws.n, chunk, model, sample_axis=1)
+    res = _run_chunks(_push_batch_many, noms, rows, draws.n, chunk, _static_model(model, draws),
+                      sample_axis=1)
     res = jax.tree_util.tree_map(lambda x: x[:K], res)
     return dataclasses.replace(res, edges=res.edges[:, :, :P], complete=res.complete[:, :, :P])
 

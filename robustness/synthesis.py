@@ -52,6 +52,7 @@ from kernels import float64
 from planning import PlanningError, PushOptions, plan_alternatives, plan_pose
 from robustness import stats
 from robustness.evaluation import goal_errors, kinematic_success
+from robustness.models import PUSH_KINEMATIC
 from robustness.replay import run_push_many
 from robustness.samplers import Sampler
 from robustness.tolerances import SuccessCriterion
@@ -285,9 +286,9 @@ def score_candidates(plans: Sequence, sampler: Sampler, n: int, key, *,
         success = _tumble_success(plans, sampler, int(n), key, dtype, pos_eps_m, theta_eps_rad,
                                   chunk, merge_factor)
     else:
-        if model not in ("quasistatic", "exact"):
+        if model not in PUSH_KINEMATIC:
             raise ValueError(f"model: robust synthesis scores push candidates under the "
-                             f"quasistatic or exact kinematics, got {model!r}")
+                             f"quasistatic, limit_surface or exact kinematics, got {model!r}")
         success = _push_success(plans, sampler, int(n), key, model, dtype,
                                 SuccessCriterion.pos_eps_m if pos_eps_m is None else pos_eps_m,
                                 SuccessCriterion.theta_eps_rad if theta_eps_rad is None
@@ -506,7 +507,7 @@ def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key
     tumble = np.asarray(vertices).shape[-1] == 3
     if tumble:
         model = "exact"
-    elif model not in ("quasistatic", "exact"):
+    elif model not in PUSH_KINEMATIC:
         model = "quasistatic"
     if tumble:
         cands, skipped = tumble_candidates(vertices, start, goal, com, **grid)

@@ -277,7 +277,7 @@ class Evaluation(Strict):
     eps: Eps = Field(default_factory=Eps)
     required: Required = Field(default_factory=Required)
     seed: int = Field(0, ge=0)
-    model: Literal["quasistatic", "exact", "mujoco"] = "quasistatic"
+    model: Literal["quasistatic", "limit_surface", "exact", "mujoco"] = "quasistatic"
     dtype: Literal["float64", "float32"] = "float64"
     physics: Physics = Field(default_factory=Physics)
 

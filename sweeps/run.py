@@ -38,7 +38,7 @@ from sweeps.terminal import Parser, fail, report_part, run_main
 
 
 #: Rough throughput on 2 CPU cores (samples/s, float64) for --dry-run's estimate.
-RATES = {"exact": 20_000.0, "quasistatic": 4_000.0, "tumble": 20_000.0}
+RATES = {"exact": 20_000.0, "quasistatic": 4_000.0, "limit_surface": 40.0, "tumble": 20_000.0}
 COMPILE_S = 8.0   # per distinct kernel shape, cold cache
 
 

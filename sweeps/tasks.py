@@ -100,11 +100,11 @@ def synthesize_for(cfg, part, start, goal, key):
     :class:`~robustness.Synthesis`."""
     import jax.numpy as jnp
 
-    from robustness import selection_key, synthesize
+    from robustness import PUSH_KINEMATIC, selection_key, synthesize
 
     sy = cfg.synthesize
     push = part.kind == "polygon"
-    model = (cfg.model if cfg.model in ("quasistatic", "exact") else "quasistatic") if push \
+    model = (cfg.model if cfg.model in PUSH_KINEMATIC else "quasistatic") if push \
         else "exact"
     grid = (dict(options=cfg.planner.push_options(), **sy.grid(cfg.friction)) if push
             else sy.tumble_grid(tumble_eps(cfg.planner, cfg.eps), cfg.planner.tumble_tau_v,
@@ -141,10 +141,10 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
     import jax
     import jax.numpy as jnp
 
-    from robustness import model_for, tolerance_design as td
+    from robustness import PUSH_KINEMATIC, model_for, tolerance_design as td
 
     kind = "push" if part.kind == "polygon" else "tumble"
-    model = cfg.model if cfg.model in ("quasistatic", "exact") and kind == "push" else \
+    model = cfg.model if cfg.model in PUSH_KINEMATIC and kind == "push" else \
         model_for("quasistatic" if cfg.model == "mujoco" else cfg.model, kind)
     d = cfg.design
     axes = tuple(a for a in (d.axes or td.axes_for(plan)) if a in td.axes_for(plan))

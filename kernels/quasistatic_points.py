@@ -1,0 +1,290 @@
+r"""Quasi-static fence push of a convex polygon on a point support (the exact
+limit surface of the support's points, :mod:`kernels.limit_surface`).
+
+Same contact model, frames, events and outcome as :mod:`kernels.quasistatic`
+(read its docstring first); only the support friction differs: instead of an
+ellipsoidal limit surface of one ratio ``c``, the part stands on ``S`` points
+``p_i`` (body frame, origin at the centre of mass, m) with loads ``w_i``, and
+at every instant it moves as :func:`kernels.limit_surface.push_motion` says
+(it may stick or slide at the fence, and turn about a loaded support point).
+
+Integration: no time steps.  A push is a sequence of *phases*, each a pivot
+about one vertex ``P`` that ends when the next edge lands flush (known in
+closed form from the geometry) or when the fence's travel runs out; a stable
+flush edge (or the divergent equilibrium ``r x d = 0``) translates with the
+fence for the rest of the push.  During a pivot the part's orientation is
+fixed by ``beta``, the angle between ``d`` and ``P -> C``, which grows
+monotonically (friction never reverses the rotation), so the travel ``s`` and
+the slip ``q`` of ``P`` along the fence are integrals over ``beta`` of rates
+that depend on the orientation only:
+
+.. math:: \frac{ds}{d\ell} = \frac{\sin\beta}{|\omega|},\qquad
+          \frac{dq}{d\ell} = \frac{u \sin\beta}{|\omega|},\qquad
+          \ell = \ln\tan(\beta/2)
+
+(``omega``, ``u`` the rotation and slip rates per metre of travel).  In
+``ell`` the integrands are bounded and smooth where the contact does not
+switch between sticking and sliding (as ``beta -> 0``, ``omega ~ sin beta``;
+on the ellipsoid ``ds/dell`` is the constant ``(c^2 + rho^2)/rho``), so a
+phase is integrated by 3-point Gauss-Legendre on ``PANELS`` panels (an
+open rule: no node on a landing, where a support corner lies on the fence
+line and the motion has a kink), all the
+nodes' motions solved at once (``jax.vmap``); a phase that ends mid-way
+inverts the cumulative travel on the panel where it crosses (the panel's
+quadratic interpolant, Newton's method).  The position is rebuilt from the
+contact point, which moves by ``s d + q t``, so ``P`` stays exactly on the
+fence.  A convex polygon lands at most ``n`` edges in a push; the loop is
+capped at ``n + 4`` phases (``truncated`` beyond).
+
+Accuracy: against a fine fixed-step integration of the same motion (the
+tests), ~1e-7 of the part's size where the contact never switches and
+~1e-5 where it does (a kink of the integrand inside a panel); on an
+ellipsoid-like support (many points on a ring) the result approaches
+:mod:`kernels.quasistatic`'s.  Cost: ``3 PANELS`` motion solves per phase
+(each ``O(S)`` per iteration, both modes solved under ``vmap``): some 800
+times the ellipsoid's closed form (41 against 33,000 samples/s of an 8-push
+plan on rigid corners, 2 CPU cores).
+
+Assumptions and limits: quasi-static, normal push, fence longer than the part,
+one support coefficient (it cancels), loads fixed during the push (no load
+transfer by the push's height), Coulomb friction at every support point.
+"""
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from kernels.limit_surface import push_motion
+from kernels.planar import wrap_angle
+from kernels.polygon import PolygonGeometry
+from kernels.push import contact_vertex
+from kernels.quasistatic import (SimOutcome, _flush_tolerance, _half_between, _half_to,
+                                 pivot_contact)
+
+#: quadrature panels per phase (3 PANELS motion solves)
+PANELS = 16
+
+
+def phase_cap(n: int) -> int:
+    """Most phases one push may take on an ``n``-gon (static loop bound)."""
+    return int(n) + 4
+
+
+def _normals(body):
+    e = jnp.roll(body, -1, axis=0) - body
+    return jnp.stack([e[:, 1], -e[:, 0]], axis=1) / jnp.linalg.norm(e, axis=1, keepdims=True)
+
+
+def _phase(body, normals, rho, points, weights, mu, d, st):
+    """One phase's quadrature: the contact, its landing, and the cumulative
+    travel and slip at the panel ends."""
+    dtype = body.dtype
+    translate, k, r, sigma, target, t_land, t0 = pivot_contact(body, normals, rho, d, st)
+    tiny = jnp.finfo(dtype).tiny
+    t0s = jnp.maximum(t0, tiny)
+    T1 = _half_to(t0s, t_land)
+    T1 = jnp.where(T1 > 0, T1, jnp.inf)                    # a landing past beta = pi: never
+    l0 = jnp.log(t0s)
+    l1 = jnp.log(jnp.minimum(T1, 1e300))
+    x = ((jnp.arange(PANELS, dtype=dtype)[:, None] + jnp.asarray(_GAUSS, dtype)[None])
+         / PANELS).reshape(-1)                             # 3 Gauss-Legendre nodes a panel
+    T = jnp.exp(l0 + x * (l1 - l0))                        # tan(beta / 2) at the nodes
+    dt = _half_between(t0s, T)                             # tan(rotation / 2) from the start
+    den = 1.0 + dt * dt
+    cd, sd = (1.0 - dt * dt) / den, sigma * 2.0 * dt / den
+    c, s = st["c"], st["s"]
+    cn, sn = c * cd - s * sd, s * cd + c * sd               # orientation at the nodes
+    d_b = jnp.stack([cn * d[0] + sn * d[1], -sn * d[0] + cn * d[1]], -1)   # (N, 2)
+    mo = jax.vmap(push_motion, in_axes=(None, None, None, 0, None))(points, weights, r, d_b, mu)
+    sinb = 2.0 * T / (1.0 + T * T)
+    gs = sinb / jnp.maximum(jnp.abs(mo.omega), tiny)
+    gq = mo.slip * gs
+    h = (l1 - l0) / PANELS
+
+    def panels(g):
+        g = g.reshape(PANELS, 3)
+        return h * (5.0 * g[:, 0] + 8.0 * g[:, 1] + 5.0 * g[:, 2]) / 18.0
+
+    cs = jnp.concatenate([jnp.zeros(1, dtype), jnp.cumsum(panels(gs))])
+    cq = jnp.concatenate([jnp.zeros(1, dtype), jnp.cumsum(panels(gq))])
+    return dict(translate=translate, k=k, r=r, sigma=sigma, target=target, t_land=t_land,
+                t0=t0s, l0=l0, h=h, gs=gs, gq=gq, cs=cs, cq=cq)
+
+
+def _rotate(st, r, sigma, d, tv, s_used, t, q):
+    """Turn the part by ``sigma dt`` (``t = tan(dt/2)``) about its contact point
+    ``r`` (body frame), which moves by ``s_used d + q tv`` (world)."""
+    c, s = st["c"], st["s"]
+    den = 1.0 + t * t
+    cd, sd = (1.0 - t * t) / den, sigma * 2.0 * t / den
+    cn, sn = c * cd - s * sd, s * cd + c * sd
+    norm = jnp.sqrt(cn * cn + sn * sn)
+    cn, sn = cn / norm, sn / norm
+    rw0 = jnp.stack([c * r[0] - s * r[1], s * r[0] + c * r[1]])
+    rw1 = jnp.stack([cn * r[0] - sn * r[1], sn * r[0] + cn * r[1]])
+    dtheta = sigma * 2.0 * jnp.arctan(t)
+    return st["pos"] + rw0 + s_used * d + q * tv - rw1, st["theta"] + dtheta, cn, sn, dtheta
+
+
+#: Gauss-Legendre nodes on [0, 1] (weights 5/18, 8/18, 5/18): an open rule, so
+#: that no node sits on a landing, where a support corner lies on the fence line
+#: and the motion has a kink
+_GAUSS = (0.5 - 0.5 * 0.6 ** 0.5, 0.5, 0.5 + 0.5 * 0.6 ** 0.5)
+
+
+def _quad(g0, g1, g2, x):
+    """Integral over [0, x] (and value at x) of the quadratic through the
+    panel's Gauss nodes ``(x_k, g_k)``, per unit panel width."""
+    e = 0.5 * 0.6 ** 0.5
+    # g(x) = g1 + b (x - 1/2) + a (x - 1/2)^2 through the three nodes
+    b = (g2 - g0) / (2.0 * e)
+    a = (g0 + g2 - 2.0 * g1) / (2.0 * e * e)
+    y = x - 0.5
+    F = g1 * (y + 0.5) + 0.5 * b * (y * y - 0.25) + a * (y * y * y + 0.125) / 3.0
+    return F, g1 + b * y + a * y * y
+
+
+def _step(body, normals, rho, points, weights, mu, d, tv, st):
+    """One loop phase: translate to the end, land the next edge, or (the
+    travel running out first) turn by the rotation the travel left gives."""
+    ph = _phase(body, normals, rho, points, weights, mu, d, st)
+    dtype = body.dtype
+    tr = ph["translate"]
+    s_left = st["s_left"]
+    total = ph["cs"][-1]
+    land = (~tr) & (total <= s_left)
+    # the panel where the cumulative travel reaches s_left, and the point in it
+    m = jnp.clip(jnp.searchsorted(ph["cs"], s_left, side="right") - 1, 0, PANELS - 1)
+    g0, g1, g2 = ph["gs"][3 * m], ph["gs"][3 * m + 1], ph["gs"][3 * m + 2]
+    need = (s_left - ph["cs"][m]) / jnp.where(ph["h"] > 0, ph["h"], 1.0)
+    xa = jnp.clip(need / jnp.maximum(g1, jnp.finfo(dtype).tiny), 0.0, 1.0)
+
+    def newton(_, xx):
+        f, df = _quad(g0, g1, g2, xx)
+        return jnp.clip(xx - (f - need) / jnp.maximum(df, jnp.finfo(dtype).tiny), 0.0, 1.0)
+
+    xs = jax.lax.fori_loop(0, 6, newton, xa)
+    q0, q1, q2 = ph["gq"][3 * m], ph["gq"][3 * m + 1], ph["gq"][3 * m + 2]
+    q_end = ph["cq"][m] + ph["h"] * _quad(q0, q1, q2, xs)[0]
+    T_end = jnp.exp(ph["l0"] + (m + xs) * ph["h"])
+    t_end = jnp.clip(_half_between(ph["t0"], T_end), 0.0, ph["t_land"])
+    t = jnp.where(land, ph["t_land"], t_end)
+    q = jnp.where(land, ph["cq"][-1], q_end)
+    s_used = jnp.where(land, total, s_left)
+    pos, theta, cn, sn, dth = _rotate(st, ph["r"], ph["sigma"], d, tv, s_used, t, q)
+    new = dict(st)
+    new["pos"] = jnp.where(tr, st["pos"] + s_left * d, pos)
+    new["theta"] = jnp.where(tr, st["theta"], theta)
+    new["c"] = jnp.where(tr, st["c"], cn)
+    new["s"] = jnp.where(tr, st["s"], sn)
+    new["flush"] = jnp.where(tr, st["flush"], jnp.where(land, ph["target"], -1))
+    new["kv"] = jnp.where(tr, st["kv"], ph["k"])
+    new["s_left"] = jnp.where(land, s_left - total, 0.0)
+    new["rot"] = st["rot"] + jnp.where(tr, 0.0, dth)
+    new["slip"] = st["slip"] + jnp.where(tr, 0.0, jnp.abs(q))
+    new["landings"] = st["landings"] + land.astype(jnp.int32)
+    new["phases"] = st["phases"] + 1
+    return new
+
+
+def simulate_push(geom: PolygonGeometry, pose, direction, distance, points, weights, mu_f,
+                  expected_edge=-1) -> SimOutcome:
+    """Simulate one normal fence push on a point support (module docstring).
+
+    Args:
+      geom: the part, body frame (possibly perturbed); its ``body`` dtype is
+        the computation dtype.
+      pose: (3,) start pose ``(x, y, theta)``, world frame (m, rad).
+      direction: (2,) direction of the fence's motion, world frame (normalised here).
+      distance: fence travel in contact with the part, m (>= 0).
+      points: (S, 2) support points, body frame (origin at the centre of mass), m.
+      weights: (S,) their loads (>= 0, sum 1, centroid at the centre of mass;
+        zero-weight points are padding).
+      mu_f: fence-part friction coefficient (>= 0; ``inf``: never slips).
+      expected_edge: hull edge the push should end flush on (-1 to skip).
+
+    Returns:
+      :class:`kernels.quasistatic.SimOutcome` (``phases``: loop phases).  Pure,
+      jit- and vmap-able over every array argument.
+    """
+    body = geom.body
+    dtype = body.dtype
+    n = body.shape[0]
+    points = jnp.asarray(points, dtype)
+    weights = jnp.asarray(weights, dtype)
+    mu = jnp.asarray(mu_f, dtype)
+    normals = _normals(body)
+    rho = jnp.linalg.norm(body, axis=1)
+    pose = jnp.asarray(pose, dtype)
+    d = jnp.asarray(direction, dtype)
+    d = d / jnp.linalg.norm(d)
+    tv = jnp.stack([-d[1], d[0]])
+    distance = jnp.asarray(distance, dtype)
+    ang_u = jnp.arctan2(-d[1], -d[0])
+    theta0 = pose[2]
+    c0, s0 = jnp.cos(theta0), jnp.sin(theta0)
+    R0 = jnp.stack([jnp.stack([c0, -s0]), jnp.stack([s0, c0])])
+    h0 = jnp.min((body @ R0.T + pose[:2]) @ d)
+    phi0 = ang_u - theta0
+    off = jnp.abs(wrap_angle(phi0 - geom.nu))
+    e0 = jnp.argmin(off)
+    flush0 = jnp.where(off[e0] <= _flush_tolerance(dtype), e0, -1).astype(jnp.int32)
+    kv0 = contact_vertex(geom, wrap_angle(phi0)).astype(jnp.int32)
+    zero = jnp.zeros((), dtype)
+    st = dict(pos=pose[:2], theta=theta0, c=c0, s=s0, flush=flush0, kv=kv0,
+              s_left=jnp.maximum(distance, zero), rot=zero, slip=zero,
+              landings=jnp.zeros((), jnp.int32), phases=jnp.zeros((), jnp.int32))
+    cap = phase_cap(n)
+    st = jax.lax.while_loop(
+        lambda v: (v["s_left"] > 0) & (v["phases"] < cap),
+        lambda v: _step(body, normals, rho, points, weights, mu, d, tv, v), st)
+    truncated = st["s_left"] > 0
+    c, s, flush = st["c"], st["s"], st["flush"]
+    d_b = jnp.stack([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+    fl = jnp.maximum(flush, 0)
+    x1 = body[fl, 0] * d_b[1] - body[fl, 1] * d_b[0]
+    nx = body[(fl + 1) % n]
+    x2 = nx[0] * d_b[1] - nx[1] * d_b[0]
+    edge = jnp.where((flush >= 0) & (x1 * x2 < 0.0), flush, -1).astype(jnp.int32)
+    moved = distance > 0
+    out_pose = jnp.where(moved, jnp.concatenate([st["pos"], wrap_angle(st["theta"])[None]]), pose)
+    expected_edge = jnp.asarray(expected_edge, jnp.int32)
+    slip = st["slip"]
+    return SimOutcome(pose=out_pose, edge=edge, complete=edge >= 0,
+                      rotation=jnp.where(moved, st["rot"], 0.0), slip=slip, slipped=slip > 0,
+                      landed_other_edge=(expected_edge >= 0) & (edge >= 0) & (edge != expected_edge),
+                      landings=jnp.where(moved, st["landings"], 0), fence=h0 + distance,
+                      phases=st["phases"], truncated=truncated)
+
+
+def simulate_pushes(geom: PolygonGeometry, pose, directions, distances, points, weights, mu_f,
+                    expected_edges=None, active=None):
+    """A push plan on a point support with ``lax.scan`` (arguments as
+    :func:`kernels.quasistatic.simulate_pushes`, with ``(points, weights)`` in
+    place of ``c``).  Returns ``(final_pose, outcomes)``."""
+    dtype = geom.body.dtype
+    distances = jnp.asarray(distances, dtype)
+    if expected_edges is None:
+        expected_edges = jnp.full(distances.shape, -1, jnp.int32)
+
+    def run(p, dvec, dist, exp):
+        out = simulate_push(geom, p, dvec, dist, points, weights, mu_f, exp)
+        return out.pose, out
+
+    def skip(p, dvec, dist, exp):
+        z, i, f = jnp.zeros((), dtype), jnp.zeros((), jnp.int32), jnp.asarray(False)
+        return p, SimOutcome(pose=p, edge=i - 1, complete=f, rotation=z, slip=z, slipped=f,
+                             landed_other_edge=f, landings=i, fence=jnp.full((), jnp.nan, dtype),
+                             phases=i, truncated=f)
+
+    def step(p, xs):
+        dvec, dist, exp, act = xs
+        if active is None:
+            return run(p, dvec, dist, exp)
+        return jax.lax.cond(act, run, skip, p, dvec, dist, exp)
+
+    act = jnp.ones(distances.shape, bool) if active is None else jnp.asarray(active, bool)
+    final, outs = jax.lax.scan(step, jnp.asarray(pose, dtype),
+                               (jnp.asarray(directions, dtype), distances,
+                                jnp.asarray(expected_edges, jnp.int32), act))
+    return final, outs
