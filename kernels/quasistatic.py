@@ -521,10 +521,13 @@ def _finish(pp: _Part, d, tv, st):
     return new
 
 
-def _push(pp: _Part, pose, direction, distance, expected_edge) -> SimOutcome:
-    """One push on a prepared part (see :func:`simulate_push`)."""
-    g = pp.geom
-    n = g.body.shape[0]
+def push_start(g: PolygonGeometry, pose, direction, distance):
+    """The start of a push (shared with :mod:`kernels.quasistatic_points`): the
+    pose, the unit push direction ``d`` and ``tv = perp(d)`` (world), the
+    distance, the fence's start offset ``h0`` and the loop state (position,
+    orientation and its (cos, sin), the flush edge within ``eps**0.75`` rad or
+    -1, the support vertex, travel left, rotation, slip, landings, phases), all
+    in the dtype of ``g.body``."""
     dtype = g.body.dtype
     pose = jnp.asarray(pose, dtype)
     d = jnp.asarray(direction, dtype)
@@ -545,8 +548,16 @@ def _push(pp: _Part, pose, direction, distance, expected_edge) -> SimOutcome:
     zero = jnp.zeros((), dtype)
     st = dict(pos=pose[:2], theta=theta0, c=c0, s=s0, flush=flush0, kv=kv0,
               s_left=jnp.maximum(distance, zero), rot=zero, slip=zero,
-              landings=jnp.zeros((), jnp.int32), final=jnp.asarray(False),
-              phases=jnp.zeros((), jnp.int32))
+              landings=jnp.zeros((), jnp.int32), phases=jnp.zeros((), jnp.int32))
+    return pose, d, tv, distance, h0, st
+
+
+def _push(pp: _Part, pose, direction, distance, expected_edge) -> SimOutcome:
+    """One push on a prepared part (see :func:`simulate_push`)."""
+    g = pp.geom
+    n = g.body.shape[0]
+    pose, d, tv, distance, h0, st = push_start(g, pose, direction, distance)
+    st["final"] = jnp.asarray(False)
     cap = phase_cap(n)
     st = jax.lax.while_loop(
         lambda v: (v["s_left"] > 0) & (~v["final"]) & (v["phases"] < cap),
@@ -615,14 +626,22 @@ def simulate_pushes(geom: PolygonGeometry, pose, directions, distances, c, mu_f,
       ``(final_pose, outcomes)``: the (3,) pose after the plan and a
       :class:`SimOutcome` with a leading axis of length P (after each push).
     """
-    dtype = geom.body.dtype
+    pp = _part(geom, c, mu_f)   # sliding windows: once per part, not per push
+    return scan_pushes(lambda p, dvec, dist, exp: _push(pp, p, dvec, dist, exp), geom.body.dtype,
+                       pose, directions, distances, expected_edges, active)
+
+
+def scan_pushes(push, dtype, pose, directions, distances, expected_edges=None, active=None):
+    """A push plan with ``lax.scan``: ``push(pose, direction, distance,
+    expected_edge) -> SimOutcome`` for each push in turn (shared by
+    :func:`simulate_pushes` and :func:`kernels.quasistatic_points.simulate_pushes`);
+    arguments and returns as :func:`simulate_pushes`, in ``dtype``."""
     distances = jnp.asarray(distances, dtype)
     if expected_edges is None:
         expected_edges = jnp.full(distances.shape, -1, jnp.int32)
-    pp = _part(geom, c, mu_f)   # sliding windows: once per part, not per push
 
     def run(p, dvec, dist, exp):
-        out = _push(pp, p, dvec, dist, exp)
+        out = push(p, dvec, dist, exp)
         return out.pose, out
 
     def skip(p, dvec, dist, exp):

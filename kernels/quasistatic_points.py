@@ -57,9 +57,8 @@ import jax.numpy as jnp
 from kernels.limit_surface import push_motion
 from kernels.planar import wrap_angle
 from kernels.polygon import PolygonGeometry
-from kernels.push import contact_vertex
-from kernels.quasistatic import (SimOutcome, _flush_tolerance, _half_between, _half_to,
-                                 pivot_contact)
+from kernels.quasistatic import (SimOutcome, _half_between, _half_to,
+                                 pivot_contact, push_start, scan_pushes)
 
 #: quadrature panels per phase (3 PANELS motion solves)
 PANELS = 16
@@ -215,25 +214,7 @@ def simulate_push(geom: PolygonGeometry, pose, direction, distance, points, weig
     mu = jnp.asarray(mu_f, dtype)
     normals = _normals(body)
     rho = jnp.linalg.norm(body, axis=1)
-    pose = jnp.asarray(pose, dtype)
-    d = jnp.asarray(direction, dtype)
-    d = d / jnp.linalg.norm(d)
-    tv = jnp.stack([-d[1], d[0]])
-    distance = jnp.asarray(distance, dtype)
-    ang_u = jnp.arctan2(-d[1], -d[0])
-    theta0 = pose[2]
-    c0, s0 = jnp.cos(theta0), jnp.sin(theta0)
-    R0 = jnp.stack([jnp.stack([c0, -s0]), jnp.stack([s0, c0])])
-    h0 = jnp.min((body @ R0.T + pose[:2]) @ d)
-    phi0 = ang_u - theta0
-    off = jnp.abs(wrap_angle(phi0 - geom.nu))
-    e0 = jnp.argmin(off)
-    flush0 = jnp.where(off[e0] <= _flush_tolerance(dtype), e0, -1).astype(jnp.int32)
-    kv0 = contact_vertex(geom, wrap_angle(phi0)).astype(jnp.int32)
-    zero = jnp.zeros((), dtype)
-    st = dict(pos=pose[:2], theta=theta0, c=c0, s=s0, flush=flush0, kv=kv0,
-              s_left=jnp.maximum(distance, zero), rot=zero, slip=zero,
-              landings=jnp.zeros((), jnp.int32), phases=jnp.zeros((), jnp.int32))
+    pose, d, tv, distance, h0, st = push_start(geom, pose, direction, distance)
     cap = phase_cap(n)
     st = jax.lax.while_loop(
         lambda v: (v["s_left"] > 0) & (v["phases"] < cap),
@@ -262,29 +243,6 @@ def simulate_pushes(geom: PolygonGeometry, pose, directions, distances, points, 
     """A push plan on a point support with ``lax.scan`` (arguments as
     :func:`kernels.quasistatic.simulate_pushes`, with ``(points, weights)`` in
     place of ``c``).  Returns ``(final_pose, outcomes)``."""
-    dtype = geom.body.dtype
-    distances = jnp.asarray(distances, dtype)
-    if expected_edges is None:
-        expected_edges = jnp.full(distances.shape, -1, jnp.int32)
-
-    def run(p, dvec, dist, exp):
-        out = simulate_push(geom, p, dvec, dist, points, weights, mu_f, exp)
-        return out.pose, out
-
-    def skip(p, dvec, dist, exp):
-        z, i, f = jnp.zeros((), dtype), jnp.zeros((), jnp.int32), jnp.asarray(False)
-        return p, SimOutcome(pose=p, edge=i - 1, complete=f, rotation=z, slip=z, slipped=f,
-                             landed_other_edge=f, landings=i, fence=jnp.full((), jnp.nan, dtype),
-                             phases=i, truncated=f)
-
-    def step(p, xs):
-        dvec, dist, exp, act = xs
-        if active is None:
-            return run(p, dvec, dist, exp)
-        return jax.lax.cond(act, run, skip, p, dvec, dist, exp)
-
-    act = jnp.ones(distances.shape, bool) if active is None else jnp.asarray(active, bool)
-    final, outs = jax.lax.scan(step, jnp.asarray(pose, dtype),
-                               (jnp.asarray(directions, dtype), distances,
-                                jnp.asarray(expected_edges, jnp.int32), act))
-    return final, outs
+    return scan_pushes(lambda p, dvec, dist, exp: simulate_push(geom, p, dvec, dist, points,
+                                                                weights, mu_f, exp),
+                       geom.body.dtype, pose, directions, distances, expected_edges, active)
