@@ -31,9 +31,11 @@ realises the family the sampler drew, ``kernels.support``).  For every run:
   disagreement is listed with the physics and model outcomes (slip, landed
   edges, the support and the c MuJoCo realised) so that its class can be named.
 
-C vs MJX (``--no-mjx`` skips it, ~1-2 min of compilation on a CPU): one 2 cm
-translation of the rectangle on a uniform pad under the soft contact model
-(noslip 0, impratio 30) that both engines run: the final position difference.
+C vs MJX (``--no-mjx`` skips it, ~1-2 min of compilation on a CPU per family;
+``--goals 0 --no-tumbles`` runs it alone): one 2 cm translation of the
+rectangle on a tripod, rigid corners and a uniform pad under the soft contact
+model (noslip 0, impratio 30) that both engines run: the final position
+difference per family (and MJX's soft model against the C engine's default).
 
 Tumbles: on each bundled polyhedron, ``--tumble-goals`` goals reached by a
 seeded random walk of 4 tumbles from ``(0, 0, 0, 0)``, planned with
