@@ -188,6 +188,10 @@ class SampleOutcomes:
       success, failure_mode: physics: the rollout classified the samples
         itself (None for the kinematic models: decided from the errors).
       max_tilt_rad: physics: the largest tilt of the part (rad; None: NaN).
+      c_physical_m: physics, push: the limit-surface ratio that MuJoCo's support
+        loads realise after the part settled (m; None: NaN), beside the drawn ``c``.
+      support_ok: physics, push: the centre of mass stood inside the loaded support
+        contacts after settling (None: null).
     """
 
     x: np.ndarray
@@ -209,6 +213,8 @@ class SampleOutcomes:
     success: Optional[np.ndarray] = None
     failure_mode: Optional[np.ndarray] = None
     max_tilt_rad: Optional[np.ndarray] = None
+    c_physical_m: Optional[np.ndarray] = None
+    support_ok: Optional[np.ndarray] = None
 
 
 # --------------------------------------------------------------------------
@@ -417,7 +423,9 @@ def _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction, merge_facto
         extra = dict(final_edge_a=fa, final_edge_b=fb, planned_edge_a=pa, planned_edge_b=pb,
                      final_face=none, planned_face=none, n_incomplete=(~complete).sum(axis=1),
                      first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
-                     hull_changed=np.asarray(r["hull_changed"], bool))
+                     hull_changed=np.asarray(r["hull_changed"], bool),
+                     c_physical_m=np.asarray(r["c_physical"], np.float64),
+                     support_ok=np.asarray(r["support_ok"], bool))
     else:
         r = rollout_tumble_plan(plan, draws, merge_factor=merge_factor,
                                 tau_v=sampler.geometry.tau_v, **common)
@@ -512,6 +520,11 @@ def _columns(rows: SampleOutcomes, cols: dict, plan, kind, model, dtype, task, p
         "success": np.asarray(success, bool), "failure_mode": mode,
         "max_tilt_rad": np.asarray(np.full(n, np.nan) if rows.max_tilt_rad is None
                                    else rows.max_tilt_rad, np.float64),
+        "c_physical_m": np.asarray(np.full(n, np.nan) if rows.c_physical_m is None
+                                   else rows.c_physical_m, np.float64),
+        "support_ok": pd.array([pd.NA] * n if rows.support_ok is None else
+                               np.where(rows.model_valid, rows.support_ok, None).tolist(),
+                               dtype="boolean"),
     })
     for ref in ("quasistatic", "exact"):   # filled for physics rows (_compare_with_kinematics)
         data.update({f"dpos_vs_{ref}_m": np.full(n, np.nan), f"dtheta_vs_{ref}_rad": np.full(n, np.nan),

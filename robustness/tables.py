@@ -96,6 +96,8 @@ SAMPLES_RESULT_FIELDS = [
     pa.field("success", BOOL, nullable=False),
     pa.field("failure_mode", STR),
     pa.field("max_tilt_rad", F64),
+    pa.field("c_physical_m", F64),                  # mujoco push rows: c of the settled loads
+    pa.field("support_ok", BOOL),                   # mujoco push rows: com inside the loaded contacts
     pa.field("dpos_vs_quasistatic_m", F64),
     pa.field("dtheta_vs_quasistatic_rad", F64),
     pa.field("success_quasistatic", BOOL),

@@ -131,6 +131,8 @@ def test_evaluate_tumble_in_mujoco_beside_the_exact_model():
     s = ev.samples
     assert ev.model == "mujoco" and (s["final_face"] == s["planned_face"]).all()
     assert s["success"].all() and s["success_exact"].all() and s["success_quasistatic"].isna().all()
+    # the support's realised c is a push scene's reading: empty for a tumble
+    assert s["c_physical_m"].isna().all() and s["support_ok"].isna().all()
     assert (s["dpos_vs_exact_m"] < 1e-3).all() and (s["dtheta_vs_exact_rad"].abs() < 0.01).all()
     with pytest.raises(ValueError, match="friction.mu_f"):
         evaluate(plan, Sampler(), 1, jax.random.key(0), model="mujoco")
@@ -161,6 +163,10 @@ def test_sweep_in_mujoco_realises_the_support_family_and_the_part_material(tmp_p
     # a centred rectangle on its corners rests on a diagonal: c is the corner radius
     assert s["c_m"].to_numpy() == pytest.approx(math.hypot(0.02, 0.01))
     assert s["success"].all(), s[["err_pos_m", "failure_mode"]]
+    # ... and MuJoCo's settled support loads realise that c (the rigid part rocks between
+    # corner triangles in soft contact: within 1 mm) with the com inside the loaded corners
+    assert (s["c_physical_m"] - s["c_m"]).abs().max() < 1e-3, s[["c_m", "c_physical_m"]]
+    assert s["support_ok"].all()
     # the material reached the scene: a different thickness is refused in physics.cell
     cfg.write_text(doc.replace("timestep: 0.004", "timestep: 0.004, part_thickness: 0.002"))
     _input_error(nudge("sweep", cfg, "--out", tmp_path / "o2"), "part_thickness",
