@@ -33,7 +33,7 @@ realises the family the sampler drew, ``kernels.support``).  For every run:
 
 C vs MJX (``--no-mjx`` skips it, ~1-2 min of compilation on a CPU per family;
 ``--goals 0 --no-tumbles`` runs it alone): one 2 cm translation of the
-rectangle on a tripod, rigid corners and a uniform pad under the soft contact
+rectangle on a tripod, rigid corners, a uniform pad and a ring under the soft contact
 model (noslip 0, impratio 30) that both engines run: the final position
 difference per family (and MJX's soft model against the C engine's default).
 
@@ -213,6 +213,19 @@ def report_pushes(rows, skipped):
                           f"{np.median(tq):>10.3f}/{np.percentile(tq, 95):<9.3f}"
                           f"{np.median(sp):>11.2f}/{np.median(sq):.2f}/{np.median(sl):<9.2f}"
                           f"{sum(r['strike'] for r in sel):>8d}")
+    print(f"\n{'support':<8}{'kind':<9}{'drawn':<9}{'runs':>5}{'push_ok':>8}{'qs_agree':>9}"
+          f"{'ls_agree':>9}   (the goal: agreement >= 0.95 under each family, every plan kind)")
+    for support in dict.fromkeys(r["support"] for r in rows):
+        for kind in dict.fromkeys(r["kind"] for r in rows):
+            sel = [r for r in rows if (r["support"], r["kind"]) == (support, kind)]
+            for drawn in [None] + sorted({r["phys"]["family"] for r in sel}):
+                sub = [r for r in sel if drawn is None or r["phys"]["family"] == drawn]
+                if not sub or (drawn is not None and drawn == support):
+                    continue
+                print(f"{support:<8}{kind:<9}{drawn or 'all':<9}{len(sub):>5}"
+                      f"{np.mean([r['cell_ok'] for r in sub]):>8.2f}"
+                      f"{np.mean([r['qs']['agree'] for r in sub]):>9.2f}"
+                      f"{np.mean([r['ls']['agree'] for r in sub]):>9.2f}")
     if skipped:
         print("set aside: " + ", ".join(f"{s} {k} {n} goal {g} ({why})"
                                         for s, k, n, g, why in skipped))
@@ -244,7 +257,7 @@ def c_vs_mjx():
     body = pg.make_polygon(part.vertices, part.com).body
     soft = PhysicsSettings(noslip_iterations=0, impratio=SOFT_IMPRATIO)
     worst = 0.0
-    for fam, c in (("tripod", (0.008, 0.008)), ("rigid", None), ("uniform", None)):
+    for fam, c in (("tripod", (0.008, 0.008)), ("rigid", None), ("uniform", None), ("ring", None)):
         sam = Sampler(friction=FrictionRange(mu_f=(0.8, 0.8), mu_s=(0.5, 0.5), support=fam, c=c))
         params = sam.sample(jax.random.key(0), 1, n_vertices=4, dim=2, n_pushes=plan.n_pushes,
                             body=body)
