@@ -65,11 +65,12 @@ class PhysicsSettings:
         ls_iterations 50: with 20, the C engine's Newton line search stopped
         short under the soft model on a pad of many feet (uniform: 29 sphere
         contacts; ring: 28) and the solver left unbalanced forces: a 2 cm
-        push shot the rectangle 34 mm ahead and turned it 42 degrees (MJX,
-        converged, agreed with the plan), so C and MJX differed by 3.8 /
-        23 mm; with 50, by 0.05 / 0.27 mm.  Under the default (noslip) model
-        the final poses did not move (0.000 mm on 8 plans' samples of every
-        family): converged steps stop at ``tolerance`` before either cap.
+        push moved the rectangle 34 mm and turned it 42 degrees (MJX followed
+        the plan), so C and MJX differed by 3.8 / 23 mm; with 50, by 0.05 /
+        0.27 mm.  Under the default (noslip) model the final poses did not
+        move (0.000 mm: the rectangle's 7-push plan, 8 samples on rigid,
+        tripod and ring supports): converged steps stop at ``tolerance``
+        before either cap.
       cone: elliptic always (pyramidal cones: 156 mm and 114 deg of error on
         a plan that elliptic gets to 8 mm, issue 9).  multiccd stays on
         (MuJoCo 4's default; checked when a model is built): with one contact
