@@ -118,7 +118,10 @@ def compilation_cache(folder: str | None = None):
 
 
 class LocalExecutor:
-    """Runs units one after the other in this process."""
+    """Runs units one after the other in this process; a unit's files are
+    written by a background thread while the next unit computes
+    (:func:`sweeps.parquet.write_behind`), and its record is yielded once they
+    are on disk."""
 
     name = "local"
 
@@ -132,8 +135,20 @@ class LocalExecutor:
         return False
 
     def run(self, fn: Callable, ctx, units: Iterable) -> Iterator:
-        for u in units:
-            yield u, fn(ctx, u)
+        from sweeps.parquet import write_behind
+
+        with write_behind() as w:
+            ready = None                     # (unit, record, its writes) not yet yielded
+            for u in units:
+                with w.deferring():
+                    rec = fn(ctx, u)
+                done, ready = ready, (u, rec, w.take())
+                if done is not None:
+                    w.wait(done[2])
+                    yield done[:2]
+            if ready is not None:
+                w.wait(ready[2])
+                yield ready[:2]
 
 
 class DaskExecutor:

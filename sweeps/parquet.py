@@ -7,9 +7,17 @@ them.  Every file carries in its Parquet key-value metadata ``nudge.table``,
 Writes are atomic (a hidden temporary file in the same folder, then
 ``os.replace``): a failed write leaves no partial file, and readers ignore the
 hidden temporary name.
+
+Inside :func:`write_behind` (the local executor runs each unit in one) the
+writes go to one background thread instead, so a sweep encodes and syncs a
+unit's files while it computes the next one; the caller waits for a unit's
+writes (:meth:`WriteBehind.wait`) before it records the unit as done.
 """
 from __future__ import annotations
 
+import concurrent.futures
+import contextlib
+import contextvars
 import functools
 import importlib.metadata
 import json
@@ -94,12 +102,73 @@ def _umask() -> int:
     return mask
 
 
+class WriteBehind:
+    """One background thread that performs :func:`atomic_write` calls made
+    inside :meth:`deferring`; :meth:`take` hands over the futures of the writes
+    submitted so far, :meth:`wait` blocks on them and raises a failed write's
+    error.  Closing waits for every write still running (no temporary file is
+    left behind by an interrupted run)."""
+
+    def __init__(self):
+        self._pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="nudge-writer")
+        self._pending: list = []
+
+    def submit(self, fn) -> None:
+        self._pending.append(self._pool.submit(fn))
+
+    def take(self) -> list:
+        """The futures of the writes submitted since the last call."""
+        out, self._pending = self._pending, []
+        return out
+
+    @staticmethod
+    def wait(futures) -> None:
+        """Block until ``futures`` are done; a failed write raises its error here."""
+        for f in futures:
+            f.result()
+
+    @contextlib.contextmanager
+    def deferring(self):
+        """:func:`atomic_write` calls in this block (this thread only) go to the writer."""
+        token = _WRITER.set(self)
+        try:
+            yield self
+        finally:
+            _WRITER.reset(token)
+
+    def close(self) -> None:
+        concurrent.futures.wait(self._pending)
+        self._pool.shutdown(wait=True)
+
+
+_WRITER: contextvars.ContextVar = contextvars.ContextVar("nudge_write_behind", default=None)
+
+
+@contextlib.contextmanager
+def write_behind():
+    """A :class:`WriteBehind`, closed (its writes finished) on exit."""
+    w = WriteBehind()
+    try:
+        yield w
+    finally:
+        w.close()
+
+
 def atomic_write(path, write, mode: str = "wb") -> pathlib.Path:
     """Write ``path`` atomically: ``write(file)`` fills a hidden temporary file
     in the same folder, which is then renamed over ``path`` (readers never see a
     partial file, a failed write leaves the previous one).  The file gets the
     permissions of an ordinary new file (0666 less the umask, so other users can
-    read results), not ``mkstemp``'s 0600."""
+    read results), not ``mkstemp``'s 0600.  Inside :meth:`WriteBehind.deferring`
+    the write runs on the writer's thread and this returns at once."""
+    w = _WRITER.get()
+    if w is not None:
+        w.submit(lambda: _atomic_write(path, write, mode))
+        return pathlib.Path(path)
+    return _atomic_write(path, write, mode)
+
+
+def _atomic_write(path, write, mode: str) -> pathlib.Path:
     path = pathlib.Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)

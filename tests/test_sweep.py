@@ -250,6 +250,44 @@ def test_ctrl_c_stops_cleanly_and_resumes(reference, tmp_path):
 
 
 @pytest.mark.slow
+def test_a_failed_write_is_not_recorded_and_the_rerun_completes_the_tables(reference, tmp_path,
+                                                                            monkeypatch):
+    """The local executor writes a unit's files behind the next unit's work: a
+    write that fails stops the run before that unit is recorded as done, and
+    the same command afterwards gives the uninterrupted run's tables."""
+    from sweeps import parquet
+    from sweeps.run import execute
+    from sweeps.study import Executor
+
+    p, _, ref, _ = reference
+    out = tmp_path / "out"
+    real, real_atomic, calls = parquet.pq.write_table, parquet._atomic_write, []
+
+    def fails_fourth(table, where, **kw):
+        if len(calls) == 4:
+            raise OSError("disk full")
+        return real(table, where, **kw)
+
+    def atomic(path, write, mode):
+        calls.append(pathlib.Path(path))
+        return real_atomic(path, write, mode)
+
+    monkeypatch.setattr(parquet.pq, "write_table", fails_fourth)
+    monkeypatch.setattr(parquet, "_atomic_write", atomic)
+    with pytest.raises(OSError, match="disk full"):
+        execute(load_design(str(p), []), out, Executor(kind="local"), quiet=True, report=False)
+    monkeypatch.undo()
+    logged = [json.loads(x) for x in (out / "chunks.jsonl").read_text().splitlines()]
+    files = {f for rec in logged for f in rec["files"]}
+    assert len(logged) < 3 and all((out / f).is_file() for f in files)
+    assert str(calls[3].relative_to(out)) not in files and not calls[3].exists()
+    assert not list(out.rglob("*.tmp"))
+    r = run_module(p, "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    _same(_tables(out), ref)
+
+
+@pytest.mark.slow
 def test_rerun_of_a_finished_run_changes_nothing_and_changed_config_is_refused(reference, tmp_path):
     p, out, ref, _ = reference
     r = run_module(p, "--out", out, "--quiet")

@@ -101,6 +101,42 @@ def test_atomic_write_leaves_nothing_on_error(tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["samples.parquet"]
 
 
+def test_write_behind_writes_on_its_thread_and_raises_a_failed_write_when_waited_on(tmp_path,
+                                                                                  monkeypatch):
+    df = _samples(4)
+    write_table(df, tmp_path / "direct.parquet", SAMPLES_SCHEMA, CONFIG, 0)
+    real = parquet.pq.write_table
+    threads = []
+
+    def spy(table, where, **kw):
+        import threading
+
+        threads.append(threading.current_thread().name)
+        if len(threads) == 2:
+            where.write(b"PAR1 partial")
+            raise OSError("disk full")
+        return real(table, where, **kw)
+
+    monkeypatch.setattr(parquet.pq, "write_table", spy)
+    with parquet.write_behind() as w:
+        with w.deferring():
+            write_table(df, tmp_path / "later.parquet", SAMPLES_SCHEMA, CONFIG, 0)
+        ok = w.take()
+        w.wait(ok)
+        with w.deferring():
+            write_table(df, tmp_path / "bad.parquet", SAMPLES_SCHEMA, CONFIG, 0)
+        bad = w.take()
+        with pytest.raises(OSError, match="disk full"):
+            w.wait(bad)
+        write_table(df, tmp_path / "now.parquet", SAMPLES_SCHEMA, CONFIG, 0)   # outside: at once
+    assert threads[0].startswith("nudge-writer") and threads[1].startswith("nudge-writer")
+    assert not threads[2].startswith("nudge-writer")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["direct.parquet", "later.parquet",
+                                                          "now.parquet"]
+    a, b = (pq.read_table(tmp_path / f) for f in ("direct.parquet", "later.parquet"))
+    assert a.equals(b)
+
+
 def test_run_folder_layout_reads_as_one_frame_with_right_dtypes(tmp_path):
     swept = [pa.field("planner_margin_deg", pa.float64())]
     store = RunStore.open(tmp_path / "run", {"run_id": "r1", "config": CONFIG, "seed": 7})
