@@ -17,8 +17,10 @@ margin 7 deg, safety factor 1.15), the median of total push distance over the
 straight start-goal distance, per part and strategy.
 
 The last line is ``RESULT plans_per_s=N ratio_vs_cvxpy=R plans_per_s_paper=N
-ratio_vs_paper=R median_length_ratio_unistable=R median_length_ratio_other=R2``
-(``other``: the largest median among the parts that are not uni-stable).
+ratio_vs_paper=R median_length_ratio_unistable=R median_length_ratio_other=R2
+single_plans_per_s=S`` (``other``: the largest median among the parts that
+are not uni-stable; ``single``: ``plan_pose`` one plan at a time, numpy
+closed form, on the reference's problems).
 """
 from __future__ import annotations
 
@@ -159,7 +161,8 @@ def main(argv=None) -> None:
     other = max((r["median"] for r in search if r["cls"] != "uni-stable"), default=math.nan)
     print(f"RESULT plans_per_s={rates['search']:.0f} ratio_vs_cvxpy={rates['search'] / cvxpy_rate:.0f} "
           f"plans_per_s_paper={rates['paper']:.0f} ratio_vs_paper={rates['search'] / rates['paper']:.2f} "
-          f"median_length_ratio_unistable={uni:.2f} median_length_ratio_other={other:.2f}")
+          f"median_length_ratio_unistable={uni:.2f} median_length_ratio_other={other:.2f} "
+          f"single_plans_per_s={single_rate:.1f}")
 
 
 if __name__ == "__main__":

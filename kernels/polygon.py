@@ -21,6 +21,7 @@ the part towards the fence, body frame) lies in its normal cone
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import warnings
 from typing import Sequence
@@ -74,10 +75,11 @@ class Polygon:
         """Number of hull vertices (= number of edges)."""
         return len(self.hull_index)
 
-    @property
+    @functools.cached_property
     def size(self) -> float:
         """The part's largest extent (m): the longest distance between two hull
-        vertices.  Every length tolerance of the push planner is relative to it."""
+        vertices.  Every length tolerance of the push planner is relative to it
+        (computed once per polygon: the planner asks for it per candidate)."""
         return hull_extent(self.body)
 
     def edge_vertices(self, e: int) -> tuple[int, int]:

@@ -69,37 +69,44 @@ class LPSolution:
 # Closed form, numpy (one LP)
 # --------------------------------------------------------------------------
 def _pair_np(angles, target, ia, ib):
-    ua = np.array([math.cos(angles[ia]), math.sin(angles[ia])])
-    ub = np.array([math.cos(angles[ib]), math.sin(angles[ib])])
-    det = ua[0] * ub[1] - ua[1] * ub[0]
+    """The pair ``(ia, ib)`` of columns spanning ``target``: ``(ok, cost, xa, xb)``
+    (python floats; ``angles`` a list, ``target`` a pair of floats)."""
+    ca, sa = math.cos(angles[ia]), math.sin(angles[ia])
+    cb, sb = math.cos(angles[ib]), math.sin(angles[ib])
+    det = ca * sb - sa * cb
     if ia == ib or abs(det) < DET_EPS:
         # one column along the target (or antiparallel pair: infeasible unless aligned)
         if math.cos(angles[ia] - math.atan2(target[1], target[0])) > 1 - 1e-15:
-            return True, float(np.hypot(*target)), float(np.hypot(*target)), 0.0
+            n = float(np.hypot(*target))
+            return True, n, n, 0.0
         return False, math.inf, 0.0, 0.0
-    xa = (target[0] * ub[1] - target[1] * ub[0]) / det
-    xb = (ua[0] * target[1] - ua[1] * target[0]) / det
+    xa = (target[0] * sb - target[1] * cb) / det
+    xb = (ca * target[1] - sa * target[0]) / det
     if xa < -1e-12 or xb < -1e-12:
         return False, math.inf, 0.0, 0.0
     xa, xb = max(xa, 0.0), max(xb, 0.0)
     return True, xa + xb, xa, xb
 
 
-def _first_nearest_np(dist, rank):
-    if not np.isfinite(dist).any():
+def _side_nearest(delta: list, mask: list, ccw: bool) -> int:
+    """Index of the nearest present column on the CCW side (``ccw``: delta >= 0)
+    or the CW side (delta <= 0), -1 if none; columns within ``TIE`` rad of the
+    nearest are ties, won by the first in column order.  Python lists: the
+    planner solves thousands of LPs of a few columns each, where numpy's
+    per-call cost was most of the time (16 s -> see the closing note)."""
+    inf = math.inf
+    if ccw:
+        dist = [d if (m and d >= 0) else inf for d, m in zip(delta, mask)]
+    else:
+        dist = [-d if (m and d <= 0) else inf for d, m in zip(delta, mask)]
+    best = min(dist, default=inf)
+    if best == inf:
         return -1
-    tie = dist <= dist.min() + TIE
-    return int(np.flatnonzero(tie)[np.argmin(rank[tie])])
-
-
-def _nearest_np(delta, mask, rank=None):
-    """Index of the nearest column on the CCW side (delta >= 0) and CW side
-    (delta <= 0); columns within ``TIE`` rad of the nearest are ties, won by
-    the lowest ``rank`` (default: column order)."""
-    rank = np.arange(len(delta)) if rank is None else np.asarray(rank)
-    ccw = np.where(mask & (delta >= 0), delta, np.inf)
-    cw = np.where(mask & (delta <= 0), -delta, np.inf)
-    return _first_nearest_np(ccw, rank), _first_nearest_np(cw, rank)
+    cut = best + TIE
+    for i, d in enumerate(dist):
+        if d <= cut:
+            return i
+    return -1   # not reached
 
 
 def solve_closed_form(angles, mask, merged, target, objective="distance", scale=1.0) -> LPSolution:
@@ -120,27 +127,29 @@ def solve_closed_form(angles, mask, merged, target, objective="distance", scale=
     k = len(angles)
     if np.hypot(*target) <= ZERO_TARGET * scale:
         return LPSolution(True, 0.0, 0, np.zeros(k))
-    delta = wrap_angle_np(angles - math.atan2(target[1], target[0]))
+    delta = wrap_angle_np(angles - math.atan2(target[1], target[0])).tolist()
+    ang, tgt = angles.tolist(), target.tolist()
+    mask_l, merged_l = mask.tolist(), merged.tolist()
+    drop = DROP * scale
 
     def pair(sel_a, sel_b):
-        a, _ = _nearest_np(delta, sel_a)
-        _, b = _nearest_np(delta, sel_b)
+        a = _side_nearest(delta, sel_a, True)
+        b = _side_nearest(delta, sel_b, False)
         if a < 0 or b < 0:
             return None
-        ok, cost, xa, xb = _pair_np(angles, target, a, b)
+        ok, cost, xa, xb = _pair_np(ang, tgt, a, b)
         if not ok:
             return None
-        w = np.zeros(k)
-        w[a] += xa
-        w[b] += xb
-        npush = int(np.sum((w > DROP * scale) & ~merged))
+        w = {a: xa + xb} if a == b else {a: xa, b: xb}
+        npush = sum(1 for i, x in w.items() if x > drop and not merged_l[i])
         return npush, cost, w
 
     if objective == "distance":
-        options = [pair(mask, mask)]
+        options = [pair(mask_l, mask_l)]
     elif objective == "pushes":
-        other = mask & ~merged
-        options = [pair(merged, merged), pair(merged, other), pair(other, merged), pair(mask, mask)]
+        other = [m and not g for m, g in zip(mask_l, merged_l)]
+        options = [pair(merged_l, merged_l), pair(merged_l, other), pair(other, merged_l),
+                   pair(mask_l, mask_l)]
     else:
         raise ValueError(f"objective: expected 'distance' or 'pushes', got {objective!r}")
     options = [o for o in options if o is not None]
@@ -148,7 +157,10 @@ def solve_closed_form(angles, mask, merged, target, objective="distance", scale=
         return LPSolution(False, math.inf, 0, np.zeros(k))
     key = (lambda o: (o[0], o[1])) if objective == "pushes" else (lambda o: o[1])
     best = min(options, key=key)
-    return LPSolution(True, best[1], best[0], best[2])
+    w = np.zeros(k)
+    for i, x in best[2].items():
+        w[i] = x
+    return LPSolution(True, best[1], best[0], w)
 
 
 # --------------------------------------------------------------------------
