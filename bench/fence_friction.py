@@ -21,13 +21,16 @@ the part's orientation of that step, the kernel's sticking solution
 ratio of tangential to normal fence force it needs.
 
 Printed per fence friction: the contact vertex's slip along the fence (mm per
-mm of travel) in physics and in the kernel at ``--mu-f``, and the three force
-figures, over the push's orientation (rows every few degrees).  Last line:
-``RESULT fence_horizontal_ratio=H fence_vertical_w=V kernel_stick_ratio=K``
+mm of travel) in physics and in the kernel at ``--mu-f``, the three force
+figures, and the part's rocking (its angular velocity about horizontal axes
+over its yaw rate; its tilt from level), over the push's orientation (rows
+every few degrees).  Last line: ``RESULT fence_horizontal_ratio=H
+fence_vertical_w=V kernel_stick_ratio=K tilt_yaw_rate=T slip_share_rocking=S``
 (medians over the push's pivoting steps at the first ``--mu-f``, the fence
-touching the part and its edge not yet flush: horizontal
-friction / normal force, vertical friction / the part's weight, and the
-kernel's required ratio).
+touching the part and its edge not yet flush: horizontal friction / normal
+force, vertical friction / the part's weight, the kernel's required ratio,
+tilt rate / yaw rate; and the share of the push's slip made on the steps where
+the part rocks, its tilt rate above half its yaw rate).
 """
 from __future__ import annotations
 
@@ -65,7 +68,9 @@ def _perp(a):
 def step_push(plan, draws, j, k, s):
     """Step sample ``j`` of ``draws`` through the plan up to push ``k``; per
     contact step of push ``k``: (yaw, contact vertex slip coordinate, fence
-    travel, normal/W, horizontal friction/W, vertical friction/W)."""
+    travel, normal/W, horizontal friction/W, vertical friction/W, tilt rate,
+    yaw rate (rad/s; tilt rate: the part's angular velocity about horizontal
+    axes, its rocking), tilt (rad, the body z axis from the vertical))."""
     poly, _ = nominal_polygon(plan)
     parts = push_parts(plan, poly, draws)
     idx = np.flatnonzero(parts.valid)
@@ -87,7 +92,7 @@ def step_push(plan, draws, j, k, s):
     dw = np.asarray(q.direction, float) / np.linalg.norm(q.direction)
     tw = _perp(dw)
     x_tool = m.jnt_qposadr[m.joint("tool_x").id]
-    f6, rows = np.zeros(6), []
+    f6, v6, rows = np.zeros(6), np.zeros(6), []
     for t in range(sched.total):
         d.ctrl[:] = ctrl[t]
         mujoco.mj_step(m, d)
@@ -106,8 +111,10 @@ def step_push(plan, draws, j, k, s):
             continue
         R = d.xmat[part].reshape(3, 3)
         pv = d.xpos[part][:2] + R[:2, :2] @ body[vtx]
+        mujoco.mj_objectVelocity(m, d, mujoco.mjtObj.mjOBJ_BODY, part, v6, 0)  # world frame [w, v]
         rows.append((math.atan2(R[1, 0], R[0, 0]), float(pv @ tw), float(d.qpos[x_tool:x_tool + 2] @ dw),
-                     fn / W, math.hypot(ft[0], ft[1]) / W, abs(ft[2]) / W))
+                     fn / W, math.hypot(ft[0], ft[1]) / W, abs(ft[2]) / W,
+                     math.hypot(v6[0], v6[1]), abs(v6[2]), math.acos(min(1.0, abs(R[2, 2])))))
     return np.asarray(rows), body, vtx, dw
 
 
@@ -162,21 +169,29 @@ def main():
                   f"physics slip {(rows[-1, 1] - rows[0, 1]) * 1e3:.2f} mm over "
                   f"{(rows[-1, 2] - rows[0, 2]) * 1e3:.1f} mm of travel")
             print(f"{'yaw deg':>8}{'phys slip/travel':>17}{'kernel slip/travel':>19}"
-                  f"{'normal/W':>9}{'horiz/normal':>13}{'vert/W':>8}{'kernel stick ratio':>19}")
+                  f"{'normal/W':>9}{'horiz/normal':>13}{'vert/W':>8}{'kernel stick ratio':>19}"
+                  f"{'tilt/yaw rate':>14}{'tilt deg':>9}")
             for i in range(0, len(rows) - 25, max(len(rows) // 12, 1)):
                 a, b = i, i + 25
                 rate = (rows[b, 1] - rows[a, 1]) / max(rows[b, 2] - rows[a, 2], 1e-12)
                 kr = kern[i // 25]
                 print(f"{math.degrees(yaw[i]):>8.1f}{rate:>17.3f}{kr[0]:>19.3f}{rows[i, 3]:>9.3f}"
-                      f"{rows[i, 4] / rows[i, 3]:>13.3f}{rows[i, 5]:>8.3f}{kr[1]:>19.3f}")
+                      f"{rows[i, 4] / rows[i, 3]:>13.3f}{rows[i, 5]:>8.3f}{kr[1]:>19.3f}"
+                      f"{np.median(rows[a:b, 6] / rows[a:b, 7]):>14.2f}{math.degrees(rows[i, 8]):>9.2f}")
             h = float(np.median(rows[:, 4] / rows[:, 3]))
             v = float(np.median(rows[:, 5]))
             k = float(np.median(kern[:, 1]))
+            # rocking: the part turning about a horizontal axis faster than half its yaw rate
+            rock = rows[1:, 6] > 0.5 * rows[1:, 7]
+            dslip = np.diff(rows[:, 1])
+            share = float(dslip[rock].sum() / dslip.sum()) if dslip.sum() else math.nan
+            r = float(np.median(rows[:, 6] / rows[:, 7]))
             print(f"medians: horizontal friction / normal {h:.3f}, vertical friction / weight {v:.3f}, "
-                  f"kernel's sticking ratio {k:.3f}")
-            result = result or (h, v, k)
+                  f"kernel's sticking ratio {k:.3f}, tilt rate / yaw rate {r:.2f}; rocking (tilt rate "
+                  f"> half the yaw rate) on {rock.mean():.0%} of the steps, {share:.0%} of the slip")
+            result = result or (h, v, k, r, share)
     print(f"RESULT fence_horizontal_ratio={result[0]:.3f} fence_vertical_w={result[1]:.3f} "
-          f"kernel_stick_ratio={result[2]:.3f}")
+          f"kernel_stick_ratio={result[2]:.3f} tilt_yaw_rate={result[3]:.2f} slip_share_rocking={result[4]:.2f}")
 
 
 if __name__ == "__main__":

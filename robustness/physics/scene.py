@@ -45,6 +45,21 @@ vertical for a horizontal normal) made a translating edge walk 0.6-3.6 mm
 per 10 cm under MuJoCo's elliptic cones and noslip, and a vertically
 floating fence let the part and the fence rise together (1 mm of walk).
 
+The fence contact creeps inside its friction cone.  Through a pivot at
+``mu_f`` 0.8 (``bench/fence_friction.py``) the part's contact vertex slides
+along the fence at 0.14-0.23 mm per mm pushed while the fence's friction is
+0.4-0.6 of its normal force (Coulomb sliding would put it at 0.8), and the
+velocity at the contact after the step (after noslip) is not zero: 0.06-2.9
+mm/s along the fence.  No setting removed it (timestep 1 ms, noslip 100
+iterations at tolerance 1e-14, impratio 100, pyramidal cones, stiffer or
+more damped ``solref``/``solimp``, ``solreffriction``, a vertical fence
+friction of 1 %, the part held level each step: 0.86-3.4 mm a push against
+the quasi-static model's 0.28 mm).  MuJoCo's friction is regularised (a
+force of the slip velocity): an in-cone load does not guarantee a sticking
+contact and noslip is an iterative post-pass (google-deepmind/mujoco#3328,
+open; its documentation since #3526).  Physics therefore slips at fence
+frictions where Coulomb's law, and the planner, stick.
+
 Sensors: ``tool_contact`` (contact sensor, ``found``: how many tool-part
 contacts).  The support's loads are read on the host (:func:`support_loads`).
 """
