@@ -31,6 +31,13 @@ touching the part and its edge not yet flush: horizontal friction / normal
 force, vertical friction / the part's weight, the kernel's required ratio,
 tilt rate / yaw rate; and the share of the push's slip made on the steps where
 the part rocks, its tilt rate above half its yaw rate).
+
+``--creep`` (with ``--kind``, ``--support``, ``--goal``): every push of the
+plan, the length of the contact vertex's path along the fence in physics (its
+steps' moves summed, back and forth) and how much of it was made on steps where the fence's friction (summed over its contacts,
+horizontal and vertical) was inside 0.9 of its cone, where Coulomb's law
+would have the contact stick; beside it the limit-surface model's total slip.
+Last line ``RESULT slip_share_inside_cone=S`` (the first ``--mu-f``).
 """
 from __future__ import annotations
 
@@ -118,6 +125,63 @@ def step_push(plan, draws, j, k, s):
     return np.asarray(rows), body, vtx, dw
 
 
+def creep_by_push(plan, draws, j, s, mu):
+    """Step sample ``j`` through the whole plan; per push: (kind, the length of
+    the contact vertex's path along the fence in mm (the sum of its steps'
+    moves, back and forth), the part of it made on steps where the
+    fence's friction (horizontal and vertical, summed over its contacts) is
+    inside 0.9 of its cone, i.e. where Coulomb's law would have the contact
+    stick)."""
+    poly, _ = nominal_polygon(plan)
+    parts = push_parts(plan, poly, draws)
+    idx = np.flatnonzero(parts.valid)
+    models = rp._models(parts, idx, s, s.impratio)
+    lay = scene.layout(models[0])
+    sched = FenceStrokes(plan, poly, parts, idx, s, False).schedule
+    st0 = rp._initial_state(parts, idx, lay, sched, s)[j]
+    m = models[j]
+    d = mujoco.MjData(m)
+    mujoco.mj_setState(m, d, st0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    ctrl = sched.controls(0, sched.total, len(idx))[j]
+    phase = sched.phase_at(np.arange(sched.total))
+    tool, part = m.geom("tool").id, m.body("part").id
+    body = np.asarray(parts.body[idx[j]])
+    verts = np.asarray(plan.vertices) - np.asarray(plan.com)
+    f6 = np.zeros(6)
+    total = np.zeros(plan.n_pushes)
+    inside = np.zeros(plan.n_pushes)
+    last = {}
+    for t in range(sched.total):
+        d.ctrl[:] = ctrl[t]
+        mujoco.mj_step(m, d)
+        ph = sched.phases[phase[t]]
+        if ph.kind != "push":
+            continue
+        k = ph.step
+        q = plan.pushes[k]
+        vtx = int(np.argmin(np.linalg.norm(body - verts[q.contact_vertex], axis=1)))
+        dw = np.asarray(q.direction, float) / np.linalg.norm(q.direction)
+        fn, ft = 0.0, np.zeros(3)
+        for i in range(d.ncon):
+            c = d.contact[i]
+            if tool in (c.geom1, c.geom2):
+                mujoco.mj_contactForce(m, d, i, f6)
+                fr = c.frame.reshape(3, 3)
+                fn += f6[0]
+                ft += f6[1] * fr[1] + f6[2] * fr[2]
+        R = d.xmat[part].reshape(3, 3)
+        u = float((d.xpos[part][:2] + R[:2, :2] @ body[vtx]) @ _perp(dw))
+        if fn > 1e-9 and k in last:
+            step = abs(u - last[k])
+            total[k] += step
+            if np.linalg.norm(ft) < 0.9 * mu * fn:
+                inside[k] += step
+        last[k] = u if fn > 1e-9 else last.get(k)
+        if fn <= 1e-9:
+            last.pop(k, None)
+    return [(q.kind, total[k] * 1e3, inside[k] * 1e3) for k, q in enumerate(plan.pushes)]
+
+
 def kernel_along(body, weights, vtx, dw, yaws, mu):
     """The kernel's slip rate (per unit travel) at ``mu`` and its sticking ratio
     |f_t| / f_n at each yaw (world frame fence direction ``dw``)."""
@@ -142,10 +206,17 @@ def main():
     ap.add_argument("--support", default="rigid", choices=("rigid", "uniform", "ring", "tripod"))
     ap.add_argument("--push", type=int, default=0, help="which push of the plan (a reorient push)")
     ap.add_argument("--mu-f", type=float, nargs="+", default=[0.8], choices=fidelity.MU_F)
+    ap.add_argument("--kind", default="default", choices=list(fidelity.KINDS),
+                    help="the fidelity bench's plan kind")
+    ap.add_argument("--creep", action="store_true",
+                    help="every push of the plan: the slip, and how much of it was made with the "
+                         "fence's friction inside its cone")
     args = ap.parse_args()
     part = load_part(ROOT / "examples" / f"{args.part}.yaml")
     goal = fidelity._push_goals(args.goal + 1, 0)[args.goal]
-    plan = plan_pose(part.vertices, (0.0, 0.0, 0.0), goal, com=part.com)
+    plan = plan_pose(part.vertices, (0.0, 0.0, 0.0), goal, com=part.com, **fidelity.KINDS[args.kind])
+    if args.creep:
+        return creep(args, plan)
     if plan.pushes[args.push].kind != "reorient":
         sys.exit(f"--push: push {args.push} of this plan is a {plan.pushes[args.push].kind}; "
                  f"reorient pushes: {[i for i, q in enumerate(plan.pushes) if q.kind == 'reorient']}")
@@ -192,6 +263,29 @@ def main():
             result = result or (h, v, k, r, share)
     print(f"RESULT fence_horizontal_ratio={result[0]:.3f} fence_vertical_w={result[1]:.3f} "
           f"kernel_stick_ratio={result[2]:.3f} tilt_yaw_rate={result[3]:.2f} slip_share_rocking={result[4]:.2f}")
+
+
+def creep(args, plan):
+    """``--creep``: per push, physics' slip and its part made inside the cone."""
+    draws = fidelity._params(plan, args.goal, args.support)
+    s = PhysicsSettings()
+    shares = []
+    with jax.enable_x64(True):
+        ls = fidelity._model_rows(plan, draws, "limit_surface")
+        for mu in args.mu_f:
+            j = fidelity.MU_F.index(mu)
+            rows = creep_by_push(plan, draws, j, s, mu)
+            model = float(np.sum(ls["slip"][j])) * 1e3
+            print(f"\n{args.part} goal {args.goal} ({args.kind} plan, {args.support}), mu_f {mu}:")
+            print(f"{'push':>5}{'kind':>10}{'slip path mm':>16}{'inside the cone':>16}")
+            for k, (kind, tot, ins) in enumerate(rows):
+                print(f"{k:>5}{kind:>10}{tot:>16.2f}{ins:>16.2f}")
+            tot = sum(r[1] for r in rows)
+            ins = sum(r[2] for r in rows)
+            shares.append(ins / tot if tot else math.nan)
+            print(f"total: physics' slip path {tot:.2f} mm, {ins:.2f} mm of it inside the cone; "
+                  f"the limit-surface model's slip {model:.2f} mm")
+    print(f"RESULT slip_share_inside_cone={shares[0]:.2f}")
 
 
 if __name__ == "__main__":
