@@ -143,8 +143,14 @@ class LocalExecutor:
         with write_behind() as w:
             ready = None                     # (unit, record, its writes) not yet yielded
             for u in units:
-                with w.deferring():
-                    rec = fn(ctx, u)
+                try:
+                    with w.deferring():
+                        rec = fn(ctx, u)
+                except BaseException:
+                    if ready is not None:    # the unit before still counts as done
+                        w.wait(ready[2])
+                        yield ready[:2]
+                    raise
                 done, ready = ready, (u, rec, w.take())
                 if done is not None:
                     w.wait(done[2])

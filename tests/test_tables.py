@@ -137,6 +137,28 @@ def test_write_behind_writes_on_its_thread_and_raises_a_failed_write_when_waited
     assert a.equals(b)
 
 
+def test_local_executor_yields_a_unit_only_once_its_files_are_written_and_keeps_the_one_before_a_failure(
+        tmp_path):
+    from sweeps.executors import LocalExecutor
+
+    df = _samples(4)
+    seen = []
+
+    def unit(ctx, u):
+        if u == 2:
+            raise RuntimeError("unit 2 fails")
+        path = tmp_path / f"u{u}.parquet"
+        write_table(df, path, SAMPLES_SCHEMA, CONFIG, 0)
+        return path
+
+    runs = LocalExecutor().run(unit, None, [0, 1, 2, 3])
+    with pytest.raises(RuntimeError, match="unit 2 fails"):
+        for u, path in runs:
+            assert path.is_file()          # written before the unit is handed over
+            seen.append(u)
+    assert seen == [0, 1]                  # unit 1, computed before the failure, still counts
+
+
 def test_run_folder_layout_reads_as_one_frame_with_right_dtypes(tmp_path):
     swept = [pa.field("planner_margin_deg", pa.float64())]
     store = RunStore.open(tmp_path / "run", {"run_id": "r1", "config": CONFIG, "seed": 7})
