@@ -96,7 +96,12 @@ def read_metadata(path) -> dict:
     return out
 
 
+@functools.lru_cache(maxsize=1)
 def _umask() -> int:
+    """The process's umask, read once: reading it means setting it (to 0, then
+    back), which must not happen while the writer thread creates files or
+    folders (they would get mode 0666 / 0777).  The first write of a run (its
+    manifest) reads it on the main thread, before any writer exists."""
     mask = os.umask(0)
     os.umask(mask)
     return mask
@@ -161,6 +166,7 @@ def atomic_write(path, write, mode: str = "wb") -> pathlib.Path:
     permissions of an ordinary new file (0666 less the umask, so other users can
     read results), not ``mkstemp``'s 0600.  Inside :meth:`WriteBehind.deferring`
     the write runs on the writer's thread and this returns at once."""
+    _umask()      # read on the caller's thread (see there)
     w = _WRITER.get()
     if w is not None:
         w.submit(lambda: _atomic_write(path, write, mode))
