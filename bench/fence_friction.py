@@ -72,12 +72,11 @@ def _perp(a):
     return np.array([-a[1], a[0]])
 
 
-def step_push(plan, draws, j, k, s):
-    """Step sample ``j`` of ``draws`` through the plan up to push ``k``; per
-    contact step of push ``k``: (yaw, contact vertex slip coordinate, fence
-    travel, normal/W, horizontal friction/W, vertical friction/W, tilt rate,
-    yaw rate (rad/s; tilt rate: the part's angular velocity about horizontal
-    axes, its rocking), tilt (rad, the body z axis from the vertical))."""
+def _run(plan, draws, j, s):
+    """Sample ``j`` of ``draws`` in the C engine, stepped through the plan's
+    schedule: ``(model, data, body, steps)``, ``steps`` a generator that takes
+    one step per item and yields that step's phase (``body``: the part's
+    vertices in its body frame)."""
     poly, _ = nominal_polygon(plan)
     parts = push_parts(plan, poly, draws)
     idx = np.flatnonzero(parts.valid)
@@ -90,30 +89,56 @@ def step_push(plan, draws, j, k, s):
     mujoco.mj_setState(m, d, st0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
     ctrl = sched.controls(0, sched.total, len(idx))[j]
     phase = sched.phase_at(np.arange(sched.total))
-    tool, part = m.geom("tool").id, m.body("part").id
-    W = float(m.body_mass[part]) * 9.81
-    body = np.asarray(parts.body[idx[j]])
+
+    def steps():
+        for t in range(sched.total):
+            d.ctrl[:] = ctrl[t]
+            mujoco.mj_step(m, d)
+            yield sched.phases[phase[t]]
+
+    return m, d, np.asarray(parts.body[idx[j]]), steps()
+
+
+def _fence_force(m, d, f6):
+    """The fence's contact force on the part, summed over its contacts: normal
+    (N) and friction (3-vector, world frame, N)."""
+    tool = m.geom("tool").id
+    fn, ft = 0.0, np.zeros(3)
+    for i in range(d.ncon):
+        c = d.contact[i]
+        if tool in (c.geom1, c.geom2):
+            mujoco.mj_contactForce(m, d, i, f6)
+            fr = c.frame.reshape(3, 3)
+            fn += f6[0]
+            ft += f6[1] * fr[1] + f6[2] * fr[2]
+    return fn, ft
+
+
+def _contact(plan, body, k):
+    """Push ``k``'s contact vertex (index into ``body``) and its unit push direction (world)."""
     q = plan.pushes[k]
     vtx = int(np.argmin(np.linalg.norm(body - (np.asarray(plan.vertices)[q.contact_vertex]
                                               - np.asarray(plan.com)), axis=1)))
-    dw = np.asarray(q.direction, float) / np.linalg.norm(q.direction)
+    return vtx, np.asarray(q.direction, float) / np.linalg.norm(q.direction)
+
+
+def step_push(plan, draws, j, k, s):
+    """Step sample ``j`` of ``draws`` through the plan up to push ``k``; per
+    contact step of push ``k``: (yaw, contact vertex slip coordinate, fence
+    travel, normal/W, horizontal friction/W, vertical friction/W, tilt rate,
+    yaw rate (rad/s; tilt rate: the part's angular velocity about horizontal
+    axes, its rocking), tilt (rad, the body z axis from the vertical))."""
+    m, d, body, steps = _run(plan, draws, j, s)
+    part = m.body("part").id
+    W = float(m.body_mass[part]) * 9.81
+    vtx, dw = _contact(plan, body, k)
     tw = _perp(dw)
     x_tool = m.jnt_qposadr[m.joint("tool_x").id]
     f6, v6, rows = np.zeros(6), np.zeros(6), []
-    for t in range(sched.total):
-        d.ctrl[:] = ctrl[t]
-        mujoco.mj_step(m, d)
-        ph = sched.phases[phase[t]]
+    for ph in steps:
         if ph.kind != "push" or ph.step != k:
             continue
-        fn, ft = 0.0, np.zeros(3)
-        for i in range(d.ncon):
-            c = d.contact[i]
-            if tool in (c.geom1, c.geom2):
-                mujoco.mj_contactForce(m, d, i, f6)
-                fr = c.frame.reshape(3, 3)
-                fn += f6[0]
-                ft += f6[1] * fr[1] + f6[2] * fr[2]
+        fn, ft = _fence_force(m, d, f6)
         if fn <= 1e-9:
             continue
         R = d.xmat[part].reshape(3, 3)
@@ -132,53 +157,30 @@ def creep_by_push(plan, draws, j, s, mu):
     fence's friction (horizontal and vertical, summed over its contacts) is
     inside 0.9 of its cone, i.e. where Coulomb's law would have the contact
     stick)."""
-    poly, _ = nominal_polygon(plan)
-    parts = push_parts(plan, poly, draws)
-    idx = np.flatnonzero(parts.valid)
-    models = rp._models(parts, idx, s, s.impratio)
-    lay = scene.layout(models[0])
-    sched = FenceStrokes(plan, poly, parts, idx, s, False).schedule
-    st0 = rp._initial_state(parts, idx, lay, sched, s)[j]
-    m = models[j]
-    d = mujoco.MjData(m)
-    mujoco.mj_setState(m, d, st0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    ctrl = sched.controls(0, sched.total, len(idx))[j]
-    phase = sched.phase_at(np.arange(sched.total))
-    tool, part = m.geom("tool").id, m.body("part").id
-    body = np.asarray(parts.body[idx[j]])
-    verts = np.asarray(plan.vertices) - np.asarray(plan.com)
+    m, d, body, steps = _run(plan, draws, j, s)
+    part = m.body("part").id
+    contacts = [_contact(plan, body, k) for k in range(plan.n_pushes)]
     f6 = np.zeros(6)
     total = np.zeros(plan.n_pushes)
     inside = np.zeros(plan.n_pushes)
-    last = {}
-    for t in range(sched.total):
-        d.ctrl[:] = ctrl[t]
-        mujoco.mj_step(m, d)
-        ph = sched.phases[phase[t]]
+    last = {}      # push -> the contact vertex's coordinate along the fence at the last touching step
+    for ph in steps:
         if ph.kind != "push":
             continue
         k = ph.step
-        q = plan.pushes[k]
-        vtx = int(np.argmin(np.linalg.norm(body - verts[q.contact_vertex], axis=1)))
-        dw = np.asarray(q.direction, float) / np.linalg.norm(q.direction)
-        fn, ft = 0.0, np.zeros(3)
-        for i in range(d.ncon):
-            c = d.contact[i]
-            if tool in (c.geom1, c.geom2):
-                mujoco.mj_contactForce(m, d, i, f6)
-                fr = c.frame.reshape(3, 3)
-                fn += f6[0]
-                ft += f6[1] * fr[1] + f6[2] * fr[2]
+        fn, ft = _fence_force(m, d, f6)
+        if fn <= 1e-9:
+            last.pop(k, None)
+            continue
+        vtx, dw = contacts[k]
         R = d.xmat[part].reshape(3, 3)
         u = float((d.xpos[part][:2] + R[:2, :2] @ body[vtx]) @ _perp(dw))
-        if fn > 1e-9 and k in last:
+        if k in last:
             step = abs(u - last[k])
             total[k] += step
             if np.linalg.norm(ft) < 0.9 * mu * fn:
                 inside[k] += step
-        last[k] = u if fn > 1e-9 else last.get(k)
-        if fn <= 1e-9:
-            last.pop(k, None)
+        last[k] = u
     return [(q.kind, total[k] * 1e3, inside[k] * 1e3) for k, q in enumerate(plan.pushes)]
 
 
