@@ -53,7 +53,11 @@ arguments; the sample count is padded to a bucket (:func:`sample_bucket`)
 and the per-push / per-tumble columns to a power of two
 (:func:`steps_bucket`), the draws cut back after; threefry's draws are
 prefix-stable, so a sample's numbers do not depend on the bucket, but the
-per-push draws do depend on the plan's length bucket.  So a study that sweeps
+per-push draws do depend on the plan's length bucket.  Only the columns a
+draw uses are computed (:mod:`robustness.uniforms`: not a zero tolerance's,
+not the ``points`` family's under another family, not the per-step columns
+past the plan's length above 16 steps, :func:`drawn_steps`); they are the
+numbers the whole block would hold.  So a study that sweeps
 tolerances, sample counts and plan lengths reuses a handful of compiled
 samplers (compiling one takes seconds).
 
@@ -72,6 +76,7 @@ import numpy as np
 from kernels import float64
 from robustness.support import centre_weights, support_from_u
 from robustness.tolerances import ExecutionTolerance, FrictionRange, GeometryTolerance
+from robustness.uniforms import uniform_columns
 
 GEOMETRY, FRICTION, EXECUTION = 0, 1, 2
 
@@ -219,6 +224,22 @@ class Draws:
 # (:func:`sample_bucket`) and the draws cut back to ``n``: JAX's threefry
 # draws are prefix-stable (the first ``n`` rows of an ``(N, w)`` block do not
 # depend on ``N``), so the samples are those of an exact-size draw.
+def _draw(key, n: int, width: int, pieces: dict, dtype):
+    """Named column ranges of the group's block ``uniform(key, (n, width))``:
+    ``pieces`` maps a name to ``(start, stop, wanted)``; only the wanted ranges
+    are computed (:func:`robustness.uniforms.uniform_columns`: the same numbers
+    as the full block's), an unwanted one is zeros (its values are discarded)."""
+    cols = [c for a, b, w in pieces.values() if w for c in range(a, b)]
+    sub = uniform_columns(key, n, width, cols, dtype)
+    out, at = {}, 0
+    for name, (a, b, w) in pieces.items():
+        if w:
+            out[name], at = sub[:, at:at + b - a], at + b - a
+        else:
+            out[name] = jnp.zeros((n, b - a), dtype)
+    return out
+
+
 def _open01(u, dtype):
     """Uniforms moved into the open interval (0, 1) (for logs and ndtri)."""
     tiny = jnp.finfo(dtype).eps
@@ -327,11 +348,12 @@ def _sample_geometry(key, n: int, st: Structure, val: dict, n_vertices: int, dim
     distribution, com_shape, v_zero = st.geometry_distribution, st.com_shape, st.vertex_zero
     has_sigma, com_zero = st.has_sigma_v, st.com_zero
     mv = n_vertices * dim
-    u = jax.random.uniform(key, (n, mv + dim + 1), dtype)
-    dv = _box_from_u(u[:, :mv], val["tau_v"], v_zero, distribution,
+    u = _draw(key, n, mv + dim + 1, dict(v=(0, mv, not v_zero), c=(mv, mv + dim + 1, not com_zero)),
+              dtype)
+    dv = _box_from_u(u["v"], val["tau_v"], v_zero, distribution,
                      val["sigma_v"] if has_sigma else None, dtype)
     dv, av = _batched(dv.reshape(n, n_vertices, dim), n, v_zero, (n_vertices, dim), dtype)
-    uc = u[:, mv:]
+    uc = u["c"]
     if com_shape == "box":
         dc = (2.0 * uc[:, :dim] - 1.0) * val["tau_com"]
     else:
@@ -355,8 +377,10 @@ def _family_c(key, body, n: int, family: str, dtype):
     from kernels import support as ks, limit_surface_ratio
 
     h = body.shape[0]
-    u = jax.random.uniform(key, (n, 2 + h), dtype)
-    lift = u[:, 2:]
+    mixed = family not in ("rigid", "uniform", "ring")
+    u = _draw(key, n, 2 + h, dict(comp=(0, 1, mixed), tri=(1, 2, mixed),
+                                  lift=(2, 2 + h, mixed or family == "rigid")), dtype)
+    lift = u["lift"]
 
     def fixed(name):
         pts = ks.family_points(name, body)
@@ -372,10 +396,10 @@ def _family_c(key, body, n: int, family: str, dtype):
     if family in ("uniform", "ring"):
         return fixed(family), None, jnp.int32(ks.CODES[family]), None, zeros, None
     # any: rigid, uniform, ring, tripod in equal parts
-    comp = jnp.minimum((u[:, 0] * len(ks.ANY_COMPONENTS)).astype(jnp.int32),
+    comp = jnp.minimum((u["comp"][:, 0] * len(ks.ANY_COMPONENTS)).astype(jnp.int32),
                        len(ks.ANY_COMPONENTS) - 1)
     fit = ks.tripod_fit(body)
-    c_tri = fit * (ks.TRIPOD_MIN_FRACTION + (1.0 - ks.TRIPOD_MIN_FRACTION) * u[:, 1])
+    c_tri = fit * (ks.TRIPOD_MIN_FRACTION + (1.0 - ks.TRIPOD_MIN_FRACTION) * u["tri"][:, 0])
     cs = jnp.stack([rigid(), jnp.broadcast_to(fixed("uniform"), (n,)),
                     jnp.broadcast_to(fixed("ring"), (n,)), c_tri.astype(dtype)], axis=1)
     c = jnp.take_along_axis(cs, comp[:, None], axis=1)[:, 0]
@@ -389,9 +413,14 @@ def _sample_friction(key, body, n: int, st: Structure, val: dict, has_body: bool
 
     S, k, c_given = st.support_points, st.weight_concentration, st.c_given
     mu_f_const, mu_s_const, c_const, family = st.mu_f_const, st.mu_s_const, st.c_const, st.support
-    u = jax.random.uniform(key, (n, 3 + S * (3 + k)), dtype)
-    mu_f, a_f = _range_from_u(u[:, 0], n, val["mu_f_lo"], val["mu_f_hi"], mu_f_const, dtype)
-    mu_s, a_s = _range_from_u(u[:, 1], n, val["mu_s_lo"], val["mu_s_hi"], mu_s_const, dtype)
+    body_c = has_body and n > 0
+    w_all = 3 + S * (3 + k)
+    u = _draw(key, n, w_all, dict(
+        mu_f=(0, 1, not mu_f_const), mu_s=(1, 2, not mu_s_const),
+        c=(2, 3, body_c and c_given and not c_const),
+        pts=(3, w_all, body_c and not c_given and family == "points")), dtype)
+    mu_f, a_f = _range_from_u(u["mu_f"][:, 0], n, val["mu_f_lo"], val["mu_f_hi"], mu_f_const, dtype)
+    mu_s, a_s = _range_from_u(u["mu_s"][:, 0], n, val["mu_s_lo"], val["mu_s_hi"], mu_s_const, dtype)
     h = body.shape[0]
     code, a_code = jnp.int32(ks.CODES.get(family, ks.CODES["rigid"])), None
     lift, a_lift = jnp.zeros((h,), dtype), None
@@ -400,11 +429,11 @@ def _sample_friction(key, body, n: int, st: Structure, val: dict, has_body: bool
     if not has_body or n == 0:
         c, a_c = jnp.asarray(jnp.nan, dtype), None
     elif c_given:               # the tripod family: c drawn directly
-        c, a_c = _range_from_u(u[:, 2], n, val["c_lo"], val["c_hi"], c_const, dtype)
+        c, a_c = _range_from_u(u["c"][:, 0], n, val["c_lo"], val["c_hi"], c_const, dtype)
     elif family == "points":
         from kernels import limit_surface_ratio
 
-        pts, w = support_from_u(u[:, 3:], body, S, k, dtype)
+        pts, w = support_from_u(u["pts"], body, S, k, dtype)
         if S >= 3:   # the pressure's centroid under the centre of mass (a part at rest)
             w = jax.vmap(centre_weights)(pts, w)
         c = jax.vmap(limit_surface_ratio)(pts, w).astype(dtype)
@@ -420,35 +449,47 @@ def _sample_friction(key, body, n: int, st: Structure, val: dict, has_body: bool
 
 
 def _sample_execution(key, n: int, st: Structure, val: dict, n_pushes: int = 0,
-                      n_tumbles: int = 0, dtype=jnp.float64):
+                      n_tumbles: int = 0, dtype=jnp.float64, drawn_pushes: Optional[int] = None,
+                      drawn_tumbles: Optional[int] = None):
+    """``n_pushes`` / ``n_tumbles``: the block's per-step columns (the plan's
+    length bucket, :func:`steps_bucket`: the layout); ``drawn_*``: how many of
+    them are drawn (:func:`drawn_steps`; default all)."""
     dist, start_zero, xy_zero, th_zero = (st.execution_distribution, st.start_zero,
                                           st.start_xy_zero, st.start_theta_zero)
     fence_zero, rel_zero, abs_zero = st.fence_zero, st.rel_zero, st.abs_zero
     slip_zero, sxy_zero, sth_zero = st.slip_zero, st.slip_xy_zero, st.slip_theta_zero
     P, L = int(n_pushes), int(n_tumbles)   # bucketed (steps_bucket): cut to the plan's after
-    u = jax.random.uniform(key, (n, 3 + 3 * P + 3 * L), dtype)
+    Pd = P if drawn_pushes is None else int(drawn_pushes)
+    Ld = L if drawn_tumbles is None else int(drawn_tumbles)
+    u = _draw(key, n, 3 + 3 * P + 3 * L, dict(
+        start=(0, 3, not start_zero),
+        fence=(3, 3 + Pd, not fence_zero and Pd > 0),
+        rel=(3 + P, 3 + P + Pd, not rel_zero and Pd > 0),
+        abs=(3 + 2 * P, 3 + 2 * P + Pd, not abs_zero and Pd > 0),
+        slip=(3 + 3 * P, 3 + 3 * P + 3 * Ld, not slip_zero and Ld > 0)), dtype)
 
     def box(cols, half, zero):
         return _box_from_u(cols, half, zero, dist, None, dtype)
 
+    us0 = u["start"]
     if dist == "uniform":
         halves = jnp.stack([val["start_xy"], val["start_xy"], val["start_theta"]]).astype(dtype)
-        start = (2.0 * u[:, :3] - 1.0) * halves
+        start = (2.0 * us0 - 1.0) * halves
     else:
-        start = jnp.stack([box(u[:, 0], val["start_xy"], xy_zero),
-                           box(u[:, 1], val["start_xy"], xy_zero),
-                           box(u[:, 2], val["start_theta"], th_zero)], axis=1)
+        start = jnp.stack([box(us0[:, 0], val["start_xy"], xy_zero),
+                           box(us0[:, 1], val["start_xy"], xy_zero),
+                           box(us0[:, 2], val["start_theta"], th_zero)], axis=1)
     start, a_start = _batched(start, n, start_zero, (3,), dtype)
-    fence, a_fence = _batched(box(u[:, 3:3 + P], val["fence_angle"], fence_zero), n,
-                              fence_zero or P == 0, (P,), dtype)
-    rel, a_rel = _batched(box(u[:, 3 + P:3 + 2 * P], val["distance_rel"], rel_zero), n,
-                          rel_zero or P == 0, (P,), dtype)
-    ab, a_ab = _batched(box(u[:, 3 + 2 * P:3 + 3 * P], val["distance_abs"], abs_zero), n,
-                        abs_zero or P == 0, (P,), dtype)
-    us = u[:, 3 + 3 * P:].reshape(n, L, 3)
+    fence, a_fence = _batched(box(u["fence"], val["fence_angle"], fence_zero), n,
+                              fence_zero or Pd == 0, (Pd,), dtype)
+    rel, a_rel = _batched(box(u["rel"], val["distance_rel"], rel_zero), n,
+                          rel_zero or Pd == 0, (Pd,), dtype)
+    ab, a_ab = _batched(box(u["abs"], val["distance_abs"], abs_zero), n,
+                        abs_zero or Pd == 0, (Pd,), dtype)
+    us = u["slip"].reshape(n, Ld, 3)
     slip = jnp.concatenate([box(us[..., :2], val["tumble_slip_xy"], sxy_zero),
                             box(us[..., 2:], val["tumble_slip_theta"], sth_zero)], axis=-1)
-    slip, a_slip = _batched(slip, n, slip_zero or L == 0, (L, 3), dtype)
+    slip, a_slip = _batched(slip, n, slip_zero or Ld == 0, (Ld, 3), dtype)
     return (ExecutionParams(start, fence, rel, ab, slip),
             ExecutionParams(a_start, a_fence, a_rel, a_ab, a_slip))
 
@@ -477,6 +518,20 @@ def steps_bucket(k: int) -> int:
     return 1 << max(0, k - 1).bit_length() if k else 0
 
 
+def drawn_steps(k: int) -> int:
+    """Per-push (per-tumble) columns of the bucket (:func:`steps_bucket`) that
+    the sampler computes for a plan of ``k`` steps: the whole bucket up to 16
+    steps (plans of lengths in one bucket share a compiled sampler), above it
+    ``k`` rounded up to its 4 leading binary digits (at most 1/8 more than the
+    plan needs; a 200-tumble plan draws 208 of its bucket's 256).  The numbers
+    of step ``i`` are the same either way (:func:`robustness.uniforms.uniform_columns`)."""
+    k = int(k)
+    if k <= 16:
+        return steps_bucket(k)
+    shift = max(0, k.bit_length() - 4)
+    return min(steps_bucket(k), -(-k // (1 << shift)) << shift)
+
+
 @functools.lru_cache(maxsize=128)
 def _staged(static: tuple):
     """The sampler compiled once per static structure: ``(key, body, values)
@@ -492,13 +547,13 @@ def _staged(static: tuple):
 
 
 def _sample_all(key, body, values, n, st, n_vertices, dim, n_pushes, n_tumbles, has_body,
-                dtype, keep_support=True):
+                dtype, keep_support=True, drawn_pushes=None, drawn_tumbles=None):
     g, ga = _sample_geometry(jax.random.fold_in(key, GEOMETRY), n, st, values, n_vertices, dim,
                              dtype)
     f, fa = _sample_friction(jax.random.fold_in(key, FRICTION), body, n, st, values, has_body,
                              dtype, keep_support)
     e, ea = _sample_execution(jax.random.fold_in(key, EXECUTION), n, st, values, n_pushes,
-                              n_tumbles, dtype)
+                              n_tumbles, dtype, drawn_pushes, drawn_tumbles)
     return PerturbationParams(g, f, e), PerturbationParams(ga, fa, ea)
 
 
@@ -536,14 +591,15 @@ class Sampler:
         b = jnp.asarray(body, dt) if has_body else jnp.zeros((3, 2), dt)
         n, P, L = int(n), int(n_pushes), int(n_tumbles)
         N, Pb, Lb = sample_bucket(n), steps_bucket(P), steps_bucket(L)
+        Pd, Ld = drawn_steps(P), drawn_steps(L)
         # one compiled call for the three groups, per structure (values are traced)
         jitted, box = _staged((N, Structure.of(self), int(n_vertices), int(dim), Pb, Lb, has_body,
-                               dt, bool(keep_support)))
+                               dt, bool(keep_support), Pd, Ld))
         vals = {k: jnp.asarray(v, dt) for k, v in _values(self).items()}
         draws = Draws(jitted(key, b, vals), box["axes"], N)
         if N != n:
             draws = draws.slice(0, n)
-        if (Pb, Lb) != (P, L):
+        if (Pd, Ld) != (P, L):
             draws = _cut_steps(draws, P, L)
         return draws
 

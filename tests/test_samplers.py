@@ -205,3 +205,103 @@ def test_parameter_columns(drawn):
     assert all(np.asarray(v).dtype == np.float64 for k, v in cols.items() if k != "support")
     assert set(cols["support"]) == {"points"}
     assert math.isclose(cols["dv1_x_m"][7], float(p.geometry.vertex_offset[7, 1, 0]))
+
+
+# --------------------------------------------------------------------------
+# Only the used columns are drawn, and they are the full block's numbers
+# --------------------------------------------------------------------------
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+from robustness import samplers as smp  # noqa: E402
+from robustness.uniforms import uniform_columns  # noqa: E402
+
+
+@settings(max_examples=30)
+@given(n=st.integers(0, 40), width=st.integers(1, 90), data=st.data(),
+       f64=st.booleans(), typed=st.booleans(), seed=st.integers(0, 2 ** 31 - 1))
+def test_uniform_columns_are_the_full_blocks(n, width, data, f64, typed, seed):
+    cols = data.draw(st.lists(st.integers(0, width - 1), max_size=12))
+    dt = jnp.float64 if f64 else jnp.float32
+    key = jax.random.key(seed) if typed else jax.random.PRNGKey(seed)
+    want = np.asarray(jax.random.uniform(key, (n, width), dt))[:, cols]
+    got = uniform_columns(key, n, width, cols, dt)
+    assert got.dtype == want.dtype and got.shape == want.shape
+    np.testing.assert_array_equal(np.asarray(got), want)
+
+
+def test_uniform_columns_under_jit_and_x32():
+    key = jax.random.key(9)
+    cols = [0, 40, 7, 7, 63]
+    want = np.asarray(jax.random.uniform(key, (33, 64), jnp.float64))[:, cols]
+    got = jax.jit(lambda k: uniform_columns(k, 33, 64, cols, jnp.float64))(key)
+    np.testing.assert_array_equal(np.asarray(got), want)
+    with jax.enable_x64(False):
+        want = np.asarray(jax.random.uniform(key, (33, 64), jnp.float32))[:, cols]
+        np.testing.assert_array_equal(np.asarray(uniform_columns(key, 33, 64, cols, jnp.float32)),
+                                      want)
+
+
+def test_uniform_columns_without_partitionable_threefry_slices_the_block():
+    key = jax.random.key(5)
+    with jax.threefry_partitionable(False):
+        want = np.asarray(jax.random.uniform(key, (7, 30), jnp.float64))[:, [2, 29, 3]]
+        np.testing.assert_array_equal(np.asarray(uniform_columns(key, 7, 30, [2, 29, 3])), want)
+    with pytest.raises(ValueError, match="columns"):
+        uniform_columns(key, 7, 30, [30])
+
+
+@pytest.mark.parametrize("n_pushes,n_tumbles", [(3, 0), (17, 0), (0, 5), (0, 200)])
+def test_the_draws_keep_the_blocks_layout(poly, n_pushes, n_tumbles):
+    """Each field is read from its place in its group's block of uniforms,
+    ``uniform(fold_in(key, group), (n, width))`` (the layout every table was
+    drawn with): vertices then centre of mass; mu_f, mu_s, c, then the points
+    family's columns; start, then per push the fence angle, relative and
+    absolute distance errors (a bucket of columns each), then per tumble the
+    slip.  The sampler computes only the used columns; the numbers are the
+    block's."""
+    dim = 2 if n_pushes else 3
+    nv, n = (5, 9) if dim == 2 else (8, 9)
+    s = Sampler(GeometryTolerance(tau_v=1e-4, tau_com=2e-4, com_shape="box"),
+                FrictionRange(mu_f=(0.2, 0.8), mu_s=(0.3, 0.4), c=(0.004, 0.009), support="tripod"),
+                ExecutionTolerance(start_xy=1e-3, start_theta=0.02, fence_angle=0.003,
+                                   distance_abs=1e-4, distance_rel=0.01, tumble_slip_xy=1e-5,
+                                   tumble_slip_theta=1e-4))
+    key = jax.random.key(4)
+    d = s.sample(key, n, n_vertices=nv, dim=dim, n_pushes=n_pushes, n_tumbles=n_tumbles,
+                 body=poly.body if dim == 2 else None)
+    p = d.params
+
+    def block(group, width):
+        return np.asarray(jax.random.uniform(jax.random.fold_in(key, group), (n, width),
+                                             jnp.float64))
+
+    def close(got, want):
+        np.testing.assert_allclose(np.asarray(got), want, rtol=1e-13, atol=0)
+
+    mv = nv * dim
+    g = block(smp.GEOMETRY, mv + dim + 1)
+    close(p.geometry.vertex_offset, ((2 * g[:, :mv] - 1) * 1e-4).reshape(n, nv, dim))
+    close(p.geometry.com_offset, (2 * g[:, mv:mv + dim] - 1) * 2e-4)
+    f = block(smp.FRICTION, 3 + 16 * 4)
+    close(p.friction.mu_f, 0.2 + f[:, 0] * 0.6)
+    close(p.friction.mu_s, 0.3 + f[:, 1] * (0.4 - 0.3))
+    if dim == 2:
+        close(p.friction.c, 0.004 + f[:, 2] * (0.009 - 0.004))
+    P, L = smp.steps_bucket(n_pushes), smp.steps_bucket(n_tumbles)
+    e = block(smp.EXECUTION, 3 + 3 * P + 3 * L)
+    close(p.execution.start_offset, (2 * e[:, :3] - 1) * np.array([1e-3, 1e-3, 0.02]))
+    if n_pushes:
+        for field, at, half in (("fence_angle", 3, 0.003), ("distance_rel", 3 + P, 0.01),
+                                ("distance_abs", 3 + 2 * P, 1e-4)):
+            close(getattr(p.execution, field), (2 * e[:, at:at + n_pushes] - 1) * half)
+    else:
+        us = e[:, 3 + 3 * P:].reshape(n, L, 3)[:, :n_tumbles]
+        close(p.execution.tumble_slip, (2 * us - 1) * np.array([1e-5, 1e-5, 1e-4]))
+
+
+def test_drawn_steps():
+    assert [smp.drawn_steps(k) for k in (0, 1, 3, 9, 16, 17, 200, 256, 1000)] == \
+        [0, 1, 4, 16, 16, 18, 208, 256, 1024]
+    for k in range(1, 3000):
+        assert k <= smp.drawn_steps(k) <= smp.steps_bucket(k)
+        assert k <= 16 or smp.drawn_steps(k) <= k * 9 // 8 + 1
