@@ -73,6 +73,7 @@ from planning import plan_pose  # noqa: E402
 from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler  # noqa: E402
 from robustness import evaluation as ev_mod  # noqa: E402
 from robustness import replay  # noqa: E402
+from robustness.samplers import drawn_steps  # noqa: E402
 from sweeps.partfile import load_part  # noqa: E402
 from timing import best_of  # noqa: E402
 
@@ -278,7 +279,7 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
     full["first"] = time.perf_counter() - t0
     full["seconds"] = best_of(whole, max(1, repeat - 1))
     full["rate"] = n / full["seconds"]
-    # the draws alone (the sampler's compiled call: vertex offsets and 3 x 256 slip
+    # the draws alone (the sampler's compiled call: vertex offsets and 3 x 208 slip
     # uniforms per sample, threefry): a floor under evaluate() as long as the
     # random stream (and so every table) stays what it is
     def draw_only():
@@ -357,7 +358,7 @@ def main(argv=None) -> int:
     f = tr["full"]
     print(f"evaluate() of the plan, float64, vertex tolerance and slips: {f['rate']:.4g} "
           f"samples/s = {f['rate'] * TUMBLE_LEN:.4g} steps/s ({f['rate'] * TUMBLE_LEN / np_rate_t:.1f}"
-          f" x numpy); the draws alone (threefry, 3 x 256 slip uniforms per sample): "
+          f" x numpy); the draws alone (threefry, 3 x {drawn_steps(TUMBLE_LEN)} slip uniforms a sample): "
           f"{f['draws_rate']:.4g} samples/s, the ceiling of evaluate() with this random stream")
     h = tr["hull"]
     print(f"hull check of the perturbed hulls: JAX {h['jax_rate']:.4g} samples/s, host reference "
