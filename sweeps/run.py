@@ -189,7 +189,7 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
                 if phase == "summary":
                     units = with_stats(design, store, units, records)
                 for unit, rec in ex.run(fn, ctx, units):
-                    store.mark_done(rec["key"], rec["files"], rows=rec["rows"])
+                    store.mark_done(rec["key"], rec["files"], rows=rec["rows"], sync=False)
                     if phase == "samples":
                         records[rec["key"]] = rec
                     for kind, line in rec.get("findings", ()):
@@ -203,6 +203,7 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
                         break
             stopped = flag.stop
     finally:
+        store.sync_log()
         bar.close()
     for kind, msgs in findings.items():
         sys.stderr.write(f"finding: {kind} in {len(msgs)} (configuration, task) pair(s), e.g. "

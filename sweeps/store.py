@@ -13,8 +13,11 @@ order.  Every file is written atomically (:func:`sweeps.parquet.atomic_write`)
 under a deterministic name, so a unit that runs twice (a rerun after a crash,
 a Dask worker that died) replaces its files with identical ones: no row is
 lost or duplicated.  A unit counts as done when its line is in
-``chunks.jsonl`` and its files exist; the line is appended (and fsync'ed)
-only after the files are in place.
+``chunks.jsonl`` and its files exist; the line is appended only after the
+files are in place (on disk: fsync'ed).  A study's run appends its lines
+without syncing each and syncs the log once as it ends (:meth:`RunStore.sync_log`):
+a line lost to a power cut only makes its unit run again; a line that
+survives names files that were on disk before it was written.
 """
 from __future__ import annotations
 
@@ -115,13 +118,27 @@ class RunStore:
                 out[rec["key"]] = rec
         return out
 
-    def mark_done(self, key: str, files: Iterable, **info) -> None:
-        """Record a finished unit (after its files are written)."""
+    def mark_done(self, key: str, files: Iterable, *, sync: bool = True, **info) -> None:
+        """Record a finished unit (after its files are on disk).  ``sync=False``:
+        the line is not fsync'ed now (the caller calls :meth:`sync_log` when its
+        run ends)."""
         rel = [str(pathlib.Path(f).relative_to(self.root)) for f in files]
         line = json.dumps({"key": key, "files": rel, **info}, sort_keys=True) + "\n"
         fd = os.open(self.root / LOG, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
         try:
             os.write(fd, line.encode())
+            if sync:
+                os.fsync(fd)
+        finally:
+            os.close(fd)
+
+    def sync_log(self) -> None:
+        """fsync the log of finished units (if there is one)."""
+        try:
+            fd = os.open(self.root / LOG, os.O_RDONLY)
+        except FileNotFoundError:
+            return
+        try:
             os.fsync(fd)
         finally:
             os.close(fd)

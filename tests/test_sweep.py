@@ -272,11 +272,16 @@ def test_a_failed_write_is_not_recorded_and_the_rerun_completes_the_tables(refer
         calls.append(pathlib.Path(path))
         return real_atomic(path, write, mode)
 
+    from sweeps.store import RunStore
+
+    synced, real_sync = [], RunStore.sync_log
     monkeypatch.setattr(parquet.pq, "write_table", fails_fourth)
     monkeypatch.setattr(parquet, "_atomic_write", atomic)
+    monkeypatch.setattr(RunStore, "sync_log", lambda self: synced.append(real_sync(self)))
     with pytest.raises(OSError, match="disk full"):
         execute(load_design(str(p), []), out, Executor(kind="local"), quiet=True, report=False)
     monkeypatch.undo()
+    assert len(synced) == 1          # the log of finished units is synced on the way out
     logged = [json.loads(x) for x in (out / "chunks.jsonl").read_text().splitlines()]
     files = {f for rec in logged for f in rec["files"]}
     assert len(logged) < 3 and all((out / f).is_file() for f in files)

@@ -232,6 +232,25 @@ def test_done_needs_the_log_line_and_the_files(tmp_path):
     assert store.done() == {}
 
 
+def test_the_log_is_synced_per_line_or_once(tmp_path, monkeypatch):
+    """``mark_done`` fsyncs its line unless told not to (a study's run syncs the
+    log once as it ends, :meth:`RunStore.sync_log`)."""
+    import os
+
+    store = RunStore.open(tmp_path / "run", {"run_id": "r1", "config": CONFIG, "seed": 7})
+    store.sync_log()                                   # no log yet: nothing to do
+    p = store.write("samples", 0, "t0000-b0000", _samples(2), SAMPLES_SCHEMA)
+    synced, real = [], os.fsync
+    monkeypatch.setattr(os, "fsync", lambda fd: synced.append(os.fstat(fd).st_ino) or real(fd))
+    store.mark_done("c0-t0-b0", [p], rows=2)
+    store.mark_done("c0-t0-b1", [p], rows=2, sync=False)
+    log = (tmp_path / "run" / "chunks.jsonl").stat().st_ino
+    assert synced == [log]
+    store.sync_log()
+    assert synced == [log, log]
+    assert set(store.done()) == {"c0-t0-b0", "c0-t0-b1"}
+
+
 def test_pack_samples_gathers_lists_in_order():
     flat = pd.DataFrame({"task": ["a", "a"], "dv10_x_m": [10.0, 11.0], "dv2_x_m": [2.0, 3.0],
                          "dv2_y_m": [2.5, 3.5], "dv10_y_m": [10.5, 11.5],
