@@ -18,7 +18,7 @@ from planning.pushing.alternatives import plan_alternatives
 from planning.pushing.batch import PushPlanBatch, plan_pose_batch
 from planning.pushing.options import PushOptions
 from planning.pushing.part import PlanningError, PushPart, WorkspaceError, prepare_part
-from planning.pushing.plan import Push, PushPlan
+from planning.pushing.plan import STRATEGIES, Push, PushPlan
 from planning.pushing.planner import plan_pose
 from planning.tumbling.analysis import TumbleAnalysis
 from planning.tumbling.plan import Tumble, TumblePlan
@@ -34,7 +34,7 @@ from planning.tumbling.trajectory import plan_trajectory, quiet_polyhedron, samp
 
 __all__ = [
     "plan_pose", "plan_alternatives", "tumble_alternatives", "plan_pose_batch", "PushOptions", "prepare_part", "PushPart", "PushPlanBatch", "Push",
-    "PushPlan", "PlanningError", "WorkspaceError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
+    "PushPlan", "STRATEGIES", "PlanningError", "WorkspaceError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
     "Tumble", "TumblePlan",
     "stability", "PushStability", "development_poses", "face_footprint", "lattice_count_bound",
     "paper_bounds", "plan_trajectory", "pose3", "quiet_polyhedron", "radius_for_count",

@@ -49,7 +49,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import float64
-from planning import PlanningError, PushOptions, plan_alternatives, plan_pose
+from planning import STRATEGIES, PlanningError, PushOptions, plan_alternatives, plan_pose
 from robustness import stats
 from robustness.evaluation import goal_errors, kinematic_success
 from robustness.models import PUSH_KINEMATIC
@@ -195,11 +195,19 @@ def _settings(base: PushOptions, margins_deg, safety_factors, strategies, suppor
     return list(dict.fromkeys(out))
 
 
+#: The candidate grid of a push task (the study's ``synthesize:`` and certify's
+#: ``margin_search:`` defaults): margins (deg) around the paper's 7, safety factors
+#: from the paper's 1.15, both planner strategies.
+GRID_MARGINS_DEG = (3.0, 7.0, 12.0, 20.0)
+GRID_SAFETY_FACTORS = (1.15, 1.5, 2.0)
+GRID_STRATEGIES = STRATEGIES
+
+
 @float64
 def push_candidates(vertices, start, goal, com=None, *, options: Optional[PushOptions] = None,
-                    margins_deg: Sequence[float] = (3.0, 7.0, 12.0, 20.0),
-                    safety_factors: Sequence[float] = (1.15, 1.5, 2.0),
-                    strategies: Sequence[str] = ("search", "paper"),
+                    margins_deg: Sequence[float] = GRID_MARGINS_DEG,
+                    safety_factors: Sequence[float] = GRID_SAFETY_FACTORS,
+                    strategies: Sequence[str] = GRID_STRATEGIES,
                     supports: Sequence = (None,), min_fence_mu: Optional[float] = None,
                     per_setting: int = 3, limit: int = 64) -> tuple[list, tuple]:
     """Candidate plans for one push task.

@@ -70,7 +70,7 @@ from typing import Literal, Optional, Union
 import numpy as np
 from pydantic import Field, StrictBool, field_validator
 
-from robustness import model_for
+from robustness import GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, model_for
 from sweeps.errors import Exit, UserError
 from sweeps.config import (ConfigError, Design, Evaluation, PartInline, Strict, Synthesize,
                            Task, explicit_tasks, validate)
@@ -82,8 +82,8 @@ MAX_SAMPLES = 100_000
 class MarginSearch(Strict):
     """Grid for the margin recommendation (push tasks)."""
 
-    margins_deg: list[float] = Field(default_factory=lambda: [3.0, 7.0, 12.0, 20.0])
-    safety_factors: list[float] = Field(default_factory=lambda: [1.15, 1.5, 2.0])
+    margins_deg: list[float] = Field(default_factory=lambda: list(GRID_MARGINS_DEG))
+    safety_factors: list[float] = Field(default_factory=lambda: list(GRID_SAFETY_FACTORS))
     n_samples: int = Field(200, ge=1, le=10_000_000)
     enabled: StrictBool = True
 

@@ -22,7 +22,8 @@ from pydantic import (BaseModel, ConfigDict, Field, StrictInt, ValidationError, 
 
 from robustness.physics import PhysicsSettings
 from planning import PushOptions
-from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, SuccessCriterion
+from robustness import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES, ExecutionTolerance,
+                        FrictionRange, GeometryTolerance, SuccessCriterion)
 from sweeps.errors import UserError
 from sweeps.partfile import part_fields
 from sweeps.plausible import wrap
@@ -118,11 +119,11 @@ class Synthesize(Strict):
     enabled: bool = True
     n_samples: StrictInt = Field(1000, ge=10, le=1_000_000)
     objective: Literal["max_lower_bound", "shortest_certifying"] = "max_lower_bound"
-    margins_deg: list[float] = Field(default_factory=lambda: [3.0, 7.0, 12.0, 20.0],
-                                     min_length=1)
-    safety_factors: list[float] = Field(default_factory=lambda: [1.15, 1.5, 2.0], min_length=1)
+    margins_deg: list[float] = Field(default_factory=lambda: list(GRID_MARGINS_DEG), min_length=1)
+    safety_factors: list[float] = Field(default_factory=lambda: list(GRID_SAFETY_FACTORS),
+                                        min_length=1)
     strategies: list[Literal["search", "paper"]] = Field(
-        default_factory=lambda: ["search", "paper"], min_length=1)
+        default_factory=lambda: list(GRID_STRATEGIES), min_length=1)
     model_distances: bool = True
     slip_aware: bool = True
     per_setting: StrictInt = Field(3, ge=1, le=32)

@@ -69,22 +69,27 @@ def _release_executables():
 
 
 #: Test files heaviest first, by their measured time (``--durations``, 2 cores, seconds
-#: of one worker; stop 31): the README runs two xdist workers on whole files
-#: (``--dist loadfile``), and a file started last holds the run open alone.  xdist's
-#: default order (most tests first) started test_sweep.py (~400 s in 30 tests)
-#: among the last; heaviest first is the longest-processing-time rule.
+#: of one worker; issue 20, December 2026): the README runs two xdist workers on whole
+#: files (``--dist loadfile``), and a file started last holds the run open alone.
+#: xdist's default order (most tests first) started test_sweep.py among the last;
+#: heaviest first is the longest-processing-time rule.
 HEAVY_FIRST = (
-    "test_sweep.py",              # ~400
-    "test_pose_planner.py",       # ~240
-    "test_synthesis.py",          # ~200
-    "test_certify.py",            # ~190
-    "test_pose_options.py",       # ~180
-    "test_tolerance_design.py",   # ~130
+    "test_sweep.py",              # ~235
+    "test_pose_planner.py",       # ~160
+    "test_certify.py",            # ~140
+    "test_synthesis.py",          # ~135
     "test_support_families.py",   # ~110
-    "test_tumble_cli.py",         # ~95
-    "test_limit_surface.py",      # ~90
-    "test_physics_model.py",      # ~80
+    "test_pose_options.py",       # ~110
+    "test_tolerance_design.py",   # ~70
     "test_cad.py",                # ~65
+    "test_physics_model.py",      # ~55
+    "test_tumble_cli.py",         # ~50
+    "test_limit_surface.py",      # ~50
+    "test_push_cli.py",           # ~45
+    "test_tumble_planner.py",     # ~42
+    "test_evaluate.py",           # ~40
+    "test_samplers.py",           # ~35
+    "test_hulls.py",              # ~35
 )
 
 

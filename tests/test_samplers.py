@@ -216,7 +216,7 @@ from robustness import samplers as smp  # noqa: E402
 from robustness.uniforms import uniform_columns  # noqa: E402
 
 
-@settings(max_examples=30)
+@settings(max_examples=15)
 @given(n=st.integers(0, 40), width=st.integers(1, 90), data=st.data(),
        f64=st.booleans(), typed=st.booleans(), seed=st.integers(0, 2 ** 31 - 1))
 def test_uniform_columns_are_the_full_blocks(n, width, data, f64, typed, seed):

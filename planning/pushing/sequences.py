@@ -86,8 +86,8 @@ import numpy as np
 
 from kernels import polygon as pg
 from planning.pushing.part import PushPart
+from planning.pushing.plan import STRATEGIES
 
-STRATEGIES = ("search", "paper")
 COST_TIE = 1e-9          # relative: candidates this close in cost tie; the lower row wins
 STEP_ROUND = 1e-12       # relative slack of the fewest-steps count (rounding of Delta / step)
 EXCURSION_FRACTIONS = (0.5, 1.0)
