@@ -133,13 +133,17 @@ class RunStore:
             os.close(fd)
 
     def sync_log(self) -> None:
-        """fsync the log of finished units (if there is one)."""
+        """fsync the log of finished units (if there is one).  Best effort: it
+        runs as a run ends, also on Ctrl-C or an error, which it must not hide;
+        a log that did not reach the disk only makes its units run again."""
         try:
             fd = os.open(self.root / LOG, os.O_RDONLY)
-        except FileNotFoundError:
+        except OSError:
             return
         try:
             os.fsync(fd)
+        except OSError:
+            pass
         finally:
             os.close(fd)
 

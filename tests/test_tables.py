@@ -250,6 +250,12 @@ def test_the_log_is_synced_per_line_or_once(tmp_path, monkeypatch):
     assert synced == [log, log]
     assert set(store.done()) == {"c0-t0-b0", "c0-t0-b1"}
 
+    def broken(fd):
+        raise OSError(5, "Input/output error")
+
+    monkeypatch.setattr(os, "fsync", broken)
+    store.sync_log()                                   # best effort: it never raises
+
 
 def test_pack_samples_gathers_lists_in_order():
     flat = pd.DataFrame({"task": ["a", "a"], "dv10_x_m": [10.0, 11.0], "dv2_x_m": [2.0, 3.0],
