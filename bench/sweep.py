@@ -1,7 +1,7 @@
 """Benchmark of the study runner: the bundled ``margins.yaml`` study end to end
 (``sweeps.run``, local executor) against calling the robustness layer directly
 on the same configurations in the same process (the runner's overhead: design,
-chunked Parquet writes, the manifest and log, summaries read back from disk),
+chunked Parquet writes, the manifest and log, the per-unit bookkeeping),
 and with the Dask executor on 2 workers (a LocalCluster on 127.0.0.1).
 
 Usage::
