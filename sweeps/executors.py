@@ -140,6 +140,12 @@ class LocalExecutor:
     def run(self, fn: Callable, ctx, units: Iterable) -> Iterator:
         from sweeps.parquet import write_behind
 
+        def handed_over(entry):
+            """A computed unit's ``(unit, record)``, once its files are on disk."""
+            u, rec, writes = entry
+            w.wait(writes)
+            return u, rec
+
         with write_behind() as w:
             ready = None                     # (unit, record, its writes) not yet yielded
             for u in units:
@@ -148,16 +154,13 @@ class LocalExecutor:
                         rec = fn(ctx, u)
                 except BaseException:
                     if ready is not None:    # the unit before still counts as done
-                        w.wait(ready[2])
-                        yield ready[:2]
+                        yield handed_over(ready)
                     raise
                 done, ready = ready, (u, rec, w.take())
                 if done is not None:
-                    w.wait(done[2])
-                    yield done[:2]
+                    yield handed_over(done)
             if ready is not None:
-                w.wait(ready[2])
-                yield ready[:2]
+                yield handed_over(ready)
 
 
 class DaskExecutor:

@@ -216,6 +216,7 @@ def write_table(df_or_table, path, schema: pa.Schema, config_text: str, seed,
     t = to_arrow(df_or_table, schema)
     meta = {k.encode(): v.encode() for k, v in provenance(config_text, seed, name).items()}
     t = t.replace_schema_metadata({**(t.schema.metadata or {}), **meta})
+
     def write(fh):
         # encoded into memory by Arrow (without the GIL), then one write: a Python
         # file object given to Parquet would take the GIL for every page it writes
