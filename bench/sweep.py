@@ -9,8 +9,10 @@ Usage::
     python bench/sweep.py [--study margins.yaml] [--set PATH=VALUE ...] [--repeat 2] [--no-dask]
 
 Every timed pass runs after a warm-up pass of the same kind, so JAX compilation
-(cached in memory and on disk) is not counted; the report is not written (it is
-not part of the runner's per-sample cost).  The last line is
+(cached in memory and on disk) is not counted; the runner's own per-process
+caches (plans, the unpacked design) are emptied before each pass, here and in a
+warm cluster's workers, as in a fresh ``python -m sweeps.run``; the report is not
+written (it is not part of the runner's per-sample cost).  The last line is
 ``RESULT configs_per_s=N samples_per_s=M overhead=R dask_speedup=S``
 (``overhead`` = runner time / direct time - 1; ``dask_speedup`` = local runner
 time / Dask runner time on a started, warm cluster of 2 worker processes; the
@@ -77,6 +79,15 @@ def runner(design, executor: str, address=None) -> float:
     from sweeps.run import execute
     from sweeps.study import Executor
 
+    # as a fresh ``python -m sweeps.run``: no plans or design left over from an
+    # earlier pass, here or in a warm cluster's workers (the runner's caches are
+    # per process; direct() plans every configuration each pass)
+    _forget_runs()
+    if address is not None:
+        from distributed import Client
+
+        with Client(address) as client:
+            client.run(_forget_runs)
     spec = Executor(kind=executor, workers=2, address=address)
     with tempfile.TemporaryDirectory() as d:
         t0 = time.perf_counter()
@@ -85,6 +96,15 @@ def runner(design, executor: str, address=None) -> float:
     if code != 0:
         raise SystemExit(f"the study run failed with status {code}")
     return dt
+
+
+def _forget_runs() -> None:
+    """Empty this process's per-run caches of :mod:`sweeps.work` (the unpacked
+    design, plans, syntheses)."""
+    from sweeps import work
+
+    for cache in (work.CONTEXTS, work._PLANS, work._SYNTHESES):
+        cache.clear()
 
 
 def main() -> int:

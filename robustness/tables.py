@@ -384,8 +384,9 @@ def to_arrow(df_or_table: Union[pd.DataFrame, pa.Table], schema: pa.Schema) -> p
     else:
         raise TypeError(f"expected a pandas DataFrame or a pyarrow Table, got "
                         f"{type(df_or_table).__name__}")
-    missing = [f.name for f in schema if f.name not in cols]
-    extra = [c for c in cols if c not in schema.names]
+    names, have = schema.names, set(cols)
+    missing = [c for c in names if c not in have]
+    extra = [c for c in cols if c not in set(names)] if len(have) != len(names) or missing else []
     if missing or extra:
         raise ValueError(f"columns do not match the schema: missing {missing}, unexpected {extra}")
     if isinstance(df_or_table, pa.Table):
@@ -460,12 +461,22 @@ def _column(v, f: pa.Field, n: int) -> pa.Array:
                              f"column, got shape {a.shape}")
         offsets = np.arange(n + 1, dtype=np.int32) * a.shape[1]
         return pa.ListArray.from_arrays(pa.array(offsets, pa.int32()), pa.array(a.reshape(-1), F64))
-    if np.ndim(v) == 0 and not isinstance(v, (list, tuple)):
-        v = [v] * n
+    if not isinstance(v, (list, tuple, np.ndarray)) and np.ndim(v) == 0:   # a constant
+        if n == 0:
+            return pa.array([], type=f.type)
+        if v is None or v is pd.NA or (isinstance(v, float) and v != v):   # as pa.array(from_pandas)
+            return pa.nulls(n, f.type)
+        return pa.repeat(pa.scalar(v, type=f.type), n)     # no list of n values
     arr = pa.array(v, type=f.type, from_pandas=True)      # NaN / None / pd.NA are null
     if len(arr) != n:
         raise ValueError(f"column {f.name!r}: {len(arr)} values for {n} rows")
     return arr
+
+
+@functools.lru_cache(maxsize=64)
+def _stored_schema(schema: pa.Schema) -> pa.Schema:
+    """``schema`` with the pandas metadata of :func:`_pandas_metadata` added."""
+    return schema.with_metadata({**(schema.metadata or {}), **_pandas_metadata(schema)})
 
 
 def arrow_table(columns: Mapping[str, Any], schema: pa.Schema, n: Optional[int] = None) -> pa.Table:
@@ -488,9 +499,11 @@ def arrow_table(columns: Mapping[str, Any], schema: pa.Schema, n: Optional[int] 
       ValueError: a column that does not fit its type, or a null in a
         not-null field.
     """
-    missing = [f.name for f in schema if f.name not in columns]
-    extra = [c for c in columns if c not in schema.names]
-    if missing or extra:
+    names = schema.names
+    if len(columns) != len(names) or not all(c in columns for c in names):
+        known = set(names)
+        missing = [c for c in names if c not in columns]
+        extra = [c for c in columns if c not in known]
         raise ValueError(f"columns do not match the schema: missing {missing}, unexpected {extra}")
     if n is None:
         n = next((len(v) for v in columns.values() if np.ndim(v) >= 1 or isinstance(v, (list, tuple))), 1)
@@ -503,8 +516,7 @@ def arrow_table(columns: Mapping[str, Any], schema: pa.Schema, n: Optional[int] 
         if not f.nullable and arr.null_count:
             raise ValueError(f"column {f.name!r}: holds nulls but may not (schema {f.type} not null)")
         arrays.append(arr)
-    return pa.Table.from_arrays(arrays, schema=schema.with_metadata(
-        {**(schema.metadata or {}), **_pandas_metadata(schema)}))
+    return pa.Table.from_arrays(arrays, schema=_stored_schema(schema))
 
 
 def samples_columns(ev, sample_offset: int = 0) -> dict:

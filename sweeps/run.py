@@ -156,8 +156,8 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
     from sweeps.executors import make_executor
     from sweeps.progress import Progress, StopFlag
     from sweeps.store import RunStore, manifest_for
-    from sweeps.work import (Context, design_units, plan_units, run_block, run_design,
-                             run_summary, with_stats)
+    from sweeps.work import (Context, check_layout, design_units, plan_units, run_block,
+                             run_design, run_summary, with_stats)
 
     from sweeps.partfile import geometry_identity
 
@@ -167,6 +167,7 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
                             config_as_run=design.text)
     store = RunStore.open(out, manifest)
     done = store.done()
+    check_layout(done, out)
     blocks, summaries = plan_units(design, done)
     designs = design_units(design, done)
     ctx = Context(str(design.path), json.dumps(design.doc), str(out), json.dumps(store.manifest))

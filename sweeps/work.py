@@ -5,15 +5,18 @@ Two kinds of unit, each idempotent (deterministic inputs, keys and file names):
 * a **sample block** ``(config_id, task, block)``: samples ``lo..hi-1`` of a
   task under one configuration, drawn with the key
   ``fold_in(fold_in(key(seed), task), block)`` and written to
-  ``samples/config_id=<k>/part-t<task>-b<block>.parquet``; block 0 also
-  writes the task's ``plans`` row.  The key does not depend on the
-  configuration: configurations see the same perturbation draws wherever the
-  draws have the same shape (common random numbers, so that a swept parameter's
-  effect is not drowned in sampling noise);
-* a **summary** ``(config_id, task)``: after all of a task's blocks, merges
-  the per-sample statistics the blocks returned (:data:`robustness.STAT_COLUMNS`;
-  the blocks of an earlier, interrupted run are read back from their files, those
-  columns only) and writes its ``summary`` row.
+  ``samples/config_id=<k>/part-t<task>-b<block>.parquet``.  The key does not
+  depend on the configuration: configurations see the same perturbation draws
+  wherever the draws have the same shape (common random numbers, so that a swept
+  parameter's effect is not drowned in sampling noise);
+* a **summary** ``config_id``: after all the blocks of a configuration's tasks,
+  merges each task's per-sample statistics the blocks returned
+  (:data:`robustness.STAT_COLUMNS`; the blocks of an earlier, interrupted run are
+  read back from their files, those columns only) and writes the configuration's
+  ``plans`` and ``summary`` rows, a row per task in task order, one file each
+  (``plans/config_id=<k>/part-tasks.parquet``): a file per configuration rather
+  than per task, since the rows are small and a file costs a creation and a sync
+  (and its metadata) whatever its size.
 
 A unit runs in this process or on a Dask worker: it receives a small picklable
 :class:`Context`, rebuilds the study's :class:`~sweeps.study.Design` once per
@@ -23,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import pathlib
 import time
 from typing import Optional
@@ -47,20 +49,23 @@ class Context:
 
 @dataclasses.dataclass(frozen=True)
 class Unit:
-    """One unit of work: a sample block (``block >= 0``), a task's summary
-    (``block = -1``) or its tolerance design (``block = -2``)."""
+    """One unit of work: a sample block (``block >= 0``), a configuration's
+    summary (``block = -1``, every task: ``task_index = -1``) or a task's
+    tolerance design (``block = -2``)."""
 
     config_id: int
     task_index: int
     block: int = -1
     lo: int = 0
     hi: int = 0
-    #: a summary's input: its blocks' statistics (:func:`with_stats`), in block order
+    #: a summary's input: per task, its blocks' statistics (:func:`with_stats`), in block order
     stats: Optional[tuple] = dataclasses.field(default=None, compare=False, repr=False)
 
     @property
     def key(self) -> str:
-        tail = {-1: "summary", -2: "design"}.get(self.block, f"b{self.block:04d}")
+        if self.block == -1:
+            return f"c{self.config_id:05d}-summary"
+        tail = "design" if self.block == -2 else f"b{self.block:04d}"
         return f"c{self.config_id:05d}-t{self.task_index:04d}-{tail}"
 
     @property
@@ -106,19 +111,23 @@ class Loaded:
             where = f" ({', '.join(f'{p}={v!r}' for p, v in point.items())})" if point else ""
             raise PlanInputError(f"configuration {config_id}{where}, task {name}: {exc}") from None
 
-    def task(self, unit) -> tuple:
-        """``(config, (name, start, goal), (plan or None, reason, warnings))`` of a unit's task."""
-        cid, ti = unit.config_id, unit.task_index
+    def task(self, unit, task_index: Optional[int] = None) -> tuple:
+        """``(config, (name, start, goal), (plan or None, reason, warnings))`` of a
+        unit's task (or of its configuration's task ``task_index``)."""
+        cid = unit.config_id
+        ti = unit.task_index if task_index is None else task_index
         return self.design.configs[cid], self.design.tasks(cid)[ti], self.plan(cid, ti)
 
     def write_rows(self, table: str, unit, rows: list) -> pathlib.Path:
-        """A task's rows of ``table``, each with the run id and the configuration's
-        swept columns, written as that task's file; returns its path."""
+        """A unit's rows of ``table``, each with the run id and the configuration's
+        swept columns, written as the unit's file (``part-t<task>``, or
+        ``part-tasks`` for a configuration's rows); returns its path."""
         cols = self.columns(unit.config_id)
         schema = self.schema(table)
         rows = [{"run_id": self.store.run_id, **cols, **r} for r in rows]
-        return self.store.write(table, unit.config_id, f"t{unit.task_index:04d}",
-                                tables.rows_table(rows, schema), schema)
+        stem = "tasks" if unit.task_index < 0 else f"t{unit.task_index:04d}"
+        return self.store.write(table, unit.config_id, stem, tables.rows_table(rows, schema),
+                                schema)
 
     def columns(self, config_id: int) -> dict:
         """The swept columns' values of a configuration."""
@@ -215,13 +224,13 @@ MAX_UNITS = 1_000_000
 
 def count_units(design) -> int:
     """The number of units of work of a study (each configuration's tasks times
-    its sample blocks of ``chunk_samples``, plus one summary per task), counted
-    from the configs without listing or sampling them."""
+    its sample blocks of ``chunk_samples``, plus one summary per configuration),
+    counted from the configs without listing or sampling them."""
     total = 0
     for cfg in design.configs:
         n_tasks = len(cfg.tasks) if isinstance(cfg.tasks, list) else cfg.tasks.sample.n
         size = cfg.chunk_samples or cfg.samples
-        total += n_tasks * (-(-cfg.samples // size) + 1 + _designs(cfg))
+        total += n_tasks * (-(-cfg.samples // size) + _designs(cfg)) + 1
     return total
 
 
@@ -237,12 +246,12 @@ def check_units(design) -> None:
     if n > MAX_UNITS:
         raise ConfigError(f"{design.path}: chunk_samples: the study has {n:,} units of work "
                           f"(sample chunks of chunk_samples samples per configuration and task, "
-                          f"and a summary each), more than the limit of {MAX_UNITS:,}; raise "
+                          f"and a summary per configuration), more than the limit of {MAX_UNITS:,}; raise "
                           "chunk_samples, or sweep fewer configurations or tasks")
 
 
 def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:
-    """The sample blocks and summaries of a study not yet in ``done``."""
+    """The sample blocks and the configurations' summaries of a study not yet in ``done``."""
     blocks, summaries = [], []
     for cid, cfg in enumerate(design.configs):
         size = cfg.chunk_samples or cfg.samples
@@ -251,10 +260,26 @@ def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:
                 u = Unit(cid, ti, b, lo, min(cfg.samples, lo + size))
                 if u.key not in done:
                     blocks.append(u)
-            s = Unit(cid, ti)
-            if s.key not in done:
-                summaries.append(s)
+        s = Unit(cid, -1)
+        if s.key not in done:
+            summaries.append(s)
     return blocks, summaries
+
+
+def check_layout(done: dict, root) -> None:
+    """Refuse to resume a run folder written with a summary and a plans file per
+    task (before the files per configuration): its rows would be written twice.
+
+    Raises:
+      RunError: naming the folder and the fix.
+    """
+    from sweeps.store import RunError
+
+    if any(f.startswith(("plans/", "summary/")) and not f.endswith("/part-tasks.parquet")
+           for rec in done.values() for f in rec.get("files", ())):
+        raise RunError(f"{root}: was written by an earlier nudge (a summary file per task, "
+                       "now one per configuration) and cannot be resumed; choose another --out, "
+                       "or delete the folder to start over")
 
 
 def _designs(cfg) -> bool:
@@ -275,16 +300,17 @@ def design_units(design, done: dict) -> list[Unit]:
 
 
 def with_stats(design, store, summaries: list, records: dict) -> list:
-    """The summary units with their blocks' statistics attached (in block order):
-    from ``records`` (``{unit key: record}`` of the blocks this run finished),
-    else read back from the blocks' files (:func:`sweeps.blocks.block_stats`)."""
+    """The summary units with their blocks' statistics attached (per task, in
+    block order): from ``records`` (``{unit key: record}`` of the blocks this run
+    finished), else read back from the blocks' files
+    (:func:`sweeps.blocks.block_stats`)."""
     blocks, _ = plan_units(design, {})
     of: dict = {}
     for b in blocks:
-        of.setdefault((b.config_id, b.task_index), []).append(b)
-    return [dataclasses.replace(u, stats=tuple(_block_stats(store, b, records)
-                                               for b in of.get((u.config_id, u.task_index), ())))
-            for u in summaries]
+        of.setdefault(b.config_id, {}).setdefault(b.task_index, []).append(b)
+    return [dataclasses.replace(u, stats=tuple(
+        tuple(_block_stats(store, b, records) for b in of.get(u.config_id, {}).get(ti, ()))
+        for ti in range(len(design.tasks(u.config_id))))) for u in summaries]
 
 
 def _recording(fn):
@@ -325,10 +351,6 @@ def run_block(ctx: Context, unit: Unit) -> dict:
     part = L.design.part(unit.config_id)
     files, stats = [], None
     cols = L.columns(unit.config_id)
-    if unit.block == 0:
-        from sweeps.tasks import plan_row
-
-        files.append(L.write_rows("plans", unit, [plan_row(part, name, start, goal, plan, reason)]))
     rows = 0
     if plan is not None:
         from sweeps.blocks import sample_block
@@ -365,27 +387,32 @@ def _block_stats(store, unit: Unit, records: dict) -> Optional[dict]:
 
 @_recording
 def run_summary(ctx: Context, unit: Unit) -> dict:
-    """Summarise a task's blocks (all finished; their statistics in ``unit.stats``)
-    and write its summary row."""
+    """Summarise each task of a configuration from its blocks (all finished;
+    their statistics in ``unit.stats``) and write the configuration's ``plans``
+    and ``summary`` rows (a row per task, in task order)."""
     from robustness import empty_summary
+    from sweeps.blocks import summarise_blocks
+    from sweeps.tasks import plan_row
 
     t0 = time.perf_counter()
     L = loaded(ctx)
-    cfg, (name, _, _), (plan, _, _) = L.task(unit)
-    kind = cfg.kind
-    model = model_for(cfg.model, kind)
-    if plan is None:
-        s = empty_summary(name, kind, model, cfg.dtype, cfg.eps.pos_eps_m, cfg.eps.theta_eps_rad,
-                          cfg.required.confidence)
-    else:
-        from sweeps.blocks import summarise_blocks
-
-        s = summarise_blocks([b for b in unit.stats or () if b is not None], plan, cfg, name,
-                             bound=cfg.bounds)
-    path = L.write_rows("summary", unit, [s])
-    return {"key": unit.key, "files": [path], "rows": 1, "seconds": time.perf_counter() - t0,
-            "success_rate": _finite(s.get("success_rate")), "n": int(s.get("n", 0)),
-            "findings": findings(s)}
+    part = L.design.part(unit.config_id)
+    plans, summaries = [], []
+    for ti, stats in enumerate(unit.stats or ()):
+        cfg, (name, start, goal), (plan, reason, _) = L.task(unit, ti)
+        plans.append(plan_row(part, name, start, goal, plan, reason))
+        if plan is None:
+            kind = cfg.kind
+            summaries.append(empty_summary(name, kind, model_for(cfg.model, kind), cfg.dtype,
+                                           cfg.eps.pos_eps_m, cfg.eps.theta_eps_rad,
+                                           cfg.required.confidence))
+        else:
+            summaries.append(summarise_blocks([b for b in stats if b is not None], plan, cfg,
+                                              name, bound=cfg.bounds))
+    files = [L.write_rows("plans", unit, plans), L.write_rows("summary", unit, summaries)]
+    return {"key": unit.key, "files": files, "rows": len(summaries),
+            "seconds": time.perf_counter() - t0,
+            "findings": [f for s in summaries for f in findings(s)]}
 
 
 @_recording
@@ -426,7 +453,3 @@ def findings(s: dict) -> list:
                               f"{s['n_in_bound_model']} samples inside the bound's model, bound "
                               f"{s[bp]:.6g} m / {s[bt]:.6g} rad"))
     return out
-
-
-def _finite(x) -> Optional[float]:
-    return float(x) if x is not None and isinstance(x, (int, float)) and math.isfinite(x) else None

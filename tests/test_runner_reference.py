@@ -112,8 +112,9 @@ def _compare(tmp_path, text):
                           pos_eps_m=cfg.eps.pos_eps_m,
                           theta_eps_rad=cfg.eps.theta_eps_rad, confidence=cfg.required.confidence,
                           task=name, bound=cfg.bounds)
-            row = pd.read_parquet(out / "summary" / f"config_id={cid:05d}" /
-                                  f"part-t{ti:04d}.parquet").iloc[0]
+            rows = pd.read_parquet(out / "summary" / f"config_id={cid:05d}" / "part-tasks.parquet")
+            assert rows["task"].tolist() == [t[0] for t in design.tasks(cid)]   # in task order
+            row = rows.iloc[ti]
             for k, v in s.items():
                 w = row[k]
                 if isinstance(v, float) and math.isnan(v):

@@ -207,6 +207,18 @@ def test_tables_layout_and_dtypes(reference):
     assert set(zip(summ["config_id"].astype(int), summ["planner_margin_deg"])) == {(0, 5), (1, 9)}
     assert summ["n"].tolist() == [24] * 4 and str(summ["bound_violated"].dtype) == "boolean"
     assert plans["planned"].all() and (plans["n_steps"] > 0).all()
+    # a samples file per block; the plans and summary rows of a configuration's tasks in one file
+    for cid in (0, 1):
+        folder = f"config_id={cid:05d}"
+        assert sorted(f.name for f in (out / "samples" / folder).iterdir()) == [
+            f"part-t{ti:04d}-b{b:04d}.parquet" for ti in range(2) for b in range(3)]
+        for table in ("plans", "summary"):
+            assert [f.name for f in (out / table / folder).iterdir()] == ["part-tasks.parquet"]
+            assert pd.read_parquet(out / table / folder)["task"].tolist() == ["a", "b"]
+    logged = [json.loads(x)["key"] for x in (out / "chunks.jsonl").read_text().splitlines()]
+    assert sorted(logged) == sorted([f"c{c:05d}-t{t:04d}-b{b:04d}" for c in range(2)
+                                     for t in range(2) for b in range(3)]
+                                    + ["c00000-summary", "c00001-summary"])
     assert (out / "manifest.json").is_file()
     man = json.loads((out / "manifest.json").read_text())
     assert man["design"]["points"] == [{"planner.margin_deg": 5}, {"planner.margin_deg": 9}]
@@ -225,7 +237,7 @@ def test_resume_after_sigkill_is_bit_identical(reference, tmp_path):
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     done_before = len(log.read_text().splitlines())
-    assert done_before < 2 * 2 * 3 + 4, "the run finished before it could be killed"
+    assert done_before < 2 * 2 * 3 + 2, "the run finished before it could be killed"
     r = run_module(p, "--out", out)
     assert r.returncode == 0, r.stderr
     assert "resuming" in r.stderr
@@ -284,7 +296,7 @@ def test_a_failed_write_is_not_recorded_and_the_rerun_completes_the_tables(refer
     assert len(synced) == 1          # the log of finished units is synced on the way out
     logged = [json.loads(x) for x in (out / "chunks.jsonl").read_text().splitlines()]
     files = {f for rec in logged for f in rec["files"]}
-    assert len(logged) < 3 and all((out / f).is_file() for f in files)
+    assert len(logged) == 2 and all((out / f).is_file() for f in files)   # after the manifest, two blocks
     assert str(calls[3].relative_to(out)) not in files and not calls[3].exists()
     assert not list(out.rglob("*.tmp"))
     r = run_module(p, "--out", out, "--quiet")
@@ -300,6 +312,28 @@ def test_rerun_of_a_finished_run_changes_nothing_and_changed_config_is_refused(r
     _same(_tables(out), ref)
     r = run_module(p, "--out", out, "--set", "samples=25")
     assert r.returncode == 2 and "another config" in r.stderr
+
+
+@pytest.mark.slow
+def test_a_run_folder_of_the_per_task_layout_is_refused_not_doubled(reference, tmp_path):
+    """A folder whose log names a plans or summary file per task (the layout
+    before a file per configuration) is refused in one line: resuming it would
+    write those rows a second time."""
+    import shutil
+
+    p, ref_out, ref, _ = reference
+    out = tmp_path / "out"
+    shutil.copytree(ref_out, out)
+    old = "summary/config_id=00000/part-t0000.parquet"
+    shutil.copy(out / "summary" / "config_id=00000" / "part-tasks.parquet", out / old)
+    with open(out / "chunks.jsonl", "a") as fh:
+        fh.write(json.dumps({"key": "c00000-t0000-summary", "files": [old], "rows": 1}) + "\n")
+    r = run_module(p, "--out", out, "--quiet")
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.count("\n") == 1 and "earlier nudge" in r.stderr and "--out" in r.stderr
+    assert "Traceback" not in r.stderr
+    (out / old).unlink()      # the folder as it was: nothing was written or removed
+    _same(_tables(out), ref)
 
 
 @pytest.mark.slow

@@ -7,6 +7,8 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from robustness import tables
 from robustness.tables import (CERTIFICATES_SCHEMA, PLANS_SCHEMA, SAMPLES_SCHEMA, SUMMARY_SCHEMA,
@@ -288,3 +290,30 @@ def test_schemas_are_declared_once_and_documented():
             if name.startswith("n_") and name[2:] in tables.FAILURE_MODES:
                 stem = "n_<mode>"
             assert f"`{stem}`" in readme, name
+
+
+_SCALARS = st.one_of(st.none(), st.floats(allow_nan=True, allow_infinity=True),
+                     st.floats(width=32).map(np.float32), st.floats().map(np.float64),
+                     st.integers(-2**62, 2**62), st.integers(-2**62, 2**62).map(np.int64),
+                     st.booleans(), st.booleans().map(np.bool_), st.text(max_size=5),
+                     st.just(pd.NA))
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(value=_SCALARS, typ=st.sampled_from([tables.F64, tables.I64, tables.STR, tables.BOOL]),
+       n=st.integers(0, 5))
+def test_a_constant_column_is_the_column_of_its_repeated_value(value, typ, n):
+    """arrow_table repeats a scalar without a Python list: the same column (a null
+    where pa.array(from_pandas) makes one, NaN kept where it keeps it), or the
+    same refusal, as the list [value] * n."""
+    schema = pa.schema([pa.field("c", typ)])
+    try:
+        want = tables.arrow_table({"c": [value] * n}, schema, n)
+    except ValueError:
+        with pytest.raises(ValueError, match="column 'c'"):
+            tables.arrow_table({"c": value}, schema, n)
+        return
+    got = tables.arrow_table({"c": value}, schema, n)
+    assert got.schema.equals(want.schema, check_metadata=True)
+    assert got.column("c").null_count == want.column("c").null_count
+    assert repr(got.column("c").to_pylist()) == repr(want.column("c").to_pylist())
