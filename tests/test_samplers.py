@@ -213,7 +213,26 @@ def test_parameter_columns(drawn):
 from hypothesis import given, settings, strategies as st  # noqa: E402
 
 from robustness import samplers as smp  # noqa: E402
-from robustness.uniforms import uniform_columns  # noqa: E402
+from robustness.uniforms import threefry2x32, uniform_columns  # noqa: E402
+
+
+@settings(max_examples=25, deadline=None)
+@given(k=st.tuples(st.integers(0, 2 ** 32 - 1), st.integers(0, 2 ** 32 - 1)),
+       x=st.lists(st.tuples(st.integers(0, 2 ** 32 - 1), st.integers(0, 2 ** 32 - 1)),
+                  min_size=1, max_size=40))
+def test_threefry_written_out_is_jaxs_primitive(k, x):
+    """The hash round by round gives the bits of JAX's threefry2x32 primitive
+    (the oracle), for any key and counters, eagerly and under jit."""
+    from jax.extend.random import threefry2x32_p
+
+    k1, k2 = (jnp.uint32(v) for v in k)
+    x1, x2 = (jnp.asarray(np.array(c, np.uint32)) for c in zip(*x))
+    want = [np.asarray(w) for w in threefry2x32_p.bind(k1, k2, x1, x2)]
+    for fn in (threefry2x32, jax.jit(threefry2x32)):
+        got = fn(k1, k2, x1, x2)
+        for g, w in zip(got, want):
+            assert g.dtype == jnp.uint32
+            np.testing.assert_array_equal(np.asarray(g), w)
 
 
 @settings(max_examples=15)
