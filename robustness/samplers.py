@@ -656,6 +656,27 @@ def parameter_lists(draws: Draws, *, n_vertices: int, dim: int, n_pushes: int = 
     return out
 
 
+@jax.jit
+def _slip_sums_in_order(slip):
+    x = slip.astype(jnp.float64)
+    return jax.lax.fori_loop(1, x.shape[1], lambda k, acc: acc + x[:, k], x[:, 0])
+
+
+def slip_sums(slip) -> np.ndarray:
+    """``(n, 3)`` sums over the tumbles of the slips ``(n, L, 3)`` (m, m, rad),
+    in float64: the bits of ``np.asarray(slip, np.float64).sum(axis=1)``.
+
+    numpy adds the rows of a C-ordered ``(n, L, 3)`` array one after the other
+    (its reduction loop runs over the contiguous last axis, so no pairwise
+    summation), and so does this compiled loop, without copying the ``(n, L, 3)``
+    slips to the host (4x faster for 200 tumbles); numpy's own sum where 64-bit
+    floats are off in JAX, or for an empty axis.
+    """
+    if not jax.config.jax_enable_x64 or np.shape(slip)[1] == 0 or np.shape(slip)[0] == 0:
+        return np.asarray(slip, dtype=np.float64).sum(axis=1)
+    return np.asarray(_slip_sums_in_order(jnp.asarray(slip)))
+
+
 def parameter_columns(draws: Draws, *, n_vertices: int, dim: int, n_pushes: int = 0,
                       n_tumbles: int = 0,
                       max_pushes: Optional[int] = None, max_tumbles: Optional[int] = None,
@@ -696,13 +717,13 @@ def parameter_columns(draws: Draws, *, n_vertices: int, dim: int, n_pushes: int 
         a = np.asarray(arr, dtype=np.float64)
         for k in range(P):
             cols[f"{name}_p{k}"] = a[:, k] if k < n_pushes else np.full(n, np.nan)
-    sl = np.asarray(e.tumble_slip, dtype=np.float64)
     T = 0 if max_tumbles is None else max_tumbles
     if n_tumbles and n_tumbles <= T:
+        sl = np.asarray(e.tumble_slip, dtype=np.float64)
         for k in range(n_tumbles):
             cols[f"slip_dx_m_t{k}"] = sl[:, k, 0]
             cols[f"slip_dy_m_t{k}"] = sl[:, k, 1]
             cols[f"slip_dtheta_rad_t{k}"] = sl[:, k, 2]
-    tot = sl.sum(axis=1) if n_tumbles else np.zeros((n, 3))
+    tot = slip_sums(e.tumble_slip) if n_tumbles else np.zeros((n, 3))
     cols["slip_sum_dx_m"], cols["slip_sum_dy_m"], cols["slip_sum_dtheta_rad"] = tot[:, 0], tot[:, 1], tot[:, 2]
     return cols

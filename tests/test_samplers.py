@@ -324,3 +324,26 @@ def test_drawn_steps():
     for k in range(1, 3000):
         assert k <= smp.drawn_steps(k) <= smp.steps_bucket(k)
         assert k <= 16 or smp.drawn_steps(k) <= k * 9 // 8 + 1
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(0, 600), L=st.integers(0, 300), f32=st.booleans(),
+       seed=st.integers(0, 2 ** 31 - 1))
+def test_slip_sums_are_numpys_sums_bit_for_bit(n, L, f32, seed):
+    """The compiled in-order sum of the slips gives the bits of numpy's sum over
+    the tumbles (the slip_sum_* columns of every tumble table), for any shape;
+    the values span six decades, so a summation in another order (pairwise,
+    blocked) would show in the last bits."""
+    rng = np.random.default_rng(seed)
+    a = rng.standard_normal((n, L, 3)) * 10.0 ** rng.uniform(-6, 0, (n, L, 3))
+    a = a.astype(np.float32) if f32 else a
+    want = np.asarray(a, np.float64).sum(axis=1)
+    got = smp.slip_sums(jnp.asarray(a))
+    assert got.dtype == np.float64 and got.shape == (n, 3)
+    np.testing.assert_array_equal(got, want)
+
+
+def test_slip_sums_without_x64_are_numpys():
+    a = np.random.default_rng(1).standard_normal((5, 9, 3))
+    with jax.enable_x64(False):
+        np.testing.assert_array_equal(smp.slip_sums(a), a.sum(axis=1))
