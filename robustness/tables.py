@@ -464,7 +464,7 @@ def _column(v, f: pa.Field, n: int) -> pa.Array:
     if not isinstance(v, (list, tuple, np.ndarray)) and np.ndim(v) == 0:   # a constant
         if n == 0:
             return pa.array([], type=f.type)
-        if v is None or v is pd.NA or (isinstance(v, float) and v != v):   # as pa.array(from_pandas)
+        if v is None or v is pd.NA or (isinstance(v, float) and v != v):  # as from_pandas
             return pa.nulls(n, f.type)
         return pa.repeat(pa.scalar(v, type=f.type), n)     # no list of n values
     arr = pa.array(v, type=f.type, from_pandas=True)      # NaN / None / pd.NA are null

@@ -246,8 +246,9 @@ def check_units(design) -> None:
     if n > MAX_UNITS:
         raise ConfigError(f"{design.path}: chunk_samples: the study has {n:,} units of work "
                           f"(sample chunks of chunk_samples samples per configuration and task, "
-                          f"and a summary per configuration), more than the limit of {MAX_UNITS:,}; raise "
-                          "chunk_samples, or sweep fewer configurations or tasks")
+                          f"and a summary per configuration), more than the limit of "
+                          f"{MAX_UNITS:,}; raise chunk_samples, or sweep fewer configurations "
+                          "or tasks")
 
 
 def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:
