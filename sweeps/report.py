@@ -9,6 +9,7 @@ import html
 import pathlib
 
 import jinja2
+import pandas as pd
 
 from robustness import model_for
 from sweeps.parquet import atomic_write
@@ -64,13 +65,17 @@ def write_report(store, design) -> pathlib.Path:
     from sweeps.figures import study as figs
     from sweeps.work import swept_fields
 
-    summary, plans, samples = store.read("summary"), store.read("plans"), store.read("samples")
     top = design.top
     kind = top.kind
+    cols = [f.name for f in swept_fields(design)]
+    # of the samples, only what the error figure draws (a study's samples table can be
+    # larger than memory; every other figure reads the summary and plans)
+    summary, plans = store.read("summary"), store.read("plans")
+    samples = (store.read("samples", columns=["config_id", *cols, "err_pos_m"]) if kind == "push"
+               else pd.DataFrame())
     for df in (summary, plans, samples):
         if "config_id" in df:
             df["config_id"] = df["config_id"].astype(int)
-    cols = [f.name for f in swept_fields(design)]
     labels = [", ".join(figs.fmt(pt[p]) for p in design.paths) or f"config {i}"
               for i, pt in enumerate(design.points)]
     long_labels = [", ".join(f"{p}={figs.fmt(pt[p])}" for p in design.paths) or f"config {i}"

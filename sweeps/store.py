@@ -161,14 +161,16 @@ class RunStore:
         write_table(df, path, schema, text, self.manifest["seed"], table)
         return path
 
-    def read(self, table: str, config_id: Optional[int] = None) -> pd.DataFrame:
-        """A table (or one configuration's part of it) as one frame."""
+    def read(self, table: str, config_id: Optional[int] = None,
+             columns: Optional[list] = None) -> pd.DataFrame:
+        """A table (or one configuration's part of it) as one frame (only
+        ``columns``, the partition's ``config_id`` among them, if given)."""
         folder = self.root / table
         if config_id is not None:
             folder = folder / f"config_id={int(config_id):05d}"
         if not folder.exists():
             return pd.DataFrame()
-        return pd.read_parquet(folder)
+        return pd.read_parquet(folder, columns=columns)
 
 
 def manifest_for(run_id: str, study: str, config_text: str, seed: int, design: dict,

@@ -403,7 +403,7 @@ def test_a_killed_dask_worker_loses_and_duplicates_nothing(reference, tmp_path):
 
 
 @pytest.mark.slow
-def test_report_is_self_contained(tmp_path):
+def test_report_is_self_contained(tmp_path, monkeypatch):
     p = _study(tmp_path, TINY.replace("report: false", "report: true").replace("samples: 24", "samples: 8"))
     out = tmp_path / "out"
     r = nudge("sweep", p, "--out", out, "--quiet")
@@ -412,6 +412,28 @@ def test_report_is_self_contained(tmp_path):
     assert html.count("data:image/png;base64,") >= 4
     assert "http://" not in html and "https://" not in html and "<script" not in html
     assert "alt=\"success vs planner.margin_deg\"" in html
+    # of the samples the report reads only what its error figure draws, and it is the
+    # report that the whole table gives
+    from sweeps.report import write_report
+    from sweeps.store import RunStore
+
+    store = RunStore(out, json.loads((out / "manifest.json").read_text()))
+    design = load_design(str(p), [])
+    real, asked = RunStore.read, []
+
+    def spy(self, table, config_id=None, columns=None):
+        asked.append((table, columns))
+        return real(self, table, config_id, columns)
+
+    monkeypatch.setattr(RunStore, "read", spy)
+    write_report(store, design)
+    assert [c for t, c in asked if t == "samples"] == [["config_id", "planner_margin_deg",
+                                                         "err_pos_m"]]
+    assert (out / "report.html").read_text() == html
+    monkeypatch.setattr(RunStore, "read", lambda self, table, config_id=None, columns=None:
+                        real(self, table, config_id))
+    write_report(store, design)
+    assert (out / "report.html").read_text() == html
 
 
 # ---------------------------------------------------------------- bundled studies
