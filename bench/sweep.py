@@ -8,7 +8,8 @@ Usage::
 
     python bench/sweep.py [--study margins.yaml] [--set PATH=VALUE ...] [--repeat 2] [--no-dask]
 
-Every timed pass runs after a warm-up pass of the same kind, so JAX compilation
+The direct and runner passes alternate (the best of each is kept).  Every
+timed pass runs after a warm-up pass of the same kind, so JAX compilation
 (cached in memory and on disk) is not counted; the runner's own per-process
 caches (plans, the unpacked design) are emptied before each pass, here and in a
 warm cluster's workers, as in a fresh ``python -m sweeps.run``; the report is not
@@ -22,6 +23,7 @@ does).
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import pathlib
 import sys
@@ -128,10 +130,14 @@ def main() -> int:
     n_configs = len(design.configs)
     print(f"study {design.name}: {n_configs} configurations x {len(design.tasks(0))} tasks, "
           f"{n_samples} samples in {len(blocks)} chunks")
-    direct(design)                       # warm-up: compilations, plans cached per process
-    t_direct = min(_timed(lambda: direct(design)) for _ in range(args.repeat))
+    direct(design)                       # warm-up: compilations
     runner(design, "local")              # warm-up of the runner's own path
-    t_local = min(runner(design, "local") for _ in range(args.repeat))
+    # the two alternate, so that a change in the machine's load between passes
+    # (this 2-core machine's speed moves by 20-40 % within minutes) falls on both
+    t_direct = t_local = math.inf
+    for _ in range(args.repeat):
+        t_direct = min(t_direct, _timed(lambda: direct(design)))
+        t_local = min(t_local, runner(design, "local"))
     t_dask = float("nan")
     t_dask_cold = float("nan")
     if not args.no_dask:

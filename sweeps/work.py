@@ -83,6 +83,8 @@ class Loaded:
         self.design = Design(pathlib.Path(ctx.config_path), json.loads(ctx.doc_json))
         self.store = RunStore(pathlib.Path(ctx.root), json.loads(ctx.manifest_json))
         self.swept = swept_fields(self.design)
+        self._plan_keys: dict = {}
+        self._schemas: dict = {}
 
     def plan(self, config_id: int, task_index: int):
         """``(plan or None, reason, warnings)`` of a task under a configuration
@@ -98,9 +100,11 @@ class Loaded:
         cfg = self.design.configs[config_id]
         name, start, goal = self.design.tasks(config_id)[task_index]
         part = self.design.part(config_id)
-        key = json.dumps([part.vertices.tolist(), None if part.com is None else part.com.tolist(),
-                          start, goal, cfg.planner.model_dump(), cfg.eps.model_dump()],
-                         sort_keys=True)
+        key = self._plan_keys.get((config_id, task_index))
+        if key is None:
+            key = self._plan_keys[config_id, task_index] = json.dumps(
+                [part.vertices.tolist(), None if part.com is None else part.com.tolist(), start,
+                 goal, cfg.planner.model_dump(), cfg.eps.model_dump()], sort_keys=True)
         try:
             out = _plan_cached(key, part, start, goal, cfg.planner, cfg.eps)
             if out[0] is not None and cfg.synthesize is not None and cfg.synthesize.enabled:
@@ -136,7 +140,10 @@ class Loaded:
                 for path, f in zip(self.design.paths, self.swept)}
 
     def schema(self, table: str) -> pa.Schema:
-        return tables.with_design(tables.schema_for(table), self.swept)
+        """The schema of ``table`` with the study's swept columns."""
+        if table not in self._schemas:
+            self._schemas[table] = tables.with_design(tables.schema_for(table), self.swept)
+        return self._schemas[table]
 
 
 _PLANS: dict = {}
