@@ -371,6 +371,16 @@ def pack_samples(samples: pd.DataFrame, param_columns: Sequence[str]) -> pd.Data
 # --------------------------------------------------------------------------
 # Conforming data to a schema
 # --------------------------------------------------------------------------
+def _check_columns(cols: Iterable[str], schema: pa.Schema) -> None:
+    """Refuse column names that are not the schema's (any order): the error
+    names the missing ones (schema order) and the unexpected ones."""
+    names, have = schema.names, set(cols)
+    if have != set(names):
+        missing = [c for c in names if c not in have]
+        extra = [c for c in cols if c not in set(names)]
+        raise ValueError(f"columns do not match the schema: missing {missing}, unexpected {extra}")
+
+
 def to_arrow(df_or_table: Union[pd.DataFrame, pa.Table], schema: pa.Schema) -> pa.Table:
     """Conform a frame or table to ``schema``: the same columns (a missing or an
     unexpected column is an error naming it), in the schema's order, cast to
@@ -384,11 +394,7 @@ def to_arrow(df_or_table: Union[pd.DataFrame, pa.Table], schema: pa.Schema) -> p
     else:
         raise TypeError(f"expected a pandas DataFrame or a pyarrow Table, got "
                         f"{type(df_or_table).__name__}")
-    names, have = schema.names, set(cols)
-    missing = [c for c in names if c not in have]
-    extra = [c for c in cols if c not in set(names)] if len(have) != len(names) or missing else []
-    if missing or extra:
-        raise ValueError(f"columns do not match the schema: missing {missing}, unexpected {extra}")
+    _check_columns(cols, schema)
     if isinstance(df_or_table, pa.Table):
         t = df_or_table.select(schema.names)
         if t.schema.equals(schema, check_metadata=False):
@@ -499,12 +505,7 @@ def arrow_table(columns: Mapping[str, Any], schema: pa.Schema, n: Optional[int] 
       ValueError: a column that does not fit its type, or a null in a
         not-null field.
     """
-    names = schema.names
-    if len(columns) != len(names) or not all(c in columns for c in names):
-        known = set(names)
-        missing = [c for c in names if c not in columns]
-        extra = [c for c in columns if c not in known]
-        raise ValueError(f"columns do not match the schema: missing {missing}, unexpected {extra}")
+    _check_columns(columns, schema)
     if n is None:
         n = next((len(v) for v in columns.values() if np.ndim(v) >= 1 or isinstance(v, (list, tuple))), 1)
     arrays = []
