@@ -307,7 +307,8 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
                                keep_support=model in ("mujoco", "limit_surface"), **shape)
     else:
         shape = dict(n_vertices=m, dim=3, n_tumbles=plan.n_tumbles)
-        draws = sampler.sample(key, n, dtype=jnp.float64, **shape)
+        # the replay and the columns read the plan's tumbles of the drawn ones (no copy)
+        draws = sampler.sample(key, n, dtype=jnp.float64, exact_steps=model == "mujoco", **shape)
     if model == "mujoco":
         from robustness.physics.settings import check_pad_friction
 

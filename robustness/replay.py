@@ -88,7 +88,8 @@ class TumbleNominal:
     """A tumble plan's numbers: the nominal vertices ``V0`` (m, the kernels'
     dtype; ``V64`` in float64 for the hull check), ``com0``, the face frames
     (``origins``, ``xaxes``), the start configuration, the start and final
-    faces, and ``idx`` the directed edge of every (padded) step."""
+    faces, ``idx`` the directed edge of every (padded) step and ``n_steps``
+    the plan's tumbles (the steps from it on are no-ops without a slip)."""
 
     V0: jax.Array
     com0: jax.Array
@@ -99,6 +100,7 @@ class TumbleNominal:
     final_face: jax.Array
     idx: jax.Array
     V64: jax.Array
+    n_steps: jax.Array
 
 
 @jax.tree_util.register_dataclass
@@ -106,7 +108,8 @@ class TumbleNominal:
 class TumbleSamples:
     """Per-sample perturbations of a tumble plan: vertex (``dv``; ``dv64`` in
     float64) and centre-of-mass offsets (m), start error (m, rad), the slip
-    after every (padded) tumble (m, m, rad)."""
+    after every step (m, m, rad; a step past the plan's tumbles ignores its
+    slip)."""
 
     dv: jax.Array
     dc: jax.Array
@@ -505,14 +508,24 @@ def _tumble_block(nom: dict, q: dict, topology, slip_series: bool):
     function), on rows of samples laid out contiguously.  ``slip_series``:
     every rotational slip is at most ``SLIP_SERIES_MAX`` (static; the tolerance
     bounds it), so its cosine and sine come from a series.
+
+    The walk has ``W`` steps (the slips' columns); the plan's ``nom.n_steps``
+    come first, the rest are no-ops whose slips are zeroed.  The two sums
+    over the slips run over the walk zero-padded to a power of two (>= 16),
+    so their bits depend only on the power of two ``W`` falls in, which for
+    the draws of a plan's own length is the plan's (XLA sums a row of 256 in
+    another order than a row of 208); on draws for a longer plan they can
+    differ in the last bits.
     """
     from kernels import tumble_geometry
 
     geom = jax.vmap(lambda v, c: tumble_geometry(v, c, topology))(nom.V0 + q.dv, nom.com0 + q.dc)
     ec, es, ex, ey = _edge_motions(geom.corners_2d, topology)
     idx = nom.idx
-    slip = q.slip
-    dth = slip[:, :, 2].T                                         # (L, B)
+    W = q.slip.shape[1]
+    live = jnp.arange(W) < nom.n_steps
+    slip = jnp.where(live[None, :, None], q.slip, jnp.zeros((), q.slip.dtype))
+    dth = slip[:, :, 2].T                                         # (W, B)
     sc, ss = _cos_sin_small(dth) if slip_series else (jnp.cos(dth), jnp.sin(dth))
     c1, s1 = ec[:, idx].T, es[:, idx].T                            # (L, B): the step's motion
     rows = (c1 * sc - s1 * ss, s1 * sc + c1 * ss, ex[:, idx].T, ey[:, idx].T)
@@ -539,9 +552,10 @@ def _tumble_block(nom: dict, q: dict, topology, slip_series: bool):
         xy_ref = xy + rot2(th) @ qf
         return xy_ref[0], xy_ref[1], wrap_angle(th + phif)
 
-    x, y, th = jax.vmap(finish)(geom, q.start, jnp.sum(slip[:, :, :2], axis=1), C, S, X, Y)
+    padded = _pad_axis(slip[:, :, :2], _bucket(W, 16))
+    x, y, th = jax.vmap(finish)(geom, q.start, jnp.sum(padded, axis=1), C, S, X, Y)
     return TumbleReplay(x=x, y=y, theta=th,
-                        slip=jnp.sum(jnp.linalg.norm(slip[:, :, :2], axis=-1), axis=1))
+                        slip=jnp.sum(jnp.linalg.norm(padded, axis=-1), axis=1))
 
 
 @functools.partial(jax.jit, static_argnames=("topology", "check", "slip_series"))
@@ -573,12 +587,12 @@ def _nominal_polyhedron(vertices: tuple, com: tuple, tau_v):
         return make_polyhedron(np.asarray(vertices), np.asarray(com), tau_v=tau_v)
 
 
-def _tumble_nominal_of(plan, poly, Lp: int, dtype) -> tuple:
+def _tumble_nominal_of(plan, poly, W: int, dtype) -> tuple:
     """``(TumbleNominal, final face, every step valid)`` of a plan, its walk
-    padded to ``Lp`` steps (no-ops)."""
+    padded to ``W`` steps (no-ops)."""
     topo = poly.topology
     idx, final_face, ok = _tumble_walk(plan, topo)
-    seq = np.full(Lp, topo.n_faces * topo.max_face_size, np.int32)
+    seq = np.full(W, topo.n_faces * topo.max_face_size, np.int32)
     seq[:len(idx)] = idx
     nom = TumbleNominal(V0=jnp.asarray(poly.vertices, dtype), com0=jnp.asarray(poly.com, dtype),
                         origins=jnp.asarray(poly.face_origins, dtype),
@@ -586,21 +600,41 @@ def _tumble_nominal_of(plan, poly, Lp: int, dtype) -> tuple:
                         start=jnp.asarray(plan.start[:3], dtype),
                         start_face=jnp.asarray(int(plan.start[3]), jnp.int32),
                         final_face=jnp.asarray(final_face, jnp.int32), idx=jnp.asarray(seq),
-                        V64=jnp.asarray(poly.vertices, jnp.float64))
+                        V64=jnp.asarray(poly.vertices, jnp.float64),
+                        n_steps=jnp.asarray(len(idx), jnp.int32))
     return nom, final_face, ok
 
 
-def _tumble_samples_of(draws, Lp: int, dtype) -> TumbleSamples:
-    """The draws as per-sample :class:`TumbleSamples` rows (slips padded to ``Lp``)."""
+def _walk_width(draws, n_tumbles: int, plan: str = "the plan") -> int:
+    """Steps of the compiled walk for a plan of ``n_tumbles`` (the longest of
+    several) on ``draws``: the columns of slips the sampler draws for it
+    (:func:`robustness.samplers.drawn_steps`, >= 16), so the draws of
+    ``Sampler.sample(exact_steps=False)`` go in as they are, and plans whose
+    lengths share a compiled sampler share a compiled replay."""
+    from robustness.samplers import drawn_steps
+
+    sl, axis = draws.params.execution.tumble_slip, draws.in_axes.execution.tumble_slip
+    width = np.shape(sl)[-2] if axis == 0 else 0
+    if width and width < n_tumbles:
+        raise ValueError(f"draws: carry {width} tumbles, {plan} has {n_tumbles} (draw with "
+                         f"n_tumbles={n_tumbles})")
+    return max(16, drawn_steps(max(n_tumbles, width)))
+
+
+def _tumble_samples_of(draws, W: int, dtype) -> TumbleSamples:
+    """The draws as per-sample :class:`TumbleSamples` rows (slips zero-padded,
+    or cut, to ``W`` steps)."""
     rows_of = draws.rows
     g, e = draws.params.geometry, draws.params.execution
     ga, ea = draws.in_axes.geometry, draws.in_axes.execution
     dv64 = rows_of(g.vertex_offset, ga.vertex_offset).astype(jnp.float64)
+    slip = rows_of(e.tumble_slip, ea.tumble_slip)
+    if slip.shape[1] < W:   # W >= the draws' columns (_walk_width)
+        slip = _pad_axis(slip, W)
     return TumbleSamples(dv=dv64.astype(dtype),
                          dc=rows_of(g.com_offset, ga.com_offset).astype(dtype),
                          start=rows_of(e.start_offset, ea.start_offset).astype(dtype),
-                         slip=_pad_axis(rows_of(e.tumble_slip, ea.tumble_slip), Lp).astype(dtype),
-                         dv64=dv64)
+                         slip=slip.astype(dtype), dv64=dv64)
 
 
 def _host_hull_check(poly, changed, undecided, dv64, merge_tol) -> np.ndarray:
@@ -620,10 +654,10 @@ def run_tumble(plan, draws, dtype, chunk, merge_tol=None, slip_theta=math.inf):
     ``slip_theta``: a bound on the rotational slips (rad; the tolerance)."""
     poly = tumble_nominal(plan)
     topo = poly.topology
-    Lp = _bucket(plan.n_tumbles, 16)
-    nom, final_face, ok = _tumble_nominal_of(plan, poly, Lp, dtype)
+    W = _walk_width(draws, plan.n_tumbles)
+    nom, final_face, ok = _tumble_nominal_of(plan, poly, W, dtype)
     n = draws.n
-    rows = _tumble_samples_of(draws, Lp, dtype)
+    rows = _tumble_samples_of(draws, W, dtype)
     check = merge_tol is not None
     tol = jnp.asarray(0.0 if merge_tol is None else merge_tol, jnp.float64)
     res = _run_chunks(_tumble_batch, nom, rows, n, chunk, tol, topo, check,
@@ -672,19 +706,14 @@ def run_tumble_many(plans, draws, dtype, chunk: int = 4096, merge_tol=None,
     poly = tumble_nominal(ref)
     topo = poly.topology
     L = max(pl.n_tumbles for pl in plans)
-    sl = draws.params.execution.tumble_slip
-    width = np.shape(sl)[-2] if draws.in_axes.execution.tumble_slip == 0 else 0
-    if width and width < L:
-        raise ValueError(f"draws: carry {width} tumbles, the longest plan has {L} (draw with "
-                         f"n_tumbles={L})")
-    Lp = _bucket(max(L, width), 16)
+    W = _walk_width(draws, L, "the longest plan")
     K = len(plans)
-    walks = [_tumble_nominal_of(pl, poly, Lp, dtype) for pl in plans]
+    walks = [_tumble_nominal_of(pl, poly, W, dtype) for pl in plans]
     noms = [w[0] for w in walks]
     noms += [noms[0]] * (_bucket(K, 1) - K)
     noms = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *noms)
     n = draws.n
-    rows = _tumble_samples_of(draws, Lp, dtype)
+    rows = _tumble_samples_of(draws, W, dtype)
     res = _run_chunks(_tumble_batch_many, noms, rows, n, chunk, topo,
                       bool(slip_theta <= SLIP_SERIES_MAX), sample_axis=1)
     res = jax.tree_util.tree_map(lambda x: x[:K], res)

@@ -577,14 +577,20 @@ class Sampler:
 
     @float64
     def sample(self, key, n: int, *, n_vertices: int, dim: int, n_pushes: int = 0,
-               n_tumbles: int = 0, body=None, dtype=jnp.float64, keep_support: bool = True):
+               n_tumbles: int = 0, body=None, dtype=jnp.float64, keep_support: bool = True,
+               exact_steps: bool = True):
         """Draw ``n`` perturbations (:class:`Draws`).
 
         ``body``: the nominal body-frame polygon for the support points (push
         parts), ``None`` for tumbled polyhedra.  ``keep_support=False``: return
         the sampled ``c`` but not the support points and weights it came from
         (unbatched placeholders; the same draws, less memory: the evaluation
-        uses only ``c``).
+        uses only ``c``).  ``exact_steps=False``: the per-push and per-tumble
+        fields keep every column the sampler drew (:func:`drawn_steps`, at
+        least the plan's steps: the first ones are the same numbers, the rest
+        are draws no step uses) instead of a copy cut to the plan's length;
+        for consumers that take only the plan's steps
+        (:func:`robustness.replay.run_tumble`, :func:`parameter_columns`).
         """
         dt = _dtype(dtype)
         has_body = body is not None
@@ -599,7 +605,7 @@ class Sampler:
         draws = Draws(jitted(key, b, vals), box["axes"], N)
         if N != n:
             draws = draws.slice(0, n)
-        if (Pd, Ld) != (P, L):
+        if exact_steps and (Pd, Ld) != (P, L):
             draws = _cut_steps(draws, P, L)
         return draws
 
@@ -657,14 +663,15 @@ def parameter_lists(draws: Draws, *, n_vertices: int, dim: int, n_pushes: int = 
 
 
 @jax.jit
-def _slip_sums_in_order(slip):
+def _slip_sums_in_order(slip, k):
     x = slip.astype(jnp.float64)
-    return jax.lax.fori_loop(1, x.shape[1], lambda k, acc: acc + x[:, k], x[:, 0])
+    return jax.lax.fori_loop(1, k, lambda i, acc: acc + x[:, i], x[:, 0])
 
 
-def slip_sums(slip) -> np.ndarray:
-    """``(n, 3)`` sums over the tumbles of the slips ``(n, L, 3)`` (m, m, rad),
-    in float64: the bits of ``np.asarray(slip, np.float64).sum(axis=1)``.
+def slip_sums(slip, k: Optional[int] = None) -> np.ndarray:
+    """``(n, 3)`` sums over the first ``k`` tumbles (default all) of the slips
+    ``(n, L, 3)`` (m, m, rad), in float64: the bits of
+    ``np.asarray(slip, np.float64)[:, :k].sum(axis=1)``.
 
     numpy adds the rows of a C-ordered ``(n, L, 3)`` array one after the other
     (its reduction loop runs over the contiguous last axis, so no pairwise
@@ -672,9 +679,13 @@ def slip_sums(slip) -> np.ndarray:
     slips to the host (4x faster for 200 tumbles); numpy's own sum where 64-bit
     floats are off in JAX, or for an empty axis.
     """
-    if not jax.config.jax_enable_x64 or np.shape(slip)[1] == 0 or np.shape(slip)[0] == 0:
-        return np.asarray(slip, dtype=np.float64).sum(axis=1)
-    return np.asarray(_slip_sums_in_order(jnp.asarray(slip)))
+    L = np.shape(slip)[1]
+    k = L if k is None else int(k)
+    if not 0 <= k <= L:
+        raise ValueError(f"k: expected 0..{L} tumbles, got {k}")
+    if not jax.config.jax_enable_x64 or k == 0 or np.shape(slip)[0] == 0:
+        return np.asarray(slip, dtype=np.float64)[:, :k].sum(axis=1)
+    return np.asarray(_slip_sums_in_order(jnp.asarray(slip), jnp.asarray(k, jnp.int32)))
 
 
 def parameter_columns(draws: Draws, *, n_vertices: int, dim: int, n_pushes: int = 0,
@@ -691,7 +702,9 @@ def parameter_columns(draws: Draws, *, n_vertices: int, dim: int, n_pushes: int 
     ``slip_dx_m_t{k}`` / ``slip_dy_m_t{k}`` / ``slip_dtheta_rad_t{k}``
     (tumble slips are summarised as their sums ``slip_sum_*`` when there are
     more than ``max_tumbles`` tumbles; ``max_tumbles`` defaults to 0: sums
-    only).  Per-push columns are padded with NaN up to ``max_pushes``.
+    only).  Per-push columns are padded with NaN up to ``max_pushes``.  The
+    draws' per-step fields may carry more columns than ``n_pushes`` /
+    ``n_tumbles`` (``Sampler.sample(exact_steps=False)``): only the plan's are read.
     """
     p, n = draws.broadcast(), draws.n
     g, f, e = p.geometry, p.friction, p.execution
@@ -724,6 +737,6 @@ def parameter_columns(draws: Draws, *, n_vertices: int, dim: int, n_pushes: int 
             cols[f"slip_dx_m_t{k}"] = sl[:, k, 0]
             cols[f"slip_dy_m_t{k}"] = sl[:, k, 1]
             cols[f"slip_dtheta_rad_t{k}"] = sl[:, k, 2]
-    tot = slip_sums(e.tumble_slip) if n_tumbles else np.zeros((n, 3))
+    tot = slip_sums(e.tumble_slip, n_tumbles) if n_tumbles else np.zeros((n, 3))
     cols["slip_sum_dx_m"], cols["slip_sum_dy_m"], cols["slip_sum_dtheta_rad"] = tot[:, 0], tot[:, 1], tot[:, 2]
     return cols

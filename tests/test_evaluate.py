@@ -1,4 +1,5 @@
 """Monte-Carlo evaluation of push and tumble plans."""
+import dataclasses
 import warnings
 
 import jax
@@ -262,6 +263,75 @@ def test_tumble_replay_is_the_kernels(tumble_plan, series):
     dth = np.abs((got[:, 2] - np.asarray(want)[:, 2] + np.pi) % (2 * np.pi) - np.pi)
     assert np.max(np.abs(got[:, :2] - np.asarray(want)[:, :2])) < 1e-13 and np.max(dth) < 1e-13
     assert np.ptp(got[:, 0]) > 1e-4   # the perturbations do move the part
+
+
+def _walk_plan(k, seed=0):
+    """A ``k``-tumble random walk on the IRREG polyhedron (its goal: where it ends)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PartWarning)
+        P = make_polyhedron(IRREG, IRREG_COM)
+    rng = np.random.default_rng(seed)
+    faces = [0]
+    for _ in range(k):
+        faces.append(int(rng.choice(P.neighbors(faces[-1]))))
+    with jax.enable_x64(True):
+        fin, ok = replay(P.geometry(jnp.float64), make_config(0.0, 0.0, 0.0, 0),
+                         jnp.asarray(faces[1:]))
+    pf = (float(fin.xy[0]), float(fin.xy[1]), float(fin.theta), int(fin.face))
+    return TumblePlan(vertices=tuple(map(tuple, P.vertices.tolist())), com=tuple(P.com.tolist()),
+                      start=(0.0, 0.0, 0.0, 0), goal=pf, eps=1e-3, tau_v=0.0, tau_g=None,
+                      tumbles=tuple(Tumble(edge=P.shared_edge(a, b), face=b)
+                                    for a, b in zip(faces[:-1], faces[1:])),
+                      predicted_final=pf, error=0.0, bounds={}, verdict="solved", reason="test",
+                      reachable_class="dense", n_tumbles_paper=k)
+
+
+@pytest.mark.float64
+def test_tumble_steps_past_a_plan_slip_nothing():
+    """A plan replayed on draws for more tumbles (robust synthesis scores plans of several
+    lengths on one set of draws; evaluate() keeps every column the sampler drew) sees
+    its own tumbles' slips and no more: bit for bit its replay on draws cut to its
+    length, alone or beside longer plans, and the slip sums of the columns likewise (the
+    replay's summed slip to the last bits where the draws' columns fall in another power
+    of two than the plan's)."""
+    from robustness import samplers
+
+    s = Sampler(GeometryTolerance(tau_v=1e-4),
+                execution=ExecutionTolerance(tumble_slip_xy=2e-4, tumble_slip_theta=0.02))
+    long = _walk_plan(21)          # drawn_steps(21) = 22: one column past the plan
+    plans = [long] + [_first_tumbles(long, k) for k in (20, 9, 3)]
+    m = len(long.vertices)
+    wide = s.sample(jax.random.key(5), N, n_vertices=m, dim=3, n_tumbles=21, exact_steps=False)
+    assert wide.params.execution.tumble_slip.shape[1] == samplers.drawn_steps(21) == 22
+
+    def cut(draws, k):
+        e = draws.params.execution
+        return dataclasses.replace(draws, params=dataclasses.replace(
+            draws.params, execution=dataclasses.replace(e, tumble_slip=e.tumble_slip[:, :k])))
+
+    fields = ("x", "y", "theta", "slip")
+    many = batches.run_tumble_many(plans, wide, jnp.float64, 16, slip_theta=0.02)
+    for i, pl in enumerate(plans):
+        k = pl.n_tumbles
+        _, ref = batches.run_tumble(pl, cut(wide, k), jnp.float64, 16, slip_theta=0.02)
+        _, got = batches.run_tumble(pl, wide, jnp.float64, 16, slip_theta=0.02)
+        same_bucket = batches._bucket(k, 16) == batches._bucket(22, 16)
+        for f in fields:
+            for r in (got, jax.tree_util.tree_map(lambda x: x[i], many)):
+                if f == "slip" and not same_bucket:
+                    np.testing.assert_allclose(r.slip, ref.slip, rtol=1e-14, err_msg=str(k))
+                else:
+                    np.testing.assert_array_equal(getattr(r, f), getattr(ref, f),
+                                                  err_msg=f"{k} {f}")
+        assert np.all(ref.slip > 0)
+        cols = [samplers.parameter_columns(d, n_vertices=m, dim=3, n_tumbles=k)
+                for d in (cut(wide, k), wide)]
+        for name in ("slip_sum_dx_m", "slip_sum_dy_m", "slip_sum_dtheta_rad"):
+            np.testing.assert_array_equal(cols[1][name], cols[0][name], err_msg=name)
+    # the exact draws are the wide ones cut: the plan's numbers do not depend on the layout
+    exact = s.sample(jax.random.key(5), N, n_vertices=m, dim=3, n_tumbles=21)
+    np.testing.assert_array_equal(exact.params.execution.tumble_slip,
+                                  wide.params.execution.tumble_slip[:, :21])
 
 
 def test_tumble_hull_check_is_the_host_reference(tumble_plan):

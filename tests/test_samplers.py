@@ -328,10 +328,11 @@ def test_drawn_steps():
 
 @settings(max_examples=40, deadline=None)
 @given(n=st.integers(0, 600), L=st.integers(0, 300), f32=st.booleans(),
-       seed=st.integers(0, 2 ** 31 - 1))
-def test_slip_sums_are_numpys_sums_bit_for_bit(n, L, f32, seed):
+       seed=st.integers(0, 2 ** 31 - 1), data=st.data())
+def test_slip_sums_are_numpys_sums_bit_for_bit(n, L, f32, seed, data):
     """The compiled in-order sum of the slips gives the bits of numpy's sum over
-    the tumbles (the slip_sum_* columns of every tumble table), for any shape;
+    the tumbles (the slip_sum_* columns of every tumble table), for any shape and
+    over the first k tumbles (draws that carry more columns than the plan's);
     the values span six decades, so a summation in another order (pairwise,
     blocked) would show in the last bits."""
     rng = np.random.default_rng(seed)
@@ -341,9 +342,15 @@ def test_slip_sums_are_numpys_sums_bit_for_bit(n, L, f32, seed):
     got = smp.slip_sums(jnp.asarray(a))
     assert got.dtype == np.float64 and got.shape == (n, 3)
     np.testing.assert_array_equal(got, want)
+    k = data.draw(st.integers(0, L))
+    np.testing.assert_array_equal(smp.slip_sums(jnp.asarray(a), k),
+                                  np.asarray(a, np.float64)[:, :k].sum(axis=1))
 
 
 def test_slip_sums_without_x64_are_numpys():
     a = np.random.default_rng(1).standard_normal((5, 9, 3))
     with jax.enable_x64(False):
         np.testing.assert_array_equal(smp.slip_sums(a), a.sum(axis=1))
+        np.testing.assert_array_equal(smp.slip_sums(a, 4), a[:, :4].sum(axis=1))
+    with pytest.raises(ValueError, match="k: expected 0..9"):
+        smp.slip_sums(a, 10)

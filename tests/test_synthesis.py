@@ -216,6 +216,24 @@ def test_tumble_candidates_are_scored_like_evaluate_and_ties_go_to_the_smaller_b
     longest = int(np.argmax([c.plan.n_tumbles for c in cands]))
     ev = evaluate(cands[longest].plan, sampler, 300, jax.random.key(0), **eps, summary=False)
     assert np.array_equal(ev.columns["success"], s.success[longest])
+    # every candidate, the shorter ones too: its tumbles see the first of the same slips
+    # and no more (a step past a plan's tumbles is a no-op without a slip)
+    lengths = {c.plan.n_tumbles for c in cands}
+    assert len(lengths) >= 2
+    with jax.enable_x64(True):
+        from robustness.hulls import face_merge_tol
+        from robustness.replay import run_tumble
+
+        draws = sampler.sample(jax.random.key(0), 300, dtype=jnp.float64,
+                               n_vertices=len(part.vertices), dim=3, n_tumbles=max(lengths))
+        v = np.asarray(cands[0].plan.vertices)
+        tol = face_merge_tol(5e-5, float(np.max(np.linalg.norm(v[:, None] - v[None], axis=-1))))
+        for i, c in enumerate(cands):
+            _, r = run_tumble(c.plan, draws, jnp.float64, 4096, merge_tol=tol,
+                              slip_theta=2e-4)
+            _, _, _, ep, et = goal_errors(r.x, r.y, r.theta, c.plan.goal)
+            ok = kinematic_success(~r.changed, ep, et, **eps) & (r.face == goal[3])
+            assert np.array_equal(ok, s.success[i]), i
     assert np.all(np.isfinite(s.bound_position_m)) and np.array_equal(s.cost, s.bound_position_m)
     k = s.n_success
     tied = [i for i in range(len(k)) if k[i] >= k.max() - 1]
