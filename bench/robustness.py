@@ -31,8 +31,10 @@ asked for in issue 11 were not taken).
    planar slip after every tumble.  "bare kernel": ``jax.vmap(kernels.tumble.replay)``
    over prebuilt geometries (no slip, no frames); "replay in evaluate": the
    evaluation's compiled replay (geometry per sample, slips, nominal-frame
-   conversions; edge motions composed as 2x2 rotations), without and with the
-   combinatorics check of every perturbed hull; "evaluate()": the whole call
+   conversions; edge motions composed as 2x2 rotations; on the draws as
+   evaluate() takes them, the 208 slip columns the sampler computes walked as
+   they are), without and with the combinatorics check of every perturbed
+   hull; "evaluate()": the whole call
    with the vertex tolerance, in samples/s.  numpy: the oracle
    ``oracles/tumble_numpy.py`` (3-D rotations, no slip) per sample.
 3. **Hull check** of the 200-tumble part's perturbed hulls: the JAX check
@@ -232,8 +234,9 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
     P, plan = tumble_plan_200()
     rows = []
     steps = n * TUMBLE_LEN
+    # as evaluate() draws them: every slip column the sampler computes (208), no cut copy
     draws = TUMBLE_SAMPLER.sample(jax.random.key(0), n, n_vertices=len(plan.vertices),
-                                  dim=3, n_tumbles=TUMBLE_LEN)
+                                  dim=3, n_tumbles=TUMBLE_LEN, exact_steps=False)
     jax.block_until_ready(draws.params)
     V = np.asarray(P.vertices)[None] + np.asarray(draws.params.geometry.vertex_offset)
     diam = float(np.max(np.linalg.norm(P.vertices[:, None] - P.vertices[None], axis=-1)))
@@ -284,7 +287,8 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
     # random stream (and so every table) stays what it is
     def draw_only():
         return jax.block_until_ready(TUMBLE_SAMPLER.sample(
-            jax.random.key(1), n, n_vertices=len(plan.vertices), dim=3, n_tumbles=TUMBLE_LEN).params)
+            jax.random.key(1), n, n_vertices=len(plan.vertices), dim=3, n_tumbles=TUMBLE_LEN,
+            exact_steps=False).params)
 
     draw_only()
     full["draws_rate"] = n / best_of(draw_only, repeat)
