@@ -114,14 +114,15 @@ def describe_design(design, out: pathlib.Path, spec) -> str:
     """The ``--dry-run`` text: configurations, tasks, samples, chunks, estimate."""
     from sweeps.work import plan_units
 
-    blocks, summaries = plan_units(design, {})
+    blocks, _ = plan_units(design, {})
     n_samples = sum(u.samples for u in blocks)
+    pairs = sum(len(design.tasks(cid)) for cid in range(len(design.configs)))
     lines = [f"study {design.name} ({design.top.kind}), run {design.run_id} -> {out}",
              f"part: {design.part(0).name} ({design.part(0).kind}, from "
              f"{design.part(0).source_label}); executor: {spec.kind}"
              + (f" ({spec.workers} workers)" if spec.kind == "dask" and not spec.address else ""),
              f"{len(design.configs)} configuration(s) x {len(design.tasks(0))} task(s) = "
-             f"{len(summaries)} (configuration, task) pairs; {n_samples} samples in "
+             f"{pairs} (configuration, task) pairs; {n_samples} samples in "
              f"{len(blocks)} chunk(s)"]
     if design.paths:
         lines.append("swept: " + ", ".join(
@@ -167,7 +168,7 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
                             config_as_run=design.text)
     store = RunStore.open(out, manifest)
     done = store.done()
-    check_layout(done, out)
+    check_layout(done, out, design)
     blocks, summaries = plan_units(design, done)
     designs = design_units(design, done)
     ctx = Context(str(design.path), json.dumps(design.doc), str(out), json.dumps(store.manifest))

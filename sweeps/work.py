@@ -1,7 +1,16 @@
 """The units of work of a study and what each one writes.
 
-Two kinds of unit, each idempotent (deterministic inputs, keys and file names):
+Three kinds of unit sample and summarise (a fourth, :func:`run_design`, makes a
+task's tolerance design), each idempotent (deterministic inputs, keys and file names):
 
+* a **configuration** ``config_id``, where its tasks' samples are few (every task
+  one block, at most :data:`CONFIGURATION_SAMPLES` samples in all): every task's
+  samples (one block each, drawn as a block ``0`` below) and its ``plans`` and
+  ``summary`` rows, written as one file per table
+  (``<table>/config_id=<k>/part-tasks.parquet``, a task after the other).  A file
+  costs its creation, encoding and sync (about 1.7 ms) whatever its size: a
+  study of many small configurations (the bundled margins.yaml: 18 of 4 tasks x
+  100 samples) spent more on files than on its samples;
 * a **sample block** ``(config_id, task, block)``: samples ``lo..hi-1`` of a
   task under one configuration, drawn with the key
   ``fold_in(fold_in(key(seed), task), block)`` and written to
@@ -9,7 +18,7 @@ Two kinds of unit, each idempotent (deterministic inputs, keys and file names):
   depend on the configuration: configurations see the same perturbation draws
   wherever the draws have the same shape (common random numbers, so that a swept
   parameter's effect is not drowned in sampling noise);
-* a **summary** ``config_id``: after all the blocks of a configuration's tasks,
+* a **summary** ``config_id`` (a configuration of sample blocks): after all its blocks,
   merges each task's per-sample statistics the blocks returned
   (:data:`robustness.STAT_COLUMNS`; the blocks of an earlier, interrupted run are
   read back from their files, those columns only) and writes the configuration's
@@ -47,30 +56,41 @@ class Context:
     manifest_json: str
 
 
+#: A configuration whose tasks' samples together are at most this many (each task
+#: one block) is one unit of work (:func:`plan_units`).
+CONFIGURATION_SAMPLES = 4096
+
+SUMMARY, DESIGN, CONFIGURATION = -1, -2, -3   # Unit.block of the units that are not blocks
+
+
 @dataclasses.dataclass(frozen=True)
 class Unit:
     """One unit of work: a sample block (``block >= 0``), a configuration's
-    summary (``block = -1``, every task: ``task_index = -1``) or a task's
-    tolerance design (``block = -2``)."""
+    summary (``block = SUMMARY``, every task: ``task_index = -1``), a task's
+    tolerance design (``block = DESIGN``) or a whole configuration (``block =
+    CONFIGURATION``, ``task_index = -1``: ``n_tasks`` tasks of samples ``lo..hi-1``)."""
 
     config_id: int
     task_index: int
-    block: int = -1
+    block: int = SUMMARY
     lo: int = 0
     hi: int = 0
     #: a summary's input: per task, its blocks' statistics (:func:`with_stats`), in block order
     stats: Optional[tuple] = dataclasses.field(default=None, compare=False, repr=False)
+    n_tasks: int = 1
 
     @property
     def key(self) -> str:
-        if self.block == -1:
+        if self.block == SUMMARY:
             return f"c{self.config_id:05d}-summary"
-        tail = "design" if self.block == -2 else f"b{self.block:04d}"
+        if self.block == CONFIGURATION:
+            return f"c{self.config_id:05d}-tasks"
+        tail = "design" if self.block == DESIGN else f"b{self.block:04d}"
         return f"c{self.config_id:05d}-t{self.task_index:04d}-{tail}"
 
     @property
     def samples(self) -> int:
-        return max(0, self.hi - self.lo)
+        return max(0, self.hi - self.lo) * self.n_tasks
 
 
 class Loaded:
@@ -229,15 +249,23 @@ def _column_value(v, typ):
 MAX_UNITS = 1_000_000
 
 
+def _whole(cfg, n_tasks: int) -> bool:
+    """Whether a configuration is one unit of work (:data:`CONFIGURATION_SAMPLES`)."""
+    size = cfg.chunk_samples or cfg.samples
+    return cfg.samples <= size and n_tasks * cfg.samples <= CONFIGURATION_SAMPLES
+
+
 def count_units(design) -> int:
     """The number of units of work of a study (each configuration's tasks times
-    its sample blocks of ``chunk_samples``, plus one summary per configuration),
-    counted from the configs without listing or sampling them."""
+    its sample blocks of ``chunk_samples``, plus one summary per configuration;
+    or the configuration as one unit), counted from the configs without listing
+    or sampling them."""
     total = 0
     for cfg in design.configs:
         n_tasks = len(cfg.tasks) if isinstance(cfg.tasks, list) else cfg.tasks.sample.n
         size = cfg.chunk_samples or cfg.samples
-        total += n_tasks * (-(-cfg.samples // size) + _designs(cfg)) + 1
+        blocks = 0 if _whole(cfg, n_tasks) else n_tasks * -(-cfg.samples // size)
+        total += blocks + n_tasks * _designs(cfg) + 1
     return total
 
 
@@ -259,35 +287,42 @@ def check_units(design) -> None:
 
 
 def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:
-    """The sample blocks and the configurations' summaries of a study not yet in ``done``."""
+    """The units of a study that sample (whole configurations, sample blocks) and
+    the configurations' summaries (of the configurations of blocks), those not
+    yet in ``done``."""
     blocks, summaries = [], []
     for cid, cfg in enumerate(design.configs):
         size = cfg.chunk_samples or cfg.samples
-        for ti in range(len(design.tasks(cid))):
-            for b, lo in enumerate(range(0, cfg.samples, size)):
-                u = Unit(cid, ti, b, lo, min(cfg.samples, lo + size))
-                if u.key not in done:
-                    blocks.append(u)
-        s = Unit(cid, -1)
-        if s.key not in done:
-            summaries.append(s)
+        n_tasks = len(design.tasks(cid))
+        if _whole(cfg, n_tasks):
+            units = [Unit(cid, -1, CONFIGURATION, 0, cfg.samples, n_tasks=n_tasks)]
+        else:
+            units = [Unit(cid, ti, b, lo, min(cfg.samples, lo + size)) for ti in range(n_tasks)
+                     for b, lo in enumerate(range(0, cfg.samples, size))]
+            units.append(Unit(cid, -1, SUMMARY))
+        for u in units:
+            if u.key not in done:
+                (summaries if u.block == SUMMARY else blocks).append(u)
     return blocks, summaries
 
 
-def check_layout(done: dict, root) -> None:
-    """Refuse to resume a run folder written with a summary and a plans file per
-    task (before the files per configuration): its rows would be written twice.
+def check_layout(done: dict, root, design) -> None:
+    """Refuse to resume a run folder whose log names units this study does not
+    have: one written by an earlier nudge that split the work into other files
+    (a summary file per task, or sample blocks where a configuration is now one
+    unit); resuming it would write rows a second time.
 
     Raises:
       RunError: naming the folder and the fix.
     """
     from sweeps.store import RunError
 
-    if any(f.startswith(("plans/", "summary/")) and not f.endswith("/part-tasks.parquet")
-           for rec in done.values() for f in rec.get("files", ())):
-        raise RunError(f"{root}: was written by an earlier nudge (a summary file per task, "
-                       "now one per configuration) and cannot be resumed; choose another --out, "
-                       "or delete the folder to start over")
+    blocks, summaries = plan_units(design, {})
+    known = {u.key for u in blocks + summaries + design_units(design, {})}
+    if not set(done) <= known:
+        raise RunError(f"{root}: was written by an earlier nudge (its files split the work "
+                       "another way) and cannot be resumed; choose another --out, or delete the "
+                       "folder to start over")
 
 
 def _designs(cfg) -> bool:
@@ -301,7 +336,7 @@ def design_units(design, done: dict) -> list[Unit]:
     for cid, cfg in enumerate(design.configs):
         if _designs(cfg):
             for ti in range(len(design.tasks(cid))):
-                u = Unit(cid, ti, -2)
+                u = Unit(cid, ti, DESIGN)
                 if u.key not in done:
                     out.append(u)
     return out
@@ -315,7 +350,8 @@ def with_stats(design, store, summaries: list, records: dict) -> list:
     blocks, _ = plan_units(design, {})
     of: dict = {}
     for b in blocks:
-        of.setdefault(b.config_id, {}).setdefault(b.task_index, []).append(b)
+        if b.block >= 0:
+            of.setdefault(b.config_id, {}).setdefault(b.task_index, []).append(b)
     return [dataclasses.replace(u, stats=tuple(
         tuple(_block_stats(store, b, records) for b in of.get(u.config_id, {}).get(ti, ()))
         for ti in range(len(design.tasks(u.config_id))))) for u in summaries]
@@ -346,32 +382,63 @@ def _recording(fn):
     return wrapper
 
 
+def _sample(L: Loaded, unit: Unit, task_index: int, block: int):
+    """``(Block or None, plan, warnings)``: samples ``unit.lo..unit.hi-1`` of a
+    task of the unit's configuration, drawn with the key
+    ``fold_in(fold_in(key(seed), task), block)`` (None without a plan)."""
+    import jax
+
+    from sweeps.blocks import sample_block
+
+    cfg, (name, _, _), (plan, _, warns) = L.task(unit, task_index)
+    if plan is None:
+        return None, plan, warns
+    key = jax.random.fold_in(jax.random.fold_in(jax.random.key(cfg.seed), task_index), block)
+    b = sample_block(plan, cfg, cfg.physics_run(L.design.part(unit.config_id)), name,
+                     unit.hi - unit.lo, key, lo=unit.lo, run_id=L.store.run_id,
+                     schema=L.schema("samples"), columns=L.columns(unit.config_id))
+    return b, plan, warns
+
+
 @_recording
 def run_block(ctx: Context, unit: Unit) -> dict:
     """Evaluate one sample block and write its files; returns the log record
-    (its ``stats`` feed the task's summary, :func:`with_stats`)."""
-    import jax
+    (its ``stats`` feed the task's summary, :func:`with_stats`).  A whole
+    configuration's unit runs :func:`run_configuration`."""
+    if unit.block == CONFIGURATION:
+        return run_configuration(ctx, unit)
+    t0 = time.perf_counter()
+    L = loaded(ctx)
+    b, plan, warns = _sample(L, unit, unit.task_index, unit.block)
+    files = [] if b is None else [L.store.write("samples", unit.config_id, block_name(unit),
+                                                b.table, L.schema("samples"))]
+    return {"key": unit.key, "files": files, "rows": 0 if b is None else b.n,
+            "seconds": time.perf_counter() - t0, "warnings": list(warns),
+            "no_plan": plan is None, "stats": None if b is None else b.stats}
+
+
+def run_configuration(ctx: Context, unit: Unit) -> dict:
+    """A whole configuration: every task's samples (one block each, its key's
+    block ``0``) and the configuration's ``plans`` and ``summary`` rows, a file
+    per table, a task after the other; returns the log record."""
+    import pyarrow as pa
 
     t0 = time.perf_counter()
     L = loaded(ctx)
-    store = L.store
-    cfg, (name, start, goal), (plan, reason, warns) = L.task(unit)
-    part = L.design.part(unit.config_id)
-    files, stats = [], None
-    cols = L.columns(unit.config_id)
-    rows = 0
-    if plan is not None:
-        from sweeps.blocks import sample_block
-
-        key = jax.random.fold_in(jax.random.fold_in(jax.random.key(cfg.seed), unit.task_index),
-                                 unit.block)
-        schema = L.schema("samples")
-        b = sample_block(plan, cfg, cfg.physics_run(part), name, unit.samples, key, lo=unit.lo,
-                         run_id=store.run_id, schema=schema, columns=cols)
-        files.append(store.write("samples", unit.config_id, block_name(unit), b.table, schema))
-        rows, stats = b.n, b.stats
-    return {"key": unit.key, "files": files, "rows": rows, "seconds": time.perf_counter() - t0,
-            "warnings": list(warns), "no_plan": plan is None, "stats": stats}
+    blocks, warns = [], []
+    for ti in range(unit.n_tasks):
+        b, _, w = _sample(L, unit, ti, 0)
+        blocks.append(b)
+        warns += w
+    files = []
+    samples = [b.table for b in blocks if b is not None]
+    if samples:
+        files.append(L.store.write("samples", unit.config_id, "tasks", pa.concat_tables(samples),
+                                   L.schema("samples")))
+    rec = _summarise(L, unit, [() if b is None else (b.stats,) for b in blocks])
+    return {**rec, "key": unit.key, "files": files + rec["files"],
+            "rows": sum(b.n for b in blocks if b is not None),
+            "seconds": time.perf_counter() - t0, "warnings": list(dict.fromkeys(warns))}
 
 
 def block_name(unit: Unit) -> str:
@@ -398,15 +465,22 @@ def run_summary(ctx: Context, unit: Unit) -> dict:
     """Summarise each task of a configuration from its blocks (all finished;
     their statistics in ``unit.stats``) and write the configuration's ``plans``
     and ``summary`` rows (a row per task, in task order)."""
+    t0 = time.perf_counter()
+    rec = _summarise(loaded(ctx), unit, unit.stats or ())
+    return {**rec, "seconds": time.perf_counter() - t0}
+
+
+def _summarise(L: Loaded, unit: Unit, stats) -> dict:
+    """Write a configuration's ``plans`` and ``summary`` rows, each task's
+    summary merged from its blocks' statistics (``stats``: per task, in task
+    order); the log record without its ``seconds``."""
     from robustness import empty_summary
     from sweeps.blocks import summarise_blocks
     from sweeps.tasks import plan_row
 
-    t0 = time.perf_counter()
-    L = loaded(ctx)
     part = L.design.part(unit.config_id)
     plans, summaries = [], []
-    for ti, stats in enumerate(unit.stats or ()):
+    for ti, stats in enumerate(stats):
         cfg, (name, start, goal), (plan, reason, _) = L.task(unit, ti)
         plans.append(plan_row(part, name, start, goal, plan, reason))
         if plan is None:
@@ -419,7 +493,6 @@ def run_summary(ctx: Context, unit: Unit) -> dict:
                                               name, bound=cfg.bounds))
     files = [L.write_rows("plans", unit, plans), L.write_rows("summary", unit, summaries)]
     return {"key": unit.key, "files": files, "rows": len(summaries),
-            "seconds": time.perf_counter() - t0,
             "findings": [f for s in summaries for f in findings(s)]}
 
 

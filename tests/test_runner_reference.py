@@ -9,7 +9,9 @@ columns gathered into lists by name) and ``summarise`` over the task's
 concatenated samples.  Both files are read back with ``pd.read_parquet`` (as
 engineers read them) and compared column for column, dtypes included; runs are
 in this process and tiny (a push study with two configurations, two tasks, three
-blocks each; a tumble study with a vertex tolerance).
+blocks each; a tumble study with a vertex tolerance), each also with its tasks'
+samples in one block, where a configuration is one unit of work (its samples in
+one file).
 """
 import math
 
@@ -90,6 +92,13 @@ def _compare(tmp_path, text):
         cols = {f.name: point[p] for p, f in zip(design.paths, swept)}
         run_id = pq.read_table(next((out / "summary").rglob("*.parquet"))).column("run_id")[0].as_py()
         size = cfg.chunk_samples or cfg.samples
+        folder = out / "samples" / f"config_id={cid:05d}"
+        whole = size >= cfg.samples
+        names = sorted(f.name for f in folder.iterdir())
+        assert names == (["part-tasks.parquet"] if whole else [
+            f"part-t{ti:04d}-b{b:04d}.parquet" for ti in range(len(design.tasks(cid)))
+            for b in range(-(-cfg.samples // size))])
+        every = pd.read_parquet(folder / names[0]) if whole else None   # a task after the other
         for ti, (name, _, _) in enumerate(design.tasks(cid)):
             frames = []
             for b, lo in enumerate(range(0, cfg.samples, size)):
@@ -102,8 +111,9 @@ def _compare(tmp_path, text):
                 schema = tables.with_design(tables.SAMPLES_SCHEMA, swept)
                 ref_path = tmp_path / f"ref-{cid}-{ti}-{b}.parquet"
                 pq.write_table(tables.to_arrow(ref[schema.names], schema), ref_path)
-                got = pd.read_parquet(out / "samples" / f"config_id={cid:05d}" /
-                                      f"part-t{ti:04d}-b{b:04d}.parquet")
+                at = ti * cfg.samples + lo
+                got = (every.iloc[at:at + n].reset_index(drop=True) if whole else
+                       pd.read_parquet(folder / f"part-t{ti:04d}-b{b:04d}.parquet"))
                 want = pd.read_parquet(ref_path)
                 assert list(got.dtypes.astype(str)) == list(want.dtypes.astype(str))
                 pd.testing.assert_frame_equal(got, want, check_exact=True)
@@ -127,13 +137,15 @@ def _compare(tmp_path, text):
 
 
 @pytest.mark.slow
-def test_push_study_equals_the_library(tmp_path):
-    _compare(tmp_path, PUSH)
+@pytest.mark.parametrize("blocks", ["blocks", "one unit"])
+def test_push_study_equals_the_library(tmp_path, blocks):
+    _compare(tmp_path, PUSH if blocks == "blocks" else PUSH.replace("chunk_samples: 8\n", ""))
 
 
 @pytest.mark.slow
-def test_tumble_study_equals_the_library(tmp_path):
-    _compare(tmp_path, TUMBLE)
+@pytest.mark.parametrize("blocks", ["blocks", "one unit"])
+def test_tumble_study_equals_the_library(tmp_path, blocks):
+    _compare(tmp_path, TUMBLE if blocks == "blocks" else TUMBLE.replace("chunk_samples: 5\n", ""))
 
 
 def test_arrow_table_refuses_what_to_arrow_refuses():

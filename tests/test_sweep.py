@@ -337,6 +337,44 @@ def test_a_run_folder_of_the_per_task_layout_is_refused_not_doubled(reference, t
 
 
 @pytest.mark.slow
+def test_a_configuration_of_few_samples_is_one_unit_and_resumes(tmp_path):
+    """Where a configuration's tasks have few samples (each one block, 4,096 in all at
+    most) the configuration is one unit of work: its samples, plans and summary rows in
+    one file each, a task after the other; a run that lost a unit reruns it alone, to
+    the same tables; a folder whose log names blocks of it (the work split another way)
+    is refused in one line."""
+    p = _study(tmp_path, TINY.replace("chunk_samples: 8", "chunk_samples: 24"))
+    out = tmp_path / "out"
+    r = run_module(p, "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    ref = _tables(out)
+    for cid in (0, 1):
+        folder = f"config_id={cid:05d}"
+        for table in TABLES:
+            assert [f.name for f in (out / table / folder).iterdir()] == ["part-tasks.parquet"]
+        s = pd.read_parquet(out / "samples" / folder)
+        assert s["task"].tolist() == ["a"] * 24 + ["b"] * 24
+        assert s["sample_id"].tolist() == list(range(24)) * 2
+        assert pd.read_parquet(out / "summary" / folder)["n"].tolist() == [24, 24]
+    logged = [json.loads(x) for x in (out / "chunks.jsonl").read_text().splitlines()]
+    assert [rec["key"] for rec in logged] == ["c00000-tasks", "c00001-tasks"]
+    assert [rec["rows"] for rec in logged] == [48, 48]
+    # the run as if killed before its last unit was logged (its files half there)
+    lines = (out / "chunks.jsonl").read_text().splitlines(keepends=True)
+    (out / "chunks.jsonl").write_text(lines[0])
+    (out / "summary" / "config_id=00001" / "part-tasks.parquet").unlink()
+    r = run_module(p, "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert "1 chunk(s) already done, 1 to go" in r.stderr
+    _same(_tables(out), ref)
+    with open(out / "chunks.jsonl", "a") as fh:
+        fh.write(json.dumps({"key": "c00000-t0000-b0000", "files": [], "rows": 24}) + "\n")
+    r = run_module(p, "--out", out, "--quiet")
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "earlier nudge" in r.stderr
+    assert "Traceback" not in r.stderr
+
+
+@pytest.mark.slow
 def test_dask_executor_matches_local(reference, tmp_path):
     """Dask workers with a persistent compilation cache of their own (the suite's is
     another folder: conftest) give the local run's tables."""
