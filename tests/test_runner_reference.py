@@ -9,9 +9,8 @@ columns gathered into lists by name) and ``summarise`` over the task's
 concatenated samples.  Both files are read back with ``pd.read_parquet`` (as
 engineers read them) and compared column for column, dtypes included; runs are
 in this process and tiny (a push study with two configurations, two tasks, three
-blocks each; a tumble study with a vertex tolerance), each also with its tasks'
-samples in one block, where a configuration is one unit of work (its samples in
-one file).
+blocks each, and with its tasks' samples in one block, where a configuration is
+one unit of work, its samples in one file; a tumble study with a vertex tolerance).
 """
 import math
 
@@ -143,9 +142,8 @@ def test_push_study_equals_the_library(tmp_path, blocks):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("blocks", ["blocks", "one unit"])
-def test_tumble_study_equals_the_library(tmp_path, blocks):
-    _compare(tmp_path, TUMBLE if blocks == "blocks" else TUMBLE.replace("chunk_samples: 5\n", ""))
+def test_tumble_study_equals_the_library(tmp_path):
+    _compare(tmp_path, TUMBLE)
 
 
 def test_arrow_table_refuses_what_to_arrow_refuses():

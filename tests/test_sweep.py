@@ -342,11 +342,20 @@ def test_a_configuration_of_few_samples_is_one_unit_and_resumes(tmp_path):
     most) the configuration is one unit of work: its samples, plans and summary rows in
     one file each, a task after the other; a run that lost a unit reruns it alone, to
     the same tables; a folder whose log names blocks of it (the work split another way)
-    is refused in one line."""
+    is refused (in process here, for speed: through the command, the bundled margins
+    study runs such units and the per-task layout's refusal is one line, exit 2)."""
+    from sweeps.run import execute
+    from sweeps.store import RunError
+    from sweeps.study import Executor
+
     p = _study(tmp_path, TINY.replace("chunk_samples: 8", "chunk_samples: 24"))
     out = tmp_path / "out"
-    r = run_module(p, "--out", out, "--quiet")
-    assert r.returncode == 0, r.stderr
+
+    def run():
+        return execute(load_design(str(p), []), out, Executor(kind="local"), quiet=True,
+                       report=False)
+
+    assert run() == 0
     ref = _tables(out)
     for cid in (0, 1):
         folder = f"config_id={cid:05d}"
@@ -363,15 +372,13 @@ def test_a_configuration_of_few_samples_is_one_unit_and_resumes(tmp_path):
     lines = (out / "chunks.jsonl").read_text().splitlines(keepends=True)
     (out / "chunks.jsonl").write_text(lines[0])
     (out / "summary" / "config_id=00001" / "part-tasks.parquet").unlink()
-    r = run_module(p, "--out", out)
-    assert r.returncode == 0, r.stderr
-    assert "1 chunk(s) already done, 1 to go" in r.stderr
+    assert run() == 0
+    assert len((out / "chunks.jsonl").read_text().splitlines()) == 2
     _same(_tables(out), ref)
     with open(out / "chunks.jsonl", "a") as fh:
         fh.write(json.dumps({"key": "c00000-t0000-b0000", "files": [], "rows": 24}) + "\n")
-    r = run_module(p, "--out", out, "--quiet")
-    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "earlier nudge" in r.stderr
-    assert "Traceback" not in r.stderr
+    with pytest.raises(RunError, match="earlier nudge .* cannot be resumed; choose another --out"):
+        run()
 
 
 @pytest.mark.slow
@@ -490,6 +497,9 @@ def test_bundled_margins_runs_small(tmp_path):
     assert r.returncode == 0, r.stderr
     s = pd.read_parquet(tmp_path / "out" / "summary")
     assert len(s) == 2 * len(s["config_id"].unique()) and (s["n"] == 8).all()
+    # each configuration (2 tasks x 8 samples) is one unit: a file per table
+    assert {f.name for f in (tmp_path / "out" / "samples").rglob("*.parquet")} == {
+        "part-tasks.parquet"}
     # the bundled axes show the margin's effect: the paper's plans get shorter with it
     # (and the fence angle error it guards against is an axis)
     assert {"planner_margin_deg", "planner_strategy", "execution_fence_angle"} <= set(s.columns)
