@@ -27,6 +27,7 @@ The edge (:mod:`sweeps.store`) writes them, atomically, with provenance.
 from __future__ import annotations
 
 import functools
+import math
 import re
 from typing import Any, Iterable, Mapping, Optional, Sequence, Union
 
@@ -457,7 +458,17 @@ def _pandas_metadata(schema: pa.Schema) -> dict:
     return dict(to_arrow(proto, schema).schema.metadata or {})
 
 
+def _whole_numbers(v, f: pa.Field) -> None:
+    """Refuse a Python float with a fraction for an integer field, as the pandas
+    path does (pyarrow truncates one from a list or a scalar, 1.5 -> 1)."""
+    if pa.types.is_integer(f.type) and not isinstance(v, np.ndarray):
+        for x in (v if isinstance(v, (list, tuple)) else (v,)):
+            if isinstance(x, float) and math.isfinite(x) and not x.is_integer():
+                raise pa.ArrowInvalid(f"Float value {x:f} was truncated converting to {f.type}")
+
+
 def _column(v, f: pa.Field, n: int) -> pa.Array:
+    _whole_numbers(v, f)
     if f.type == F64_LIST:
         if isinstance(v, (list, tuple)) and len({np.size(x) for x in v}) > 1:   # ragged rows
             return pa.array([None if x is None else [float(y) for y in x] for x in v], F64_LIST)

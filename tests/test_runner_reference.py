@@ -158,6 +158,14 @@ def test_arrow_table_refuses_what_to_arrow_refuses():
     good["n"] = ["not a number"]
     with pytest.raises(ValueError, match="'n'"):
         tables.arrow_table(good, s)
+    # a fraction in an integer column: refused as the pandas path refuses it (pyarrow
+    # alone truncates a Python float, 1.5 -> 1); a whole float is the integer
+    for v in ([1.5], 1.5):
+        with pytest.raises(ValueError, match="'n': cannot be stored as int64 .*truncated"):
+            tables.arrow_table({**good, "n": v}, s, 1)
+    with pytest.raises(ValueError, match="'n': cannot be stored as int64 .*truncated"):
+        tables.to_arrow(pd.DataFrame({k: v for k, v in {**good, "n": [1.5]}.items()}), s)
+    assert tables.arrow_table({**good, "n": [2.0]}, s, 1).column("n").to_pylist() == [2]
     lists = {f.name: np.zeros((2, 3)) if f.type == tables.F64_LIST else ["rigid", None]
              if f.type == tables.STR else [0.0, 0.0] for f in tables.SAMPLED_FIELDS}
     t = tables.arrow_table(lists, pa_schema := tables.pa.schema(tables.SAMPLED_FIELDS), 2)
