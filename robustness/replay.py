@@ -605,12 +605,17 @@ def _tumble_nominal_of(plan, poly, W: int, dtype) -> tuple:
     return nom, final_face, ok
 
 
-def _walk_width(draws, n_tumbles: int, plan: str = "the plan") -> int:
+def _walk_width(draws, n_tumbles: int, chunk: int, plan: str = "the plan") -> int:
     """Steps of the compiled walk for a plan of ``n_tumbles`` (the longest of
-    several) on ``draws``: the columns of slips the sampler draws for it
-    (:func:`robustness.samplers.drawn_steps`, >= 16), so the draws of
-    ``Sampler.sample(exact_steps=False)`` go in as they are, and plans whose
-    lengths share a compiled sampler share a compiled replay."""
+    several) on ``draws``.  Up to one ``chunk`` of samples: the power of two
+    (>= 16) that holds the plan, so that plans of lengths in one power of two
+    share a compiled replay (the slips are padded to it: a copy, small at
+    this size).  More samples: the columns of slips the sampler draws for
+    the plan (:func:`robustness.samplers.drawn_steps`, >= 16), so that the
+    draws of ``Sampler.sample(exact_steps=False)`` go in as they are (padding
+    16,384 samples of a 200-tumble plan to 256 steps was an eighth of its
+    evaluation) and the walk is no longer than that (208 steps, not 256);
+    a compiled replay per drawn width, as the sampler compiles."""
     from robustness.samplers import drawn_steps
 
     sl, axis = draws.params.execution.tumble_slip, draws.in_axes.execution.tumble_slip
@@ -618,7 +623,8 @@ def _walk_width(draws, n_tumbles: int, plan: str = "the plan") -> int:
     if width and width < n_tumbles:
         raise ValueError(f"draws: carry {width} tumbles, {plan} has {n_tumbles} (draw with "
                          f"n_tumbles={n_tumbles})")
-    return max(16, drawn_steps(max(n_tumbles, width)))
+    k = max(n_tumbles, width)
+    return _bucket(k, 16) if draws.n <= chunk else max(16, drawn_steps(k))
 
 
 def _tumble_samples_of(draws, W: int, dtype) -> TumbleSamples:
@@ -654,7 +660,7 @@ def run_tumble(plan, draws, dtype, chunk, merge_tol=None, slip_theta=math.inf):
     ``slip_theta``: a bound on the rotational slips (rad; the tolerance)."""
     poly = tumble_nominal(plan)
     topo = poly.topology
-    W = _walk_width(draws, plan.n_tumbles)
+    W = _walk_width(draws, plan.n_tumbles, chunk)
     nom, final_face, ok = _tumble_nominal_of(plan, poly, W, dtype)
     n = draws.n
     rows = _tumble_samples_of(draws, W, dtype)
@@ -706,7 +712,7 @@ def run_tumble_many(plans, draws, dtype, chunk: int = 4096, merge_tol=None,
     poly = tumble_nominal(ref)
     topo = poly.topology
     L = max(pl.n_tumbles for pl in plans)
-    W = _walk_width(draws, L, "the longest plan")
+    W = _walk_width(draws, L, chunk, "the longest plan")
     K = len(plans)
     walks = [_tumble_nominal_of(pl, poly, W, dtype) for pl in plans]
     noms = [w[0] for w in walks]

@@ -299,7 +299,7 @@ def test_tumble_steps_past_a_plan_slip_nothing():
     s = Sampler(GeometryTolerance(tau_v=1e-4),
                 execution=ExecutionTolerance(tumble_slip_xy=2e-4, tumble_slip_theta=0.02))
     long = _walk_plan(21)          # drawn_steps(21) = 22: one column past the plan
-    plans = [long] + [_first_tumbles(long, k) for k in (20, 9, 3)]
+    plans = [long] + [_first_tumbles(long, k) for k in (20, 9)]
     m = len(long.vertices)
     wide = s.sample(jax.random.key(5), N, n_vertices=m, dim=3, n_tumbles=21, exact_steps=False)
     assert wide.params.execution.tumble_slip.shape[1] == samplers.drawn_steps(21) == 22
@@ -310,20 +310,23 @@ def test_tumble_steps_past_a_plan_slip_nothing():
             draws.params, execution=dataclasses.replace(e, tumble_slip=e.tumble_slip[:, :k])))
 
     fields = ("x", "y", "theta", "slip")
-    many = batches.run_tumble_many(plans, wide, jnp.float64, 16, slip_theta=0.02)
-    for i, pl in enumerate(plans):
-        k = pl.n_tumbles
-        _, ref = batches.run_tumble(pl, cut(wide, k), jnp.float64, 16, slip_theta=0.02)
-        _, got = batches.run_tumble(pl, wide, jnp.float64, 16, slip_theta=0.02)
-        same_bucket = batches._bucket(k, 16) == batches._bucket(22, 16)
-        for f in fields:
-            for r in (got, jax.tree_util.tree_map(lambda x: x[i], many)):
-                if f == "slip" and not same_bucket:
-                    np.testing.assert_allclose(r.slip, ref.slip, rtol=1e-14, err_msg=str(k))
-                else:
-                    np.testing.assert_array_equal(getattr(r, f), getattr(ref, f),
-                                                  err_msg=f"{k} {f}")
-        assert np.all(ref.slip > 0)
+    # chunks of 16 samples: the walk as wide as the drawn columns (22 steps); of 64: the
+    # power of two (32 steps)
+    for chunk in (16, 64):
+        many = batches.run_tumble_many(plans, wide, jnp.float64, chunk, slip_theta=0.02)
+        for i, pl in enumerate(plans):
+            k = pl.n_tumbles
+            _, ref = batches.run_tumble(pl, cut(wide, k), jnp.float64, chunk, slip_theta=0.02)
+            _, got = batches.run_tumble(pl, wide, jnp.float64, chunk, slip_theta=0.02)
+            same_bucket = batches._bucket(k, 16) == batches._bucket(22, 16)
+            for f in fields:
+                for r in (got, jax.tree_util.tree_map(lambda x: x[i], many)):
+                    if f == "slip" and not same_bucket:
+                        np.testing.assert_allclose(r.slip, ref.slip, rtol=1e-14, err_msg=str(k))
+                    else:
+                        np.testing.assert_array_equal(getattr(r, f), getattr(ref, f),
+                                                      err_msg=f"{chunk} {k} {f}")
+            assert np.all(ref.slip > 0)
         cols = [samplers.parameter_columns(d, n_vertices=m, dim=3, n_tumbles=k)
                 for d in (cut(wide, k), wide)]
         for name in ("slip_sum_dx_m", "slip_sum_dy_m", "slip_sum_dtheta_rad"):
