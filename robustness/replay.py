@@ -628,8 +628,8 @@ def _walk_width(draws, n_tumbles: int, chunk: int, plan: str = "the plan") -> in
 
 
 def _tumble_samples_of(draws, W: int, dtype) -> TumbleSamples:
-    """The draws as per-sample :class:`TumbleSamples` rows (slips zero-padded,
-    or cut, to ``W`` steps)."""
+    """The draws as per-sample :class:`TumbleSamples` rows (slips zero-padded
+    to ``W`` steps)."""
     rows_of = draws.rows
     g, e = draws.params.geometry, draws.params.execution
     ga, ea = draws.in_axes.geometry, draws.in_axes.execution
