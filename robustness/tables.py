@@ -376,9 +376,10 @@ def _check_columns(cols: Iterable[str], schema: pa.Schema) -> None:
     """Refuse column names that are not the schema's (any order): the error
     names the missing ones (schema order) and the unexpected ones."""
     names, have = schema.names, set(cols)
-    if have != set(names):
+    known = set(names)
+    if have != known:
         missing = [c for c in names if c not in have]
-        extra = [c for c in cols if c not in set(names)]
+        extra = [c for c in cols if c not in known]
         raise ValueError(f"columns do not match the schema: missing {missing}, unexpected {extra}")
 
 

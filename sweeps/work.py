@@ -317,6 +317,8 @@ def check_layout(done: dict, root, design) -> None:
     """
     from sweeps.store import RunError
 
+    if not done:     # a fresh run: nothing to check
+        return
     blocks, summaries = plan_units(design, {})
     known = {u.key for u in blocks + summaries + design_units(design, {})}
     if not set(done) <= known:
@@ -438,7 +440,7 @@ def run_configuration(ctx: Context, unit: Unit) -> dict:
     rec = _summarise(L, unit, [() if b is None else (b.stats,) for b in blocks])
     return {**rec, "key": unit.key, "files": files + rec["files"],
             "rows": sum(b.n for b in blocks if b is not None),
-            "seconds": time.perf_counter() - t0, "warnings": list(dict.fromkeys(warns))}
+            "seconds": time.perf_counter() - t0, "warnings": warns}
 
 
 def block_name(unit: Unit) -> str:
