@@ -12,22 +12,35 @@
   XLA segfaults (CI exit 139 at 78-91% of the suite).  After a test that leaves
   the process above :data:`MAX_MAPS` maps, JAX's compilation caches are cleared
   (the next test compiles again what it needs).
-* The persistent compilation cache is a folder of this test process's own
-  (``NUDGE_JAX_CACHE``, inherited by the commands the tests start; removed at
-  exit): the tests neither read a user's cache nor write one, and the dozens of
-  ``nudge sweep`` / ``nudge certify`` subprocesses load the kernels an earlier
-  one compiled instead of compiling them again (a small margins study: 44 s
-  cold, 20 s warm).  The tests of the cache name folders of their own.
+* The persistent compilation cache is one folder for the whole run
+  (``NUDGE_JAX_CACHE``; made by the first pytest process, inherited by xdist's
+  workers and by the commands the tests start; removed at exit), used by the
+  tests' own processes too: the tests neither read a user's cache nor write
+  one, the dozens of ``nudge sweep`` / ``nudge certify`` subprocesses load the
+  kernels an earlier one compiled instead of compiling them again (a small
+  margins study: 44 s cold, 20 s warm), a kernel one worker compiled is loaded
+  by the other, and a test after :func:`_release_executables` loads what it
+  needs again (the suite's test time, 2 cores: 1,841 s with a folder per worker
+  used only by subprocesses, 1,630 s shared).  The tests of the cache name
+  folders of their own.
 """
 import atexit
 import os
 import shutil
 import tempfile
 
-os.environ["NUDGE_JAX_CACHE"] = tempfile.mkdtemp(prefix="nudge-tests-jax-cache-")
-atexit.register(shutil.rmtree, os.environ["NUDGE_JAX_CACHE"], ignore_errors=True)
+#: The suite's cache folder, made by the first pytest process (xdist's controller, or
+#: pytest alone) and inherited by its workers: one folder for the whole run.
+SUITE_CACHE_ENV = "NUDGE_TESTS_JAX_CACHE"
+if SUITE_CACHE_ENV not in os.environ:
+    os.environ[SUITE_CACHE_ENV] = tempfile.mkdtemp(prefix="nudge-tests-jax-cache-")
+    atexit.register(shutil.rmtree, os.environ[SUITE_CACHE_ENV], ignore_errors=True)
+os.environ["NUDGE_JAX_CACHE"] = os.environ[SUITE_CACHE_ENV]
 
 import jax  # noqa: E402
+
+jax.config.update("jax_compilation_cache_dir", os.environ[SUITE_CACHE_ENV])
+jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 import pytest
 from hypothesis import settings
 
