@@ -1,4 +1,14 @@
-"""Run the ``nudge`` console script as a user types it (a subprocess)."""
+"""Run the ``nudge`` console script as a user types it: in a subprocess
+(:func:`nudge`), or in this process by the console script's own dispatcher
+(:func:`nudge_here`, :func:`call`).
+
+A subprocess costs 3-4 s before the command does anything (Python, JAX, pandas
+and scipy start; every kernel traced again): a test of what a command computes,
+writes and says runs it in this process, where the kernels an earlier test
+traced are shared.  What only a process shows stays in one: the console script
+itself, exit on a signal, what libraries print to the real stderr, a process's
+own environment and JAX settings, a cold start.  Every command keeps at least
+one test through the subprocess."""
 import os
 import pathlib
 import shutil
@@ -58,3 +68,16 @@ def call(main, *args, debug=False):
         if old is not None:
             os.environ["NUDGE_DEBUG"] = old
     return code, out.getvalue(), err.getvalue()
+
+
+def nudge_here(*args, cwd=None):
+    """``nudge ARGS`` in this process (:func:`call` on the console script's
+    dispatcher, ``sweeps.cli.main``), returned as :func:`nudge` returns it
+    (a ``CompletedProcess``: ``returncode``, ``stdout``, ``stderr``).  ``cwd``:
+    the working folder during the command (restored after)."""
+    import contextlib
+
+    from sweeps import cli
+
+    with contextlib.chdir(cwd) if cwd is not None else contextlib.nullcontext():
+        return subprocess.CompletedProcess(["nudge", *map(str, args)], *call(cli.main, *args))

@@ -12,7 +12,7 @@ from robustness import tables
 from robustness.certificates import VERDICTS
 from sweeps import certify
 from sweeps.parquet import read_metadata
-from tests.commandline import nudge
+from tests.commandline import nudge, nudge_here
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "certify_triangle.yaml"
@@ -56,19 +56,19 @@ def test_example_end_to_end_layout_and_metadata(tmp_path):
     assert r.returncode == (0 if (certs["verdict"] == "certified").all() else 1)
     # the same command resumes: nothing is recomputed, the tables are unchanged
     before = {t: pd.read_parquet(out / t) for t in TABLES}
-    r2 = nudge("certify", EXAMPLE, "--out", out, "--n-samples", "40", "--seed", "5", "--quiet")
+    r2 = nudge_here("certify", EXAMPLE, "--out", out, "--n-samples", "40", "--seed", "5", "--quiet")
     assert r2.returncode == r.returncode, r2.stderr
     for t in TABLES:
         pd.testing.assert_frame_equal(pd.read_parquet(out / t), before[t])
     # another config on the same folder is refused before any work
-    r3 = nudge("certify", EXAMPLE, "--out", out, "--n-samples", "41", "--quiet")
+    r3 = nudge_here("certify", EXAMPLE, "--out", out, "--n-samples", "41", "--quiet")
     assert r3.returncode == 2 and "another config" in r3.stderr
 
 
 @pytest.mark.slow
 def test_pd_read_parquet_on_run_folder_never_mixes_tables(tmp_path):
     out = tmp_path / "out"
-    r = nudge("certify", EXAMPLE, "--out", out, "--n-samples", "8", "--quiet")
+    r = nudge_here("certify", EXAMPLE, "--out", out, "--n-samples", "8", "--quiet")
     assert r.returncode in (0, 1), r.stderr
     # tables live in their own folders; the run folder itself holds no Parquet file
     assert not list(out.glob("*.parquet"))
@@ -104,7 +104,7 @@ def test_unknown_key_exits_2(tmp_path):
     line = _input_error(nudge("certify", p), "tau_vv", "allowed keys")
     assert "tau_com" in line
     p = _write(tmp_path, BASE + "colour: red\n")
-    _input_error(nudge("certify", p), "colour", "top level")
+    _input_error(nudge_here("certify", p), "colour", "top level")
 
 
 @pytest.mark.parametrize("text,words", [
@@ -151,7 +151,7 @@ tasks:
   - {{name: a, start: [0, 0, 0], goal: [0.05, 0.0, 0.0]}}
 """
     out = tmp_path / "o"
-    r = nudge("certify", _write(tmp_path, text), "--out", out, "--quiet")
+    r = nudge_here("certify", _write(tmp_path, text), "--out", out, "--quiet")
     assert r.returncode == 1, r.stderr
     c = pd.read_parquet(out / "certificates").iloc[0]
     assert c["verdict"] == "not certified" and c["reason"] == "nothing_perturbed"
@@ -162,7 +162,7 @@ tasks:
 def test_too_few_samples_says_how_many_are_needed(tmp_path):
     text = BASE.replace("tau_v: 1e-5", "tau_v: 1e-7") + "required: {probability: 0.95}\n"
     out = tmp_path / "o"
-    r = nudge("certify", _write(tmp_path, text), "--out", out, "--n-samples", "10", "--quiet")
+    r = nudge_here("certify", _write(tmp_path, text), "--out", out, "--n-samples", "10", "--quiet")
     c = pd.read_parquet(out / "certificates").iloc[0]
     if c["n_success"] == 10:   # every sample succeeded: the answer is 'too few samples'
         assert r.returncode == 1
@@ -180,7 +180,7 @@ n_samples: 4
 tasks:
   - {name: a, start: [0, 0, 0], goal: [0.05, 0.0, 0.0]}
 """
-    r = nudge("certify", _write(tmp_path, text), "--out", tmp_path / "o")
+    r = nudge_here("certify", _write(tmp_path, text), "--out", tmp_path / "o")
     assert r.returncode in (0, 1), r.stderr
     assert "warning: vertices: points [3] are not vertices of the convex hull" in r.stderr
 
@@ -189,7 +189,7 @@ tasks:
 def test_auto_samples_grow_until_decided(tmp_path):
     text = BASE.replace("tau_v: 1e-5", "tau_v: 1e-7") + "required: {probability: 0.9}\n"
     out = tmp_path / "o"
-    r = nudge("certify", _write(tmp_path, text), "--out", out, "--n-samples", "auto",
+    r = nudge_here("certify", _write(tmp_path, text), "--out", out, "--n-samples", "auto",
               "--max-samples", "200", "--quiet")
     assert r.returncode in (0, 1), r.stderr
     c = pd.read_parquet(out / "certificates").iloc[0]
@@ -221,7 +221,7 @@ def test_bench_quick_result_line():
 
 
 def test_help_explains_units_and_exit_codes():
-    r = nudge("certify", "--help")
+    r = nudge_here("certify", "--help")
     assert r.returncode == 0 and "metres" in r.stdout and "Exit status" in r.stdout
 
 
@@ -237,7 +237,7 @@ tasks:
   - {{name: off_lattice, goal: [0.1, 0.1, 90deg, 0]}}
 """
     out = tmp_path / "o"
-    r = nudge("certify", _write(tmp_path, text), "--out", out, "--quiet")
+    r = nudge_here("certify", _write(tmp_path, text), "--out", out, "--quiet")
     assert r.returncode == 1, r.stderr
     c = pd.read_parquet(out / "certificates").set_index("task")
     assert c.loc["off_lattice", "verdict"] == "no plan" and c.loc["off_lattice", "plan_steps"] == 0

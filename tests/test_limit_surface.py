@@ -265,7 +265,7 @@ def test_certify_on_the_exact_limit_surface(tmp_path):
     it; the certificate names its model."""
     import pandas as pd
 
-    from tests.commandline import nudge
+    from tests.commandline import nudge_here
 
     root = pathlib.Path(__file__).resolve().parents[1]
     verdicts = {}
@@ -273,7 +273,7 @@ def test_certify_on_the_exact_limit_surface(tmp_path):
         cfg = tmp_path / f"{model}.yaml"
         cfg.write_text(CERTIFY.format(root=root, model=model))
         out = tmp_path / model
-        r = nudge("certify", cfg, "--out", out, "--quiet")
+        r = nudge_here("certify", cfg, "--out", out, "--quiet")
         assert r.returncode in (0, 1), r.stderr
         assert "Traceback" not in r.stderr
         cert = pd.read_parquet(out / "certificates").iloc[0]

@@ -6,7 +6,7 @@ import math
 import pandas as pd
 import pytest
 
-from tests.commandline import nudge
+from tests.commandline import nudge, nudge_here
 
 STUDY = """study: physics
 kind: push
@@ -59,9 +59,9 @@ def test_sweep_rolls_out_in_mujoco(tmp_path):
 def test_physics_section_is_validated_before_any_work(tmp_path):
     cfg = tmp_path / "bad.yaml"
     cfg.write_text(STUDY.format(extra="").replace("timestep: 0.004", "timestep: -1"))
-    _input_error(nudge("sweep", cfg, "--out", tmp_path / "o"), "physics.cell", "timestep")
+    _input_error(nudge_here("sweep", cfg, "--out", tmp_path / "o"), "physics.cell", "timestep")
     cfg.write_text(STUDY.format(extra="").replace("backend: c", "backend: gpu"))
-    _input_error(nudge("sweep", cfg, "--out", tmp_path / "o"), "physics.backend")
+    _input_error(nudge_here("sweep", cfg, "--out", tmp_path / "o"), "physics.backend")
     assert not (tmp_path / "o" / "samples").exists()
 
 
@@ -77,7 +77,7 @@ friction: {mu_f: [0.5, 0.8], mu_s: [1.5, 1.5]}
 samples: 2
 report: false
 """)
-    _input_error(nudge("sweep", cfg, "--out", tmp_path / "o"), "friction.mu_f", "1.3")
+    _input_error(nudge_here("sweep", cfg, "--out", tmp_path / "o"), "friction.mu_f", "1.3")
 
 
 @pytest.mark.slow
@@ -100,7 +100,7 @@ tasks:
   - {name: slide, start: [0, 0, 0], goal: [0.03, 0, 0]}
 """)
     out = tmp_path / "out"
-    r = nudge("certify", cfg, "--out", out, "--quiet")
+    r = nudge_here("certify", cfg, "--out", out, "--quiet")
     assert r.returncode in (0, 1), r.stderr
     c = pd.read_parquet(out / "certificates")
     assert (c["model"] == "mujoco").all()
@@ -156,7 +156,7 @@ def test_sweep_in_mujoco_realises_the_support_family_and_the_part_material(tmp_p
         "mu_s: [0.5, 0.5]}", "mu_s: [0.5, 0.5], support: rigid}")
     cfg.write_text(doc)
     out = tmp_path / "out"
-    r = nudge("sweep", cfg, "--out", out)
+    r = nudge_here("sweep", cfg, "--out", out)
     assert r.returncode == 0, r.stderr
     s = pd.read_parquet(out / "samples")
     assert (s["support"] == "rigid").all()
@@ -169,7 +169,7 @@ def test_sweep_in_mujoco_realises_the_support_family_and_the_part_material(tmp_p
     assert s["support_ok"].all()
     # the material reached the scene: a different thickness is refused in physics.cell
     cfg.write_text(doc.replace("timestep: 0.004", "timestep: 0.004, part_thickness: 0.002"))
-    _input_error(nudge("sweep", cfg, "--out", tmp_path / "o2"), "part_thickness",
+    _input_error(nudge_here("sweep", cfg, "--out", tmp_path / "o2"), "part_thickness",
                  "thickness:", "part-file")
 
 
@@ -178,7 +178,7 @@ def test_the_contact_model_does_not_change_with_the_backend(tmp_path):
     contact model is refused before any work, naming the fields."""
     cfg = tmp_path / "physics.yaml"
     cfg.write_text(STUDY.format(extra="").replace("backend: c", "backend: mjx"))
-    _input_error(nudge("sweep", cfg, "--out", tmp_path / "o"), "noslip_iterations: 0",
+    _input_error(nudge_here("sweep", cfg, "--out", tmp_path / "o"), "noslip_iterations: 0",
                  "impratio: 30")
     assert not (tmp_path / "o").exists()
 
@@ -187,4 +187,4 @@ def test_a_points_support_cannot_be_rolled_out(tmp_path):
     cfg = tmp_path / "physics.yaml"
     cfg.write_text(STUDY.format(extra="").replace("mu_s: [0.5, 0.5]}",
                                                   "mu_s: [0.5, 0.5], support: points}"))
-    _input_error(nudge("sweep", cfg, "--out", tmp_path / "o"), "support", "points")
+    _input_error(nudge_here("sweep", cfg, "--out", tmp_path / "o"), "support", "points")

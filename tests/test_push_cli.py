@@ -1,9 +1,11 @@
 """Tests for the pushing CLI (``nudge plan-push``) and its figures.
 
-Every CLI run is a subprocess (Python + JAX start-up, a few seconds of CPU
-each), so an autouse module fixture starts them all on a thread pool (at
-most one per spare core) as soon as the module starts; they run alongside the
-in-process tests, and each CLI test waits only for the run it reads.
+The runs that plan, and one bad input, are subprocesses (the console script;
+Python + JAX start-up, a few seconds of CPU each), so an autouse module fixture
+starts them on a thread pool (at most one per spare core) as soon as the module
+starts; they run alongside the in-process tests, and each CLI test waits only
+for the run it reads.  The other bad inputs run in this process
+(:func:`tests.commandline.nudge_here`).
 """
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ import os
 import pathlib
 import subprocess
 
-from tests.commandline import nudge_executable
+from tests.commandline import nudge_executable, nudge_here
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -60,6 +62,8 @@ def cli(tmp_path_factory):
         "plain_plots": [str(EXAMPLES / "biplus_stable.yaml"), "--start", "0,0,0", "--goal",
                         "0.05,0.02,1", "--plot", str(tmp / "plan.png"), "--psd", str(tmp / "psd.png")],
         "unknown_key": [str(bad["unknown_key"]), "--start", "0,0,0", "--goal", "0.1,0,0"],
+    })
+    here = {
         "nan_vertex": [str(bad["nan_vertex"]), "--start", "0,0,0", "--goal", "0.1,0,0"],
         "com_outside": [str(bad["com_outside"]), "--start", "0,0,0", "--goal", "0.1,0,0"],
         "bad_start": [rect, "--start", "0.1,zero,0", "--goal", "0.1,0,0"],
@@ -67,7 +71,7 @@ def cli(tmp_path_factory):
         "polyhedron": [str(EXAMPLES / "cube.yaml"), "--start", "0,0,0", "--goal", "0.1,0,0"],
         "missing_file": [str(tmp / "nope.yaml"), "--start", "0,0,0", "--goal", "0.1,0,0"],
         "bad_margin": [rect, "--start", "0,0,0", "--goal", "0.1,0,0", "--margin-deg", "120"],
-    })
+    }
     env = dict(os.environ, JAX_PLATFORMS="cpu")
 
     def run(argv):
@@ -78,17 +82,21 @@ def cli(tmp_path_factory):
     # no more runs at once than cores (JAX start-up is CPU-bound); the heavy ones first
     pool = ThreadPoolExecutor(max_workers=max(1, min(len(specs), (os.cpu_count() or 2) - 1)))
     futures = {k: pool.submit(run, argv) for k, argv in specs.items()}
-    yield _Runs(futures), tmp
+    yield _Runs(futures, here), tmp
     pool.shutdown(wait=True, cancel_futures=True)
 
 
 class _Runs:
-    """Results ``(returncode, stdout, stderr)`` of the started runs, waited for when read."""
+    """Results ``(returncode, stdout, stderr)`` of the started runs, waited for when
+    read, and of the runs in this process, run when read."""
 
-    def __init__(self, futures):
-        self._futures = futures
+    def __init__(self, futures, here):
+        self._futures, self._here = futures, here
 
     def __getitem__(self, key):
+        if key in self._here:
+            r = nudge_here("plan-push", *self._here[key], cwd=ROOT)
+            return r.returncode, r.stdout, r.stderr
         return self._futures[key].result()
 
 

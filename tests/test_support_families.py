@@ -196,7 +196,7 @@ def test_the_scene_realises_the_drawn_support(name):
 def test_plans_name_the_support_their_distances_assume(tmp_path):
     """planner.support through ``nudge certify`` and ``nudge plan-push``: the
     plans table, the certificate and the printed plan name the support."""
-    from tests.commandline import nudge
+    from tests.commandline import nudge_here
 
     cfg = tmp_path / "cert.yaml"
     cfg.write_text("""part: rectangle
@@ -210,7 +210,7 @@ tasks:
   - {name: turn, start: [0, 0, 0], goal: [0.05, 0.02, 1.0]}
 """)
     out = tmp_path / "out"
-    r = nudge("certify", cfg, "--out", out, "--quiet")
+    r = nudge_here("certify", cfg, "--out", out, "--quiet")
     assert r.returncode in (0, 1), r.stderr
     import pandas as pd
 
@@ -220,14 +220,14 @@ tasks:
     assert "support (rigid)" in cert["claim"].iloc[0], cert["claim"].iloc[0]
     s = pd.read_parquet(out / "samples")
     assert (s["support"] == "rigid").all()
-    r = nudge("plan-push", "rectangle", "--start", "0,0,0", "--goal", "0.05,0.02,1.0",
+    r = nudge_here("plan-push", "rectangle", "--start", "0,0,0", "--goal", "0.05,0.02,1.0",
               "--support", "rigid")
     assert r.returncode == 0, r.stderr
     assert "valid for rigid support, c in [22.4, 22.4] mm only" in r.stdout, r.stdout
-    r = nudge("plan-push", "rectangle", "--start", "0,0,0", "--goal", "0.05,0.02,1.0",
+    r = nudge_here("plan-push", "rectangle", "--start", "0,0,0", "--goal", "0.05,0.02,1.0",
               "--support", "rigid", "--support-c", "0.004", "0.008")
     assert r.returncode == 2 and "--support" in r.stderr
     cfg.write_text(cfg.read_text().replace("planner: {support: rigid}",
                                            "planner: {support: rigid, support_c: [0.004, 0.008]}"))
-    r = nudge("certify", cfg, "--out", tmp_path / "o2", "--quiet")
+    r = nudge_here("certify", cfg, "--out", tmp_path / "o2", "--quiet")
     assert r.returncode == 2 and "support" in r.stderr, r.stderr

@@ -16,7 +16,7 @@ import pytest
 from sweeps.config import ConfigError
 from sweeps.design import expand, parse_overrides
 from sweeps.study import load_design
-from tests.commandline import nudge
+from tests.commandline import call, nudge, nudge_here
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TABLES = ("samples", "summary", "plans")
@@ -52,6 +52,20 @@ def run_module(*args, timeout=600, **kw):
     env.pop("NUDGE_DEBUG", None)
     return subprocess.run([sys.executable, "-m", "sweeps.run", *map(str, args)], cwd=kw.pop("cwd", ROOT),
                           capture_output=True, text=True, timeout=timeout, env=env, **kw)
+
+
+def run_here(*args, cwd=None):
+    """:func:`run_module` in this process (``sweeps.run.main``, as ``python -m
+    sweeps.run`` runs it: :func:`tests.commandline.call`), returned as a
+    ``CompletedProcess``: for the tests of what the command writes and says;
+    a signal, a cold start or a process's environment needs :func:`run_module`."""
+    import contextlib
+
+    from sweeps import run
+
+    with contextlib.chdir(cwd) if cwd is not None else contextlib.nullcontext():
+        return subprocess.CompletedProcess(["python", "-m", "sweeps.run", *map(str, args)],
+                                           *call(run.main, *args))
 
 
 def _tables(out):
@@ -129,8 +143,7 @@ def test_design_applies_overrides_and_sweeps_range_fields(tmp_path):
     assert "samples: 16" in d.text and d.run_id != load_design(p).run_id
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("edit,words", [
+BAD_STUDIES = [
     (("samples: 24", "samples: -1"), ["samples", ">= 1"]),
     (("planner.margin_deg: [5, 9]", "planner.margin: [5, 9]"), ["params.planner.margin", "no field 'margin'", "margin_deg"]),
     (("planner.margin_deg: [5, 9]", "planner.margin_deg: [5, 95]"), ["configuration 1", "margin_deg", "< 90"]),
@@ -143,11 +156,16 @@ def test_design_applies_overrides_and_sweeps_range_fields(tmp_path):
     (("model: exact", "model: exact\nplanner: {min_fence_mu: 0.5}"), ["planner", "support_c"]),
     (("model: exact", "model: exact\nplanner: {workspace: [0.1, -0.1, 0, 1]}"), ["planner", "xmin < xmax"]),
     (("model: exact", "model: exact\nplanner: {strategy: greedy}"), ["planner.strategy", "search", "paper"]),
-])
+]
+
+
+@pytest.mark.parametrize("edit,words", BAD_STUDIES)
 def test_bad_studies_exit_2_naming_the_field_before_anything_runs(tmp_path, edit, words):
+    """The first mistake through the command's own process (nothing a library prints
+    reaches its stderr), the others in this process."""
     p = _study(tmp_path, TINY.replace(*edit))
     out = tmp_path / "out"
-    r = run_module(p, "--out", out)
+    r = (run_module if (edit, words) == BAD_STUDIES[0] else run_here)(p, "--out", out)
     assert r.returncode == 2, (r.stdout, r.stderr)
     assert "Traceback" not in r.stderr and r.stdout == ""
     lines = r.stderr.strip().splitlines()
@@ -170,13 +188,13 @@ def test_unwritable_output_is_refused_first(tmp_path):
     p = _study(tmp_path)
     blocker = tmp_path / "blocker"
     blocker.write_text("")
-    r = run_module(p, "--out", blocker / "run")
+    r = run_here(p, "--out", blocker / "run")
     assert r.returncode == 2 and "cannot write results" in r.stderr
 
 
 def test_dry_run_prints_the_design_and_writes_nothing(tmp_path):
     p = _study(tmp_path)
-    r = nudge("sweep", p, "--dry-run", "--out", tmp_path / "out", "--set", "tolerances.tau_v=0,1e-5")
+    r = nudge_here("sweep", p, "--dry-run", "--out", tmp_path / "out", "--set", "tolerances.tau_v=0,1e-5")
     assert r.returncode == 0, r.stderr
     assert "4 configuration(s) x 2 task(s)" in r.stdout and "estimate" in r.stdout
     assert "planner.margin_deg" in r.stdout and "tolerances.tau_v" in r.stdout
@@ -299,7 +317,7 @@ def test_a_failed_write_is_not_recorded_and_the_rerun_completes_the_tables(refer
     assert len(logged) == 2 and all((out / f).is_file() for f in files)   # after the manifest, two blocks
     assert str(calls[3].relative_to(out)) not in files and not calls[3].exists()
     assert not list(out.rglob("*.tmp"))
-    r = run_module(p, "--out", out, "--quiet")
+    r = run_here(p, "--out", out, "--quiet")
     assert r.returncode == 0, r.stderr
     _same(_tables(out), ref)
 
@@ -307,10 +325,10 @@ def test_a_failed_write_is_not_recorded_and_the_rerun_completes_the_tables(refer
 @pytest.mark.slow
 def test_rerun_of_a_finished_run_changes_nothing_and_changed_config_is_refused(reference, tmp_path):
     p, out, ref, _ = reference
-    r = run_module(p, "--out", out, "--quiet")
+    r = run_here(p, "--out", out, "--quiet")
     assert r.returncode == 0, r.stderr
     _same(_tables(out), ref)
-    r = run_module(p, "--out", out, "--set", "samples=25")
+    r = run_here(p, "--out", out, "--set", "samples=25")
     assert r.returncode == 2 and "another config" in r.stderr
 
 
@@ -328,7 +346,7 @@ def test_a_run_folder_of_the_per_task_layout_is_refused_not_doubled(reference, t
     shutil.copy(out / "summary" / "config_id=00000" / "part-tasks.parquet", out / old)
     with open(out / "chunks.jsonl", "a") as fh:
         fh.write(json.dumps({"key": "c00000-t0000-summary", "files": [old], "rows": 1}) + "\n")
-    r = run_module(p, "--out", out, "--quiet")
+    r = run_here(p, "--out", out, "--quiet")
     assert r.returncode == 2, r.stderr
     assert r.stderr.count("\n") == 1 and "earlier nudge" in r.stderr and "--out" in r.stderr
     assert "Traceback" not in r.stderr
@@ -451,7 +469,7 @@ def test_a_killed_dask_worker_loses_and_duplicates_nothing(reference, tmp_path):
 def test_report_is_self_contained(tmp_path, monkeypatch):
     p = _study(tmp_path, TINY.replace("report: false", "report: true").replace("samples: 24", "samples: 8"))
     out = tmp_path / "out"
-    r = nudge("sweep", p, "--out", out, "--quiet")
+    r = nudge_here("sweep", p, "--out", out, "--quiet")
     assert r.returncode == 0, r.stderr
     html = (out / "report.html").read_text()
     assert html.count("data:image/png;base64,") >= 4
@@ -485,7 +503,7 @@ def test_report_is_self_contained(tmp_path, monkeypatch):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["margins.yaml", "tolerances.yaml"])
 def test_bundled_studies_are_found_by_name_and_valid(tmp_path, name):
-    r = run_module(name, "--dry-run", cwd=tmp_path)   # not in the working folder: the bundled one
+    r = run_here(name, "--dry-run", cwd=tmp_path)   # not in the working folder: the bundled one
     assert r.returncode == 0, r.stderr
     assert "configuration(s)" in r.stdout
 
@@ -516,7 +534,7 @@ def test_planner_options_reach_the_plans(tmp_path):
             .replace("  planner.margin_deg: [5, 9]", "  planner.strategy: [search, paper]")
             + "planner: {workspace: [-0.15, 0.15, -0.15, 0.15]}\n")
     out = tmp_path / "out"
-    r = run_module(_study(tmp_path, text), "--out", out, "--quiet")
+    r = run_here(_study(tmp_path, text), "--out", out, "--quiet")
     assert r.returncode == 0, r.stderr
     plans = pd.read_parquet(out / "plans")
     assert plans["planned"].all()

@@ -18,7 +18,7 @@ from robustness.evaluation import goal_errors, kinematic_success
 from robustness.replay import run_push
 from robustness.synthesis import (Scores, push_candidates, score_candidates, select,
                                   selection_key, synthesize)
-from tests.commandline import nudge
+from tests.commandline import nudge_here
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 # the biplus-stable triangle of examples/biplus_stable.yaml and the tolerances of
@@ -165,7 +165,7 @@ def test_certify_synthesize_end_to_end(tmp_path):
                             "  safety_factors: [1.15, 2.0]\n  strategies: [search]\n"
                             "  per_setting: 2\n  enabled: false\n")
     out = tmp_path / "out"
-    r = nudge("certify", cfg, "--synthesize", "--out", out, "--quiet")
+    r = nudge_here("certify", cfg, "--synthesize", "--out", out, "--quiet")
     assert r.returncode in (0, 1), r.stderr
     assert "Traceback" not in r.stderr and "warning" not in r.stderr
     certs = pd.read_parquet(out / "certificates")
@@ -191,7 +191,7 @@ def test_certify_synthesize_end_to_end(tmp_path):
 
 def test_certify_synthesize_bad_field_is_one_line(tmp_path):
     cfg = _config(tmp_path, "synthesize:\n  objective: best\n")
-    r = nudge("certify", cfg, "--out", tmp_path / "o")
+    r = nudge_here("certify", cfg, "--out", tmp_path / "o")
     assert r.returncode == 2
     lines = [x for x in r.stderr.splitlines() if x.strip()]
     assert len(lines) == 1 and "synthesize.objective" in lines[0], r.stderr
@@ -262,11 +262,7 @@ params:
   synthesize.enabled: [false, true]
 """)
     out = tmp_path / "out"
-    import subprocess
-    import sys
-
-    r = subprocess.run([sys.executable, "-m", "sweeps.run", str(study), "--out", str(out),
-                        "--quiet"], capture_output=True, text=True, timeout=600, cwd=ROOT)
+    r = nudge_here("sweep", study, "--out", out, "--quiet", cwd=ROOT)
     assert r.returncode == 0, r.stderr
     s = pd.read_parquet(out / "summary").sort_values("config_id")
     p = pd.read_parquet(out / "plans").sort_values("config_id")

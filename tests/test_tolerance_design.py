@@ -11,7 +11,7 @@ import pytest
 from planning import plan_pose
 from robustness import ExecutionTolerance, GeometryTolerance, Sampler, stats
 from robustness import tolerance_design as td
-from tests.commandline import nudge
+from tests.commandline import nudge_here
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TRIANGLE = np.array([[0.0, 0.0], [0.1, 0.0], [0.03, 0.06]])
@@ -103,7 +103,7 @@ def test_certify_design_end_to_end(tmp_path):
     cfg = tmp_path / "c.yaml"
     cfg.write_text(text + "design:\n  n_samples: 150\n  rel_tol: 0.3\n  enabled: false\n")
     out = tmp_path / "out"
-    r = nudge("certify", cfg, "--design", "--out", out, "--quiet")
+    r = nudge_here("certify", cfg, "--design", "--out", out, "--quiet")
     assert r.returncode in (0, 1), r.stderr
     assert "Traceback" not in r.stderr
     d = pd.read_parquet(out / "design")
@@ -121,9 +121,6 @@ def test_certify_design_end_to_end(tmp_path):
 
 @pytest.mark.slow
 def test_a_study_designs_every_configuration_and_resumes(tmp_path):
-    import subprocess
-    import sys
-
     study = tmp_path / "des.yaml"
     study.write_text(f"""study: des
 kind: push
@@ -142,8 +139,8 @@ params:
   execution.fence_angle: [0.002, 0.01]
 """)
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "sweeps.run", str(study), "--out", str(out), "--quiet"]
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)
+    cmd = ["sweep", study, "--out", out, "--quiet"]
+    r = nudge_here(*cmd, cwd=ROOT)
     assert r.returncode == 0, r.stderr
     d = pd.read_parquet(out / "design")
     assert len(d) == 6 and sorted(d["execution_fence_angle"].unique()) == [0.002, 0.01]
@@ -160,6 +157,6 @@ params:
     design_recs = [rec for rec in logged if any("design/" in f for f in rec["files"])]
     assert len(design_recs) == 2 and all(rec["rows"] == 3 for rec in design_recs)
     before = sorted(p.stat().st_mtime_ns for p in (out / "design").rglob("*.parquet"))
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=ROOT)   # resumes
+    r = nudge_here(*cmd, cwd=ROOT)   # resumes
     assert r.returncode == 0, r.stderr
     assert sorted(p.stat().st_mtime_ns for p in (out / "design").rglob("*.parquet")) == before

@@ -15,7 +15,7 @@ import jax
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from tests.commandline import nudge_executable  # noqa: E402
+from tests.commandline import nudge_executable, nudge_here  # noqa: E402
 from kernels.polyhedron import make_polyhedron  # noqa: E402
 from planning.tumbling import planner as tumble_planner  # noqa: E402  (an import error fails the suite)
 from planning.tumbling.development import development_poses, face_footprint  # noqa: E402
@@ -30,7 +30,12 @@ A = 0.1  # the example cube's edge, metres
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
-def run_cli(*args, timeout=300):
+def run_cli(*args, process=False, timeout=300):
+    """``nudge plan-tumble ARGS`` from the repository root: in this process
+    (:func:`tests.commandline.nudge_here`), or with ``process`` in its own (the
+    console script; nothing a library prints may reach its stderr)."""
+    if not process:
+        return nudge_here("plan-tumble", *args, cwd=ROOT)
     env = dict(os.environ)
     env.pop("NUDGE_DEBUG", None)
     env.setdefault("JAX_PLATFORMS", "cpu")
@@ -151,7 +156,7 @@ def test_cli_cube_exact_goal_json_and_plots(tmp_path):
 
     plot, dev, lat = tmp_path / "plan.png", tmp_path / "dev.png", tmp_path / "lat.png"
     r = run_cli(CUBE, "--goal", f"{2 * A},0,0,0", "--eps", "1e-3", "--json",
-                "--plot", plot, "--development", dev, "--lattice", lat)
+                "--plot", plot, "--development", dev, "--lattice", lat, process=True)
     assert r.returncode == 0, r.stderr
     assert "Traceback" not in r.stderr
     d = json.loads(r.stdout)  # stdout holds the JSON and nothing else
@@ -230,7 +235,7 @@ def test_cli_bad_eps(eps):
 
 @pytest.mark.slow
 def test_cli_other_bad_input(tmp_path):
-    _assert_input_error(run_cli(CUBE, "--goal", "0.2,0,0,0"), "--eps")  # eps missing
+    _assert_input_error(run_cli(CUBE, "--goal", "0.2,0,0,0", process=True), "--eps")  # eps missing
     _assert_input_error(run_cli(CUBE, "--eps", "1e-3"), "--goal")  # goal missing
     _assert_input_error(run_cli(tmp_path / "missing.yaml", "--goal", "0.2,0,0,0", "--eps", "1"),
                         "missing.yaml")
