@@ -87,22 +87,23 @@ def _release_executables():
 #: xdist's default order (most tests first) started test_sweep.py among the last;
 #: heaviest first is the longest-processing-time rule.
 HEAVY_FIRST = (
-    "test_sweep.py",              # ~235
     "test_pose_planner.py",       # ~160
-    "test_certify.py",            # ~140
-    "test_synthesis.py",          # ~135
-    "test_support_families.py",   # ~110
-    "test_pose_options.py",       # ~110
-    "test_tolerance_design.py",   # ~70
-    "test_cad.py",                # ~65
-    "test_physics_model.py",      # ~55
-    "test_tumble_cli.py",         # ~50
-    "test_limit_surface.py",      # ~50
-    "test_push_cli.py",           # ~45
-    "test_tumble_planner.py",     # ~42
-    "test_evaluate.py",           # ~40
-    "test_samplers.py",           # ~35
-    "test_hulls.py",              # ~35
+    "test_sweep.py",              # ~160
+    "test_pose_options.py",       # ~95
+    "test_synthesis.py",          # ~90
+    "test_certify.py",            # ~85
+    "test_support_families.py",   # ~75
+    "test_cad.py",                # ~55
+    "test_limit_surface.py",      # ~45
+    "test_tumble_planner.py",     # ~40
+    "test_evaluate.py",           # ~35
+    "test_tolerance_design.py",   # ~35
+    "test_tumble_cli.py",         # ~35
+    "test_samplers.py",           # ~30
+    "test_push_cli.py",           # ~30
+    "test_quasistatic.py",        # ~25
+    "test_runner_reference.py",   # ~25
+    "test_hulls.py",              # ~25
 )
 
 
