@@ -28,7 +28,10 @@ def test_example_end_to_end_layout_and_metadata(tmp_path):
     out = tmp_path / "out"
     r = nudge("certify", EXAMPLE, "--out", out, "--n-samples", "40", "--seed", "5", "--quiet")
     assert r.returncode in (0, 1), r.stderr
-    assert "Traceback" not in r.stderr
+    # a quiet run's stderr is empty: nothing a library prints in a fresh process reaches
+    # it (the other certifications run in the test's process, where only the command's
+    # own lines can be seen)
+    assert r.stderr == "", r.stderr
     # one folder per table, Hive-partitioned by config_id: pandas reads each as one frame
     frames = {t: pd.read_parquet(out / t) for t in TABLES}
     for t in TABLES:

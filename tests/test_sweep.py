@@ -513,6 +513,7 @@ def test_bundled_margins_runs_small(tmp_path):
     r = run_module("margins.yaml", "--out", tmp_path / "out", "--set", "samples=8",
                    "--set", "tasks.sample.n=2", "--quiet", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
+    assert r.stderr == "", r.stderr     # quiet, in a fresh process: nothing a library prints
     s = pd.read_parquet(tmp_path / "out" / "summary")
     assert len(s) == 2 * len(s["config_id"].unique()) and (s["n"] == 8).all()
     # each configuration (2 tasks x 8 samples) is one unit: a file per table
