@@ -1,6 +1,6 @@
 """Run the ``nudge`` console script as a user types it: in a subprocess
 (:func:`nudge`), or in this process by the console script's own dispatcher
-(:func:`nudge_here`, :func:`call`).
+(:func:`nudge_here`, :func:`in_process`, :func:`call`).
 
 A subprocess costs 3-4 s before the command does anything (Python, JAX, pandas
 and scipy start; every kernel traced again): a test of what a command computes,
@@ -70,14 +70,19 @@ def call(main, *args, debug=False):
     return code, out.getvalue(), err.getvalue()
 
 
-def nudge_here(*args, cwd=None):
-    """``nudge ARGS`` in this process (:func:`call` on the console script's
-    dispatcher, ``sweeps.cli.main``), returned as :func:`nudge` returns it
+def in_process(main, *args, cwd=None):
+    """:func:`call` of ``main(ARGS)``, returned as :func:`nudge` returns a run
     (a ``CompletedProcess``: ``returncode``, ``stdout``, ``stderr``).  ``cwd``:
     the working folder during the command (restored after)."""
     import contextlib
 
+    with contextlib.chdir(cwd) if cwd is not None else contextlib.nullcontext():
+        return subprocess.CompletedProcess([str(a) for a in args], *call(main, *args))
+
+
+def nudge_here(*args, cwd=None):
+    """``nudge ARGS`` in this process (:func:`in_process` on the console script's
+    dispatcher, ``sweeps.cli.main``)."""
     from sweeps import cli
 
-    with contextlib.chdir(cwd) if cwd is not None else contextlib.nullcontext():
-        return subprocess.CompletedProcess(["nudge", *map(str, args)], *call(cli.main, *args))
+    return in_process(cli.main, *args, cwd=cwd)

@@ -5,7 +5,6 @@ Every CAD file here is written by the test itself (trimesh, ezdxf)."""
 import json
 import math
 import re
-import subprocess
 import warnings
 
 import ezdxf
@@ -18,7 +17,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from sweeps import cad
 from sweeps.partfile import PartFileError, load_part
 from sweeps.units import LengthError, lengths_to_metres, parse_length
-from tests.commandline import ROOT, call, nudge
+from tests.commandline import ROOT, nudge, nudge_here
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
 
@@ -97,14 +96,13 @@ def wedge_stl(path, scale=1.0):
 
 
 def run(*args, cwd=None, monkeypatch=None):
-    """``nudge ARGS`` in this process (:func:`tests.commandline.call` on the console
+    """``nudge ARGS`` in this process (:func:`tests.commandline.nudge_here`, the console
     script's own dispatcher, ``sweeps.cli.main``): the commands' compiled kernels are
-    shared by the tests of this file.  ``cwd``: the working folder (``monkeypatch``)."""
-    from sweeps import cli
-
+    shared by the tests of this file.  ``cwd``: the working folder for the rest of the
+    test (``monkeypatch``)."""
     if cwd is not None:
         monkeypatch.chdir(cwd)
-    return subprocess.CompletedProcess(args, *call(cli.main, *args))
+    return nudge_here(*args)
 
 
 def write(path, text):

@@ -16,7 +16,7 @@ import pytest
 from sweeps.config import ConfigError
 from sweeps.design import expand, parse_overrides
 from sweeps.study import load_design
-from tests.commandline import call, nudge, nudge_here
+from tests.commandline import in_process, nudge, nudge_here
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TABLES = ("samples", "summary", "plans")
@@ -56,16 +56,12 @@ def run_module(*args, timeout=600, **kw):
 
 def run_here(*args, cwd=None):
     """:func:`run_module` in this process (``sweeps.run.main``, as ``python -m
-    sweeps.run`` runs it: :func:`tests.commandline.call`), returned as a
+    sweeps.run`` runs it: :func:`tests.commandline.in_process`), returned as a
     ``CompletedProcess``: for the tests of what the command writes and says;
     a signal, a cold start or a process's environment needs :func:`run_module`."""
-    import contextlib
-
     from sweeps import run
 
-    with contextlib.chdir(cwd) if cwd is not None else contextlib.nullcontext():
-        return subprocess.CompletedProcess(["python", "-m", "sweeps.run", *map(str, args)],
-                                           *call(run.main, *args))
+    return in_process(run.main, *args, cwd=cwd)
 
 
 def _tables(out):
