@@ -27,6 +27,15 @@ the normal force (``R_friction = R_normal / impratio``), which is what
 remains of MuJoCo's noslip remedy without it; higher values stiffen the
 problem (impratio 1000 flipped a part in the C engine).
 
+float32 noise, per sample (issue 37): on a part rocking on its corners (rigid
+support) MJX's final heading is decided by rounding.  Eight copies of one
+sample whose starts differ by at most 1e-7 m and 1e-6 rad end within 0.02-0.05
+deg of each other in the C engine and span 0.45-1.9 deg in MJX (mostly
++-0.25 deg, one copy in 8-16 near 1.7 deg); a new jaxlib (0.10.1, 0.10.2)
+changes which copy lands where.  Compare MJX with the C engine over samples
+(medians, rates), never one sample's heading to a tenth of a degree
+(``tests/test_physics_mjx.py``).
+
 Speed (2 CPU cores, float32): the compilation takes 30-60 s, then 1,500-
 3,200 world-steps/s for 2-4 worlds, against 35,000-49,000 steps/s per
 thread for the C engine on the same scene: on a CPU machine the C engine
