@@ -38,7 +38,7 @@ from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTo
                                    SuccessCriterion)
 
 # used by the layers above (the one boundary: tests/test_layers.py)
-from robustness import tables, tolerance_design  # noqa: F401  (modules other layers use)
+from robustness import failure_modes, tables, tolerance_design  # noqa: F401  (modules other layers use)
 from robustness.certificates import (Schedule, auto_schedule, decide, first_certifying, grow,
                                      no_plan, perturbed_sources)
 from robustness.models import PUSH_KINEMATIC, model_for
@@ -53,6 +53,6 @@ __all__ = [
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "Bound", "SourceBound", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
     "one_sided_upper", "certify", "Certificate", "summarise",
-    "tables", "tolerance_design", "FAILURE_MODES", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
+    "tables", "tolerance_design", "failure_modes", "FAILURE_MODES", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
     "first_certifying", "grow", "PUSH_KINEMATIC", "model_for", "no_plan", "perturbed_sources", "to_arrow",
 ]

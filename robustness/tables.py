@@ -35,9 +35,10 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-FAILURE_MODES = ("none", "incomplete_reorientation", "wrong_edge", "slip", "hull_changed",
-                 "wrong_face", "combinatorics_changed", "position", "orientation",
-                 "left_workspace", "toppled", "fence_strike")
+from robustness import failure_modes
+
+#: every failure mode's name, in table order (their home: :mod:`robustness.failure_modes`)
+FAILURE_MODES = failure_modes.NAMES
 
 #: What a certificate can say (:mod:`robustness.certificates`).
 VERDICTS = ("certified", "not certified", "no plan")

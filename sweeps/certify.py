@@ -149,7 +149,28 @@ def build_parser(prog: str = "nudge certify") -> Parser:
                         "on fresh draws (the design table and report.html; the config's design: "
                         "section sets the draws)")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.add_argument("--yes", action="store_true",
+                   help="run even when the estimate is over the budget (an hour on 2 CPU cores)")
     return p
+
+
+def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int) -> float:
+    """The certification's time (s) on 2 CPU cores from the measured throughput
+    of its model on its support (:func:`robustness.models.samples_per_second`):
+    every task's samples (``auto``: up to ``max_samples``), the synthesis's
+    selection draws over its candidate cap, the margin search's grid; plus a
+    few seconds a task of planning and compilation."""
+    from robustness.models import samples_per_second
+
+    kind = "push" if part.kind == "polygon" else "tumble"
+    rate = samples_per_second(kind, cfg.model, cfg.friction.support)
+    n = cfg.max_samples if cfg.n_samples == "auto" else int(cfg.n_samples)
+    if cfg.synthesize is not None and cfg.synthesize.enabled:
+        n += cfg.synthesize.n_samples * cfg.synthesize.max_candidates
+    elif kind == "push" and cfg.margin_search is not None and cfg.margin_search.enabled:
+        m = cfg.margin_search
+        n += m.n_samples * len(m.margins_deg) * len(m.safety_factors)
+    return n_tasks * (n / rate + 2.0) + 8.0
 
 
 def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = False,
@@ -223,6 +244,15 @@ def main(argv=None, prog: str = "nudge certify") -> int:
             fail(line)
         return Exit.INPUT
     report_part(part)   # a CAD part: its file, unit and what reading it found
+    from sweeps.budget import fmt_time, refusal
+
+    secs = estimate_seconds(cfg, part, len(tasks))
+    no = refusal(secs, f"certifying {len(tasks)} task(s) of {path.name} with model {cfg.model}",
+                 args.yes, "lower --n-samples / --max-samples or choose a faster model")
+    if no:
+        return fail(no)
+    _log(args.quiet, f"estimate: about {fmt_time(secs)} on 2 CPU cores (model {cfg.model}, "
+                     f"support {cfg.friction.support})")
     run_id = "r" + hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:10]
     out = pathlib.Path(args.out) if args.out else pathlib.Path("results") / f"certify-{path.stem}" / run_id
     try:
@@ -257,11 +287,12 @@ def _run(cfg, text, part, tasks, out, run_id, quiet):
                                             {"tasks": [t[0] for t in tasks]}, config_as_run=text))
     done = store.done()
     certs = []
+    stopped = (f"stopped: finished chunks are kept; run the same command again to resume "
+               f"(results so far: {out})\n")
     with StopFlag(f"run the same command again to resume (results so far: {out})") as flag:
         for ti, (name, start, goal) in enumerate(tasks):
             if flag.stop:
-                sys.stderr.write(f"stopped: finished chunks are kept; run the same command again "
-                                 f"to resume (results so far: {out})\n")
+                sys.stderr.write(stopped)
                 return Exit.INTERRUPTED, certs
             key = f"t{ti:04d}-certificate"
             if key in done:
@@ -278,6 +309,9 @@ def _run(cfg, text, part, tasks, out, run_id, quiet):
             path = store.write("certificates", 0, f"t{ti:04d}", tables.rows_table([row], schema), schema)
             store.mark_done(key, [path])
             certs.append(row)
+        if flag.stop:   # during the last task (its synthesis, blocks or design): no verdict, no report
+            sys.stderr.write(stopped)
+            return Exit.INTERRUPTED, certs
     status = Exit.OK if all(c["verdict"] == "certified" for c in certs) else Exit.NEGATIVE
     if cfg.design is not None and cfg.design.enabled or cfg.synthesize is not None \
             and cfg.synthesize.enabled:

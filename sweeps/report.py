@@ -42,7 +42,7 @@ Tables: <code>pd.read_parquet("{{ root }}/summary")</code> (also <code>samples</
 {% for section, figs in sections %}
 <h2>{{ section }}</h2><div class="figs">
 {% for title, png in figs %}<figure><img alt="{{ title }}" src="data:image/png;base64,{{ png }}"></figure>{% endfor %}
-</div>{% endfor %}
+</div>{% if section == "Failure modes" and modes %}<p class="note">{% for name, text in modes %}<code>{{ name }}</code>: {{ text }}{% if not loop.last %}; {% endif %}{% endfor %}.</p>{% endif %}{% endfor %}
 {% if designs %}<h2>Tolerance design</h2>
 <p class="note">Per configuration and task: all tolerance axes together, as far toward their
 one-axis limits as still certifies, verified on fresh draws (table <code>design</code>: every
@@ -58,6 +58,15 @@ axis's loosest value alone, the failures each removes).</p>
 <h2>Config as run</h2><pre>{{ config }}</pre>
 </body></html>
 """, autoescape=True)
+
+
+def _modes_seen(summary: pd.DataFrame) -> list:
+    """``[(name, description)]`` of the failure modes some sample of the summary
+    had (success excluded), in table order."""
+    from robustness import failure_modes
+
+    return [(m.name, m.description) for m in failure_modes.MODES[1:]
+            if f"n_{m.name}" in summary and summary[f"n_{m.name}"].sum() > 0]
 
 
 def write_report(store, design) -> pathlib.Path:
@@ -134,7 +143,7 @@ def write_report(store, design) -> pathlib.Path:
         n_tasks=len(design.tasks(0)), samples=top.samples, seed=top.seed,
         pos_eps=top.eps.pos_eps_m, theta_eps=f"{top.eps.theta_eps_rad:.4g}", confidence=conf,
         root=html.escape(str(store.root)), sections=sections, header=header, rows=rows,
-        designs=designs, config=design.text, style=STYLE)
+        designs=designs, config=design.text, style=STYLE, modes=_modes_seen(summary))
     path = store.root / "report.html"
     atomic_write(path, lambda fh: fh.write(page), mode="w")
     return path

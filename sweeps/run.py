@@ -37,8 +37,7 @@ from sweeps.errors import Exit, UserError
 from sweeps.terminal import Parser, fail, report_part, run_main
 
 
-#: Rough throughput on 2 CPU cores (samples/s, float64) for --dry-run's estimate.
-RATES = {"exact": 20_000.0, "quasistatic": 4_000.0, "limit_surface": 40.0, "tumble": 20_000.0}
+#: the estimate's compilation time
 COMPILE_S = 8.0   # per distinct kernel shape, cold cache
 
 
@@ -63,6 +62,8 @@ def build_parser(prog: str = "python -m sweeps.run") -> Parser:
     p.add_argument("--executor", choices=("local", "dask"), help="override the config's executor")
     p.add_argument("--quiet", action="store_true", help="no progress bar, no summary table")
     p.add_argument("--no-report", action="store_true", help="do not write report.html")
+    p.add_argument("--yes", action="store_true",
+                   help="run even when the estimate is over the budget (an hour on 2 CPU cores)")
     return p
 
 
@@ -82,6 +83,15 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "python -m sweeps.run
     if args.dry_run:
         sys.stdout.write(describe_design(design, out, spec) + "\n")
         return Exit.OK
+    from sweeps.budget import fmt_time, refusal
+    from sweeps.work import plan_units
+
+    secs = estimate_seconds(design, plan_units(design, {})[0])
+    no = refusal(secs, f"study {design.name}", args.yes,
+                 "lower samples, sweep fewer values or choose a faster model")
+    if no:
+        return fail(no)
+    _say(args.quiet, f"estimate: about {fmt_time(secs)} on 2 CPU cores")
     from sweeps.executors import ExecutorError, check_scheduler
     from sweeps.store import RunError
     from sweeps.tasks import PlanInputError
@@ -112,6 +122,7 @@ def _prepare(args):
 
 def describe_design(design, out: pathlib.Path, spec) -> str:
     """The ``--dry-run`` text: configurations, tasks, samples, chunks, estimate."""
+    from sweeps.budget import fmt_time
     from sweeps.work import plan_units
 
     blocks, _ = plan_units(design, {})
@@ -132,24 +143,24 @@ def describe_design(design, out: pathlib.Path, spec) -> str:
         if len(design.points) > 20:
             lines.append(f"  ... {len(design.points) - 20} more")
     secs = estimate_seconds(design, blocks)
-    lines.append(f"estimate: about {_fmt_time(secs)} on 2 CPU cores (rough: model throughput and "
+    lines.append(f"estimate: about {fmt_time(secs)} on 2 CPU cores (rough: model throughput and "
                  "compilation; a warm compilation cache is faster)")
     return "\n".join(lines)
 
 
 def estimate_seconds(design, blocks) -> float:
-    """A rough run time (s) from per-model throughputs and per-shape compilation."""
+    """A rough run time (s) from the measured throughput of each configuration's
+    model and support family (:data:`robustness.models.THROUGHPUT`) and per-shape
+    compilation."""
+    from robustness.models import samples_per_second
+
     total, shapes = 0.0, set()
     for u in blocks:
         cfg = design.configs[u.config_id]
-        rate = RATES["tumble"] if cfg.kind == "tumble" else RATES[cfg.model]
+        rate = samples_per_second(cfg.kind, cfg.model, cfg.friction.support)
         total += u.samples / rate + 0.05
         shapes.add((cfg.kind, cfg.model, cfg.dtype, design.part(u.config_id).name))
     return total + COMPILE_S * (len(shapes) + 1)
-
-
-def _fmt_time(s: float) -> str:
-    return f"{s:.0f} s" if s < 120 else (f"{s / 60:.1f} min" if s < 7200 else f"{s / 3600:.1f} h")
 
 
 def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool = True) -> int:

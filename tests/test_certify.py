@@ -261,3 +261,19 @@ tasks:
     assert s.loc["roll_two", "n_none"] == s.loc["roll_two", "n_success"] == 8
     p = pd.read_parquet(out / "plans").set_index("task")
     assert not p.loc["off_lattice", "planned"] and "not_solvable" in p.loc["off_lattice", "reason"]
+
+
+def test_a_physics_certification_of_a_hundred_thousand_samples_is_refused_at_once(tmp_path):
+    """Issue 41: 10^5 MuJoCo samples (a slipped zero) ran 81 s silently and died by
+    SIGSEGV; now one line naming the estimate and --yes, exit 2, nothing written."""
+    cfg = tmp_path / "c.yaml"
+    text = EXAMPLE.read_text().replace("part: biplus_stable.yaml",
+                                       f"part: {ROOT / 'examples' / 'biplus_stable.yaml'}")
+    cfg.write_text(text + "model: mujoco\n" if "\nmodel:" not in text
+                   else text.replace("model: quasistatic", "model: mujoco"))
+    r = nudge_here("certify", cfg, "--n-samples", "100000", "--out", tmp_path / "out")
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "estimated at about" in lines[0] and "--yes" in lines[0], lines
+    assert "model mujoco" in lines[0]
+    assert not (tmp_path / "out").exists()

@@ -1,4 +1,6 @@
 """The ``nudge`` console script: help, subcommands, one-line errors, exit statuses."""
+import pathlib
+
 import pytest
 
 from tests.commandline import nudge
@@ -44,3 +46,33 @@ def test_bundled_part_by_name():
     assert "rectangle" in r.stdout
     r = nudge("plan-push", "no_such_part", "--start", "0,0,0", "--goal", "0.05,0,0")
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "bundled" in r.stderr
+
+
+def test_every_bundled_example_names_commands_that_exist():
+    """The comments of every bundled config and study name commands a user can
+    type today (``nudge COMMAND`` or ``python -m sweeps.run``), on files that
+    exist, and tables as folders (issue 41: a header said ``python -m
+    sweeps.certify`` and ``{samples,summary,certificates}.parquet``)."""
+    import re
+
+    from sweeps import catalog
+    from sweeps.cli import COMMANDS
+
+    examples = pathlib.Path(__file__).resolve().parents[1] / "examples"
+    seen = 0
+    for path in sorted(examples.rglob("*.yaml")):
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            comment = line.partition("#")[2]
+            where = f"{path.relative_to(examples.parent)}:{n}"
+            assert ".parquet" not in comment, f"{where}: tables are folders: {line}"
+            for module, arg in re.findall(r"python -m ([\w.]+)\s+(\S+)", comment):
+                seen += 1
+                assert module == "sweeps.run", f"{where}: no such entry point: {line}"
+                assert arg in catalog.bundled_studies() or arg.removesuffix(".yaml") in \
+                    catalog.bundled_studies() or (examples.parent / arg).exists(), where
+            for cmd, arg in re.findall(r"\bnudge ([a-z-]+)\s*(\S*)", comment):
+                seen += 1
+                assert cmd in COMMANDS, f"{where}: no command nudge {cmd}: {line}"
+                if arg.endswith(".yaml") and "/" in arg:
+                    assert (examples.parent / arg).exists(), f"{where}: no file {arg}"
+    assert seen >= 5

@@ -60,3 +60,23 @@ def test_plan_figure_shows_length_and_distance_per_strategy(monkeypatch):
     assert dist.get_title() == "push distance" and len(dist.get_lines()) == 2
     paper = np.asarray(dist.get_lines()[0].get_ydata(), float)
     assert np.allclose(paper, [0.455, 0.395, 0.32])
+
+
+def test_every_failure_mode_has_one_home_that_the_figure_and_the_models_read(monkeypatch):
+    """Each mode a kernel or a physics model assigns is named in
+    robustness.failure_modes (with a colour and a description), and the
+    failure-mode figure draws a summary holding all of them."""
+    from robustness import FAILURE_MODES, failure_modes
+    from robustness.physics import PUSH_FAILURE_MODES, TUMBLE_FAILURE_MODES
+
+    assert FAILURE_MODES == failure_modes.NAMES and FAILURE_MODES[0] == "none"
+    assert set(PUSH_FAILURE_MODES) <= set(FAILURE_MODES)
+    assert set(TUMBLE_FAILURE_MODES) <= set(FAILURE_MODES)
+    assert len(set(failure_modes.COLOURS.values())) == len(FAILURE_MODES)
+    assert all(m.description for m in failure_modes.MODES)
+    monkeypatch.setattr(figs, "_png", lambda fig: fig)
+    summary = pd.DataFrame([dict(config_id=c, n=len(FAILURE_MODES), **{f"n_{m}": 1 for m in FAILURE_MODES})
+                            for c in range(2)])
+    fig = figs.failure_modes(summary, ["a", "b"])
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert labels == ["success", *FAILURE_MODES[1:]]

@@ -198,6 +198,36 @@ def test_dry_run_prints_the_design_and_writes_nothing(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_dry_run_estimates_every_model_it_can_run(tmp_path):
+    """``--dry-run`` answers for the physics model and for the limit-surface model
+    on each support (issue 41: KeyError 'mujoco', exit 3), from the measured
+    rates: limit_surface on the mixture of supports is ten times slower than on
+    rigid corners."""
+    import re
+
+    secs = {}
+    for model, support in (("mujoco", "any"), ("limit_surface", "rigid"), ("limit_surface", "any"),
+                           ("quasistatic", "any")):
+        r = nudge_here("sweep", "margins.yaml", "--dry-run", "--set", f"model={model}",
+                       f"friction.support={support}", "samples=200")
+        assert r.returncode == 0, r.stderr
+        m = re.search(r"estimate: about ([\d.]+) (s|min|h)", r.stdout)
+        assert m, r.stdout
+        secs[model, support] = float(m.group(1)) * {"s": 1, "min": 60, "h": 3600}[m.group(2)]
+    assert secs["limit_surface", "any"] > 5 * secs["limit_surface", "rigid"]
+    assert secs["mujoco", "any"] > 10 * secs["quasistatic", "any"]
+
+
+def test_a_study_over_the_budget_is_refused_in_one_line_before_any_work(tmp_path):
+    r = nudge_here("sweep", "margins.yaml", "--out", tmp_path / "out", "--set", "model=mujoco",
+                   "samples=100000")
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: study margins is estimated at about")
+    assert "--yes" in lines[0] and "h on 2 CPU cores" in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
 # ---------------------------------------------------------------- running
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
@@ -493,6 +523,24 @@ def test_report_is_self_contained(tmp_path, monkeypatch):
                         real(self, table, config_id))
     write_report(store, design)
     assert (out / "report.html").read_text() == html
+    # a summary holding every failure mode any model gives (a fence strike is physics'
+    # alone): each is drawn and explained (issue 41: the report died on a KeyError)
+    import html as html_lib
+
+    from robustness import failure_modes
+
+    def every_mode(self, table, config_id=None, columns=None):
+        t = real(self, table, config_id, columns)
+        if table == "summary":
+            for name in failure_modes.NAMES[1:]:
+                t[f"n_{name}"] = 1
+        return t
+
+    monkeypatch.setattr(RunStore, "read", every_mode)
+    write_report(store, design)
+    page = (out / "report.html").read_text()
+    for m in failure_modes.MODES[1:]:
+        assert f"<code>{m.name}</code>: {html_lib.escape(m.description)}" in page, m.name
 
 
 # ---------------------------------------------------------------- bundled studies

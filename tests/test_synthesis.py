@@ -189,6 +189,34 @@ def test_certify_synthesize_end_to_end(tmp_path):
     assert "synthesized:" in r.stdout
 
 
+def test_ctrl_c_during_synthesis_is_exit_130_with_no_certificate_or_report(tmp_path, monkeypatch):
+    """Ctrl-C while the last task's candidates are scored: exit 130, the resume
+    line, no certificate and no report (it exited 0 with an empty table before)."""
+    import os
+    import signal
+
+    import sweeps.tasks
+
+    real = sweeps.tasks.synthesize_for
+
+    def interrupted(*a, **kw):
+        os.kill(os.getpid(), signal.SIGINT)   # the StopFlag's handler: stop after this unit
+        return real(*a, **kw)
+
+    monkeypatch.setattr(sweeps.tasks, "synthesize_for", interrupted)
+    text = _config(tmp_path).read_text()
+    cfg = tmp_path / "one.yaml"
+    cfg.write_text(text[:text.index("tasks:")] + "tasks:\n  - name: turn\n    start: [0, 0, 0]\n"
+                   "    goal: [0.01, 0.0, 1.0]\n" + "synthesize:\n  n_samples: 50\n"
+                   "  margins_deg: [3]\n  safety_factors: [1.15]\n  strategies: [search]\n")
+    out = tmp_path / "out"
+    r = nudge_here("certify", cfg, "--synthesize", "--out", out, "--quiet")
+    assert r.returncode == 130, (r.stdout, r.stderr)
+    assert "stopped: finished chunks are kept; run the same command again to resume" in r.stderr
+    assert not (out / "certificates").exists() and not (out / "report.html").exists()
+    assert "results:" not in r.stdout
+
+
 def test_certify_synthesize_bad_field_is_one_line(tmp_path):
     cfg = _config(tmp_path, "synthesize:\n  objective: best\n")
     r = nudge_here("certify", cfg, "--out", tmp_path / "o")

@@ -20,10 +20,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from robustness import clopper_pearson, FAILURE_MODES
+from robustness import clopper_pearson, failure_modes, FAILURE_MODES
 
-MODE_COLORS = dict(zip(FAILURE_MODES[1:], ("tab:orange", "tab:red", "tab:purple", "tab:brown",
-                                            "tab:pink", "tab:olive", "tab:cyan", "tab:gray")))
+MODE_COLORS = failure_modes.COLOURS   # one home for every mode's name, colour and description
 
 
 def _png(fig) -> bytes:
@@ -146,7 +145,7 @@ def failure_modes(summary: pd.DataFrame, labels: list, axis_label: str = "config
     bottom = np.zeros(len(g))
     tot = np.array(g.sum(axis=1), dtype=float)
     tot[tot == 0] = 1.0
-    ax.bar(x, g["n_none"] / tot, bottom=bottom, color="tab:green", label="success")
+    ax.bar(x, g["n_none"] / tot, bottom=bottom, color=MODE_COLORS["none"], label="success")
     bottom += g["n_none"].to_numpy() / tot
     for m in FAILURE_MODES[1:]:
         v = g[f"n_{m}"].to_numpy() / tot
