@@ -27,7 +27,7 @@ import time
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from robustness.models import samples_per_second  # noqa: E402
+from robustness import samples_per_second  # noqa: E402
 
 STUDY = """study: throughput
 kind: push

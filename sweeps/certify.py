@@ -160,7 +160,7 @@ def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int) -> float:
     every task's samples (``auto``: up to ``max_samples``), the synthesis's
     selection draws over its candidate cap, the margin search's grid; plus a
     few seconds a task of planning and compilation."""
-    from robustness.models import samples_per_second
+    from robustness import samples_per_second
 
     kind = "push" if part.kind == "polygon" else "tumble"
     rate = samples_per_second(kind, cfg.model, cfg.friction.support)

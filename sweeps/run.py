@@ -37,8 +37,8 @@ from sweeps.errors import Exit, UserError
 from sweeps.terminal import Parser, fail, report_part, run_main
 
 
-#: the estimate's compilation time
-COMPILE_S = 8.0   # per distinct kernel shape, cold cache
+#: the estimate's compilation time per distinct kernel shape (s, cold cache)
+COMPILE_S = 8.0
 
 
 def build_parser(prog: str = "python -m sweeps.run") -> Parser:
@@ -150,9 +150,9 @@ def describe_design(design, out: pathlib.Path, spec) -> str:
 
 def estimate_seconds(design, blocks) -> float:
     """A rough run time (s) from the measured throughput of each configuration's
-    model and support family (:data:`robustness.models.THROUGHPUT`) and per-shape
+    model and support family (:data:`robustness.THROUGHPUT`) and per-shape
     compilation."""
-    from robustness.models import samples_per_second
+    from robustness import samples_per_second
 
     total, shapes = 0.0, set()
     for u in blocks:

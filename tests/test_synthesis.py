@@ -189,6 +189,7 @@ def test_certify_synthesize_end_to_end(tmp_path):
     assert "synthesized:" in r.stdout
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_synthesis_is_exit_130_with_no_certificate_or_report(tmp_path, monkeypatch):
     """Ctrl-C while the last task's candidates are scored: exit 130, the resume
     line, no certificate and no report (it exited 0 with an empty table before)."""
