@@ -142,10 +142,35 @@ def report_warnings(caught) -> None:
             sys.stderr.write(f"warning: {msg}\n")
 
 
+def disk_full(exc: BaseException) -> bool:
+    """Whether ``exc`` says the disk (or the user's quota) is full; pyarrow's
+    writers say it in the message and leave ``errno`` unset."""
+    import errno
+
+    return isinstance(exc, OSError) and (
+        exc.errno in (errno.ENOSPC, errno.EDQUOT) or "No space left on device" in str(exc))
+
+
+def free_space(path) -> str:
+    """``"N MB free"`` on the disk holding ``path`` (its nearest existing folder),
+    or ``"free space unknown"``."""
+    import pathlib
+    import shutil
+
+    p = pathlib.Path(path).absolute() if path != "the results folder" else pathlib.Path.cwd()
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    try:
+        return f"{shutil.disk_usage(p).free / 1e6:.0f} MB free"
+    except OSError:
+        return "free space unknown"
+
+
 def run_main(main: Callable[[], int]) -> None:
     """``sys.exit(main())``; a :class:`~sweeps.errors.UserError` that reaches it
-    is one ``error:`` line and exit status 2, any other exception one line and
-    exit status 3 (``NUDGE_DEBUG=1`` re-raises it for the traceback)."""
+    is one ``error:`` line and exit status 2, so is a full disk (the line names
+    the folder and the free space; the run resumes), any other exception one line
+    and exit status 3 (``NUDGE_DEBUG=1`` re-raises it for the traceback)."""
     try:
         sys.exit(main())
     except KeyboardInterrupt:
@@ -157,6 +182,11 @@ def run_main(main: Callable[[], int]) -> None:
     except Exception as exc:  # noqa: BLE001 - a CLI reports, it does not dump a traceback
         if os.environ.get("NUDGE_DEBUG"):
             raise
+        if disk_full(exc):   # not a bug: one line, the run resumes once there is space
+            where = exc.filename or "the results folder"
+            sys.exit(fail(f"no space left on the disk holding {where} ({free_space(where)}): "
+                          "free some space or give --out on another disk, then run the same "
+                          "command again to resume (finished chunks are kept)"))
         sys.stderr.write(f"error: internal error ({type(exc).__name__}: "
                          f"{' '.join(str(exc).split())}); rerun with NUDGE_DEBUG=1 for the "
                          "traceback\n")

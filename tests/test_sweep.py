@@ -228,6 +228,34 @@ def test_a_study_over_the_budget_is_refused_in_one_line_before_any_work(tmp_path
     assert not (tmp_path / "out").exists()
 
 
+def test_a_full_disk_is_one_line_and_the_run_resumes(tmp_path, monkeypatch):
+    """Issue 41: a full disk was 'internal error (OSError: [Errno 28] ...)', exit 3.
+    Now one line naming the folder and the free space, exit 2, the finished chunks
+    kept; the same command resumes to the end once there is space."""
+    from sweeps.store import RunStore
+
+    p = _study(tmp_path)
+    out = tmp_path / "out"
+    real, calls = RunStore.write, []
+
+    def fills_up(self, table, *a, **kw):
+        calls.append(table)
+        if len(calls) > 2:
+            raise OSError(28, "No space left on device", str(self.root / table / "part.parquet"))
+        return real(self, table, *a, **kw)
+
+    monkeypatch.setattr(RunStore, "write", fills_up)
+    r = nudge_here("sweep", p, "--out", out, "--quiet")
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: no space left on the disk holding {out}")
+    assert "MB free" in lines[0] and "run the same command again to resume" in lines[0]
+    monkeypatch.setattr(RunStore, "write", real)
+    r = nudge_here("sweep", p, "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert not pd.read_parquet(out / "summary").empty
+
+
 # ---------------------------------------------------------------- running
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
