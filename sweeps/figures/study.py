@@ -20,9 +20,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from robustness import clopper_pearson, failure_modes, FAILURE_MODES
+from robustness import clopper_pearson, FAILURE_MODES
+from robustness import failure_modes as _modes   # the name failure_modes is this module's figure
 
-MODE_COLORS = failure_modes.COLOURS   # one home for every mode's name, colour and description
+MODE_COLORS = _modes.COLOURS   # one home for every mode's name, colour and description
 
 
 def _png(fig) -> bytes:
