@@ -47,8 +47,14 @@ def read_pins(text: str) -> dict[str, str]:
     return pins
 
 
+#: what ``pip freeze`` never lists (the installer's own packages)
+NOT_FROZEN = {"pip", "setuptools", "wheel", "distribute"}
+
+
 def compare(locked: dict[str, str], newest: dict[str, str]):
-    """(changed, added, removed): [(name, locked, newest)], [(name, newest)], [(name, locked)]."""
+    """(changed, added, removed): [(name, locked, newest)], [(name, newest)], [(name, locked)];
+    the installer's own packages, which ``pip freeze`` leaves out, are not compared."""
+    locked = {k: v for k, v in locked.items() if k not in NOT_FROZEN}
     changed = [(k, locked[k], newest[k]) for k in sorted(locked.keys() & newest.keys())
                if locked[k] != newest[k]]
     added = [(k, newest[k]) for k in sorted(newest.keys() - locked.keys()) if k != "nudge"]
