@@ -2,7 +2,7 @@
 
 Run by hand from the repository root (no assertions)::
 
-    python bench/throughput.py                        # every row of the table (~10 min)
+    python bench/throughput.py                        # every row of the table (~4 min)
     python bench/throughput.py --rows mujoco:rigid limit_surface:any
 
 For each (model, support family) it runs one small study of the nice-stable

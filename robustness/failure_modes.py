@@ -4,10 +4,11 @@ count column each, :mod:`robustness.tables`), the kernels' and the physics
 models' classifications, the report's figures and the terminal read.
 
 The kernel models (exact, quasistatic, limit_surface; tumbles) assign the
-modes of :data:`KERNEL_PUSH` / :data:`KERNEL_TUMBLE`; MuJoCo adds those only a
-physics engine can see (a part leaving the workspace, toppling, a fence
-striking it): :data:`robustness.physics.PUSH_FAILURE_MODES` and
-``TUMBLE_FAILURE_MODES`` list, in assignment order, names from here.
+first nine (:mod:`robustness.evaluation`); MuJoCo adds those only a physics
+engine can see (a part leaving the workspace, toppling, a fence striking it):
+``robustness.physics.PUSH_FAILURE_MODES`` and ``TUMBLE_FAILURE_MODES`` list, in
+assignment order, names from here (``tests/test_report_figures.py`` holds them
+to it).
 """
 from __future__ import annotations
 
@@ -44,8 +45,8 @@ MODES = (
     FailureMode("orientation", "the final heading is outside the tolerance", "tab:gray"),
     FailureMode("left_workspace", "physics: the part left the cell's workspace", "gold"),
     FailureMode("toppled", "physics: the part tipped over onto a side face", "black"),
-    FailureMode("fence_strike", "physics: the fence struck the part away from a pushing contact "
-                "(a corner or the top)", "tab:blue"),
+    FailureMode("fence_strike", "physics: the fence touched the part while coming down or "
+                "moving lifted between pushes", "tab:blue"),
 )
 
 BY_NAME = {m.name: m for m in MODES}
