@@ -151,13 +151,13 @@ def disk_full(exc: BaseException) -> bool:
         exc.errno in (errno.ENOSPC, errno.EDQUOT) or "No space left on device" in str(exc))
 
 
-def free_space(path) -> str:
-    """``"N MB free"`` on the disk holding ``path`` (its nearest existing folder),
-    or ``"free space unknown"``."""
+def free_space(path=None) -> str:
+    """``"N MB free"`` on the disk holding ``path`` (its nearest existing folder;
+    None: the working folder), or ``"free space unknown"``."""
     import pathlib
     import shutil
 
-    p = pathlib.Path(path).absolute() if path != "the results folder" else pathlib.Path.cwd()
+    p = pathlib.Path(path or ".").absolute()
     while not p.exists() and p != p.parent:
         p = p.parent
     try:
@@ -184,7 +184,7 @@ def run_main(main: Callable[[], int]) -> None:
             raise
         if disk_full(exc):   # not a bug: one line, the run resumes once there is space
             where = exc.filename or "the results folder"
-            sys.exit(fail(f"no space left on the disk holding {where} ({free_space(where)}): "
+            sys.exit(fail(f"no space left on the disk holding {where} ({free_space(exc.filename)}): "
                           "free some space or give --out on another disk, then run the same "
                           "command again to resume (finished chunks are kept)"))
         sys.stderr.write(f"error: internal error ({type(exc).__name__}: "
