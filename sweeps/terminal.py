@@ -183,8 +183,8 @@ def run_main(main: Callable[[], int]) -> None:
         if os.environ.get("NUDGE_DEBUG"):
             raise
         if disk_full(exc):   # not a bug: one line, the run resumes once there is space
-            where = exc.filename or "the results folder"
-            sys.exit(fail(f"no space left on the disk holding {where} ({free_space(exc.filename)}): "
+            where, free = exc.filename or "the results folder", free_space(exc.filename)
+            sys.exit(fail(f"no space left on the disk holding {where} ({free}): "
                           "free some space or give --out on another disk, then run the same "
                           "command again to resume (finished chunks are kept)"))
         sys.stderr.write(f"error: internal error ({type(exc).__name__}: "
