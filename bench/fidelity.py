@@ -65,7 +65,7 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from kernels import polygon as pg  # noqa: E402
+from kernels import polygon as pg, release_executables  # noqa: E402
 from kernels.planar import wrap_angle_np  # noqa: E402
 from planning import plan_pose, plan_tumble  # noqa: E402
 from robustness import Draws, FrictionRange, Sampler  # noqa: E402
@@ -145,25 +145,8 @@ def run_pushes(args):
     return rows, skipped
 
 
-#: memory maps above which the compiled executables are released: every plan shape
-#: compiles its own kernels, and past the kernel's vm.max_map_count (65,530) LLVM's
-#: next mmap fails ("Cannot allocate memory", then a segfault: a run of
-#: --supports uniform tripod died so after 85 of 96 plans; tests/conftest.py does the same)
-MAX_MAPS = 30_000
-
-
-def _release_executables():
-    try:
-        with open("/proc/self/maps", "rb") as f:
-            n = sum(1 for _ in f)
-    except OSError:     # not Linux: no such limit
-        return
-    if n > MAX_MAPS:
-        jax.clear_caches()
-
-
 def _run_one(args, support, kind, name, gi, goal, plan):
-    _release_executables()
+    release_executables()   # every plan shape compiles its own kernels
     draws = _params(plan, args.seed + gi, support)
     straight = math.hypot(goal[0], goal[1])
     t0 = time.perf_counter()

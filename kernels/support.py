@@ -46,6 +46,7 @@ of ``c`` a family can take on a part, for the planner's distances.
 """
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 
@@ -166,6 +167,7 @@ def tripod_points(c, body, inset: float = FOOT_INSET):
 EQUILIBRIUM_ITERATIONS = 40
 
 
+@functools.partial(jax.jit, static_argnames="iterations")
 def equilibrium_weights(points, iterations: int = EQUILIBRIUM_ITERATIONS):
     """(S,) loads (fractions of the weight) of equal springs that can lift
     off, under a rigid body standing on ``points`` (S, 2; m, the centre of
@@ -176,7 +178,9 @@ def equilibrium_weights(points, iterations: int = EQUILIBRIUM_ITERATIONS):
     ``max l . (1, 0, 0) - |max(0, X l)|^2 / 2`` by semi-smooth Newton steps
     with a backtracking line search (step lengths ``2^-j``, j < 12, tried at
     once) from the all-in-contact solution (affine loads, uniform when the centre
-    of mass is the points' centroid)."""
+    of mass is the points' centroid).  Compiled once per shape: the physics
+    layer calls it once per sample, and an uncompiled loop compiled a new
+    executable each time (memory maps grew until LLVM failed)."""
     p = jnp.asarray(points)
     scale = jnp.maximum(jnp.max(jnp.abs(p)), 1e-300)
     X = jnp.concatenate([jnp.ones((p.shape[0], 1), p.dtype), p / scale], axis=1)   # (S, 3)

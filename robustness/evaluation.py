@@ -112,7 +112,7 @@ import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 
-from kernels import polygon as pg, wrap_angle_np, float64
+from kernels import polygon as pg, release_executables, wrap_angle_np, float64
 from robustness.hulls import face_merge_tol
 from robustness.models import MODELS, model_for
 from robustness.replay import edge_pairs, push_nominal, run_push, run_tumble, tumble_nominal
@@ -297,6 +297,7 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
         if not (math.isfinite(v) and v > 0):
             raise ValueError(f"{name}: expected a finite number > 0, got {v!r}")
     chunk = max(1, int(chunk))
+    release_executables()   # a long run of many plan shapes stays under the map limit
     m = len(plan.vertices)
     if kind == "push":
         with warnings.catch_warnings():

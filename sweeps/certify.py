@@ -55,7 +55,8 @@ folder per table (``samples/``, ``summary/``, ``plans/``, ``certificates/``,
 ``config_id=00000`` partitions) and ``manifest.json``; a rerun of the same
 command resumes.  A short table on stdout.  Exit status: 0 every task
 certified, 1 some task not certified, 2 bad input (``error: ...`` naming the
-field and the fix, before any work), 3 internal error, 130 interrupted.
+field and the fix, before any work), 3 internal error, 4 out of memory or a
+native crash, 130 interrupted.
 """
 from __future__ import annotations
 
@@ -129,8 +130,8 @@ def build_parser(prog: str = "nudge certify") -> Parser:
                epilog="Units: metres, radians (a 'deg' suffix in configs). Output: "
                       "results/certify-<stem>/<run-id>/{samples,summary,plans,certificates}/ "
                       "(pandas.read_parquet on a folder). Exit status: 0 every task certified, "
-                      "1 some task not certified, 2 bad input, 3 internal error, 130 "
-                      "interrupted (rerun to resume).")
+                      "1 some task not certified, 2 bad input, 3 internal error, 4 out of memory or "
+                      "a native crash, 130 interrupted (rerun to resume).")
     p.add_argument("config", help="certification config (YAML)")
     p.add_argument("--out", help="run folder (default results/certify-<config stem>/<run-id>)")
     p.add_argument("--n-samples", help="Monte-Carlo samples per task, or 'auto' (a sequential "
@@ -171,6 +172,18 @@ def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int) -> float:
         m = cfg.margin_search
         n += m.n_samples * len(m.margins_deg) * len(m.safety_factors)
     return n_tasks * (n / rate + 2.0) + 8.0
+
+
+def estimate_peak(cfg: CertifyConfig, part) -> float:
+    """The certification's peak memory (bytes): a block of samples at a time
+    (:func:`robustness.block_samples`, :func:`robustness.peak_bytes`), never
+    more than a task's sample count."""
+    from robustness import block_samples, model_for, peak_bytes
+
+    kind = "push" if part.kind == "polygon" else "tumble"
+    n = cfg.max_samples if cfg.n_samples == "auto" else int(cfg.n_samples)
+    model = model_for(cfg.model, kind)
+    return peak_bytes(model, min(n, block_samples(kind, model, cfg.friction.support)))
 
 
 def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = False,
@@ -244,15 +257,16 @@ def main(argv=None, prog: str = "nudge certify") -> int:
             fail(line)
         return Exit.INPUT
     report_part(part)   # a CAD part: its file, unit and what reading it found
-    from sweeps.budget import fmt_time, refusal
+    from sweeps.budget import estimate_line, refusal
 
-    secs = estimate_seconds(cfg, part, len(tasks))
+    secs, peak = estimate_seconds(cfg, part, len(tasks)), estimate_peak(cfg, part)
     no = refusal(secs, f"certifying {len(tasks)} task(s) of {path.name} with model {cfg.model}",
-                 args.yes, "lower --n-samples / --max-samples or choose a faster model")
+                 args.yes, "lower --n-samples / --max-samples or choose a faster model", peak,
+                 "lower --n-samples")
     if no:
         return fail(no)
-    _log(args.quiet, f"estimate: about {fmt_time(secs)} on 2 CPU cores (model {cfg.model}, "
-                     f"support {cfg.friction.support})")
+    _log(args.quiet, estimate_line(secs, peak, f"model {cfg.model}, support "
+                                   f"{cfg.friction.support}"))
     run_id = "r" + hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:10]
     out = pathlib.Path(args.out) if args.out else pathlib.Path("results") / f"certify-{path.stem}" / run_id
     try:
@@ -326,8 +340,8 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     """Plan, sample (resumable blocks), summarise and decide one task; the certificate row."""
     import jax
 
-    from robustness import (tables, Schedule, auto_schedule, decide, grow, no_plan,
-                            perturbed_sources)
+    from robustness import (tables, Schedule, auto_schedule, block_samples, decide, grow,
+                            no_plan, perturbed_sources)
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
     kind = "push" if part.kind == "polygon" else "tumble"
@@ -359,7 +373,8 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
                           conf)
         _write_summary(store, ti, s)
         return {**row, **no_plan(reason, p, conf, model, schedule).to_row()}
-    blocks = Blocks(cfg, store, plan, name, ti, key, schedule.counts[0], model, done, flag)
+    size = min(schedule.counts[0], block_samples(kind, model, cfg.friction.support))
+    blocks = Blocks(cfg, store, plan, name, ti, key, size, model, done, flag)
     grow(blocks.extend, schedule, p)
     if flag.stop:
         return None
@@ -598,4 +613,4 @@ def _log(quiet: bool, msg: str) -> None:
 
 
 if __name__ == "__main__":
-    run_main(main)
+    run_main(main, supervised=True)

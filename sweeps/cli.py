@@ -13,7 +13,7 @@ Subcommands::
 results go.  Units everywhere: metres and radians (an angle may carry a
 ``deg`` suffix).  Exit statuses: 0 success, 1 no plan / not solvable / not
 certified, 2 bad input (one ``error:`` line naming the field), 3 internal error,
-130 interrupted.
+4 out of memory or a native crash, 130 interrupted.
 """
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def _help() -> str:
     lines += ["", "Run 'nudge COMMAND --help' for a command's options. Units: metres and radians "
               "(angles may end in 'deg').",
               "Exit status: 0 success, 1 no plan / not solvable / not certified, 2 bad input, "
-              "3 internal error, 130 interrupted.",
+              "3 internal error, 4 out of memory or a native crash, 130 interrupted.",
               "Results of certify and sweep go to results/ (Parquet; pandas.read_parquet on a "
               "table's folder)."]
     return "\n".join(lines)
@@ -104,7 +104,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
 def entry() -> None:
     """The console script (``[project.scripts] nudge``)."""
-    run_main(main)
+    run_main(main, supervised=True)
 
 
 if __name__ == "__main__":

@@ -19,6 +19,8 @@ class Exit(enum.IntEnum):
     NEGATIVE = 1      #: a valid answer that is no: no plan, not solvable, some task not certified
     INPUT = 2         #: bad input, reported before any work
     INTERNAL = 3      #: a bug: one line, ``NUDGE_DEBUG=1`` for the traceback
+    RESOURCES = 4     #: the machine could not: out of memory or memory maps, a native crash;
+    #: one line, finished chunks kept, a rerun resumes
     INTERRUPTED = 130  #: Ctrl-C; finished chunks are kept and a rerun resumes
 
 

@@ -23,7 +23,8 @@ uninterrupted run.  A changed config on an existing ``--out`` is refused.
 
 Exit status: 0 the study ran (or resumed to the end; 130 after Ctrl-C, with
 the finished chunks kept), 2 bad input (one line per mistake, ``error: ...``,
-naming the field path and the fix, before anything runs), 3 internal error.
+naming the field path and the fix, before anything runs), 3 internal error, 4
+out of memory or a native crash (one line, the finished chunks kept).
 """
 from __future__ import annotations
 
@@ -49,7 +50,8 @@ def build_parser(prog: str = "python -m sweeps.run") -> Parser:
                       "results/<study>/<run-id>/<table>/config_id=<k>/*.parquet (read a table "
                       "with pandas.read_parquet on its folder), manifest.json, report.html. "
                       "Rerunning the same command resumes. Exit status: 0 ran, 2 bad input, "
-                      "3 internal error, 130 interrupted (finished chunks kept).")
+                      "3 internal error, 4 out of memory or a native crash, 130 interrupted (finished "
+                      "chunks kept).")
     p.add_argument("config", metavar="CONFIG.yaml",
                    help="a study file, or the name of a bundled study (e.g. margins.yaml)")
     p.add_argument("--out", metavar="DIR", help="run folder (default results/<study>/<run-id>)")
@@ -83,15 +85,16 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "python -m sweeps.run
     if args.dry_run:
         sys.stdout.write(describe_design(design, out, spec) + "\n")
         return Exit.OK
-    from sweeps.budget import fmt_time, refusal
+    from sweeps.budget import estimate_line, refusal
     from sweeps.work import plan_units
 
-    secs = estimate_seconds(design, plan_units(design, {})[0])
+    blocks = plan_units(design, {})[0]
+    secs, peak = estimate_seconds(design, blocks), estimate_peak(design, blocks)
     no = refusal(secs, f"study {design.name}", args.yes,
-                 "lower samples, sweep fewer values or choose a faster model")
+                 "lower samples, sweep fewer values or choose a faster model", peak)
     if no:
         return fail(no)
-    _say(args.quiet, f"estimate: about {fmt_time(secs)} on 2 CPU cores")
+    _say(args.quiet, estimate_line(secs, peak))
     from sweeps.executors import ExecutorError, check_scheduler
     from sweeps.store import RunError
     from sweeps.tasks import PlanInputError
@@ -122,7 +125,7 @@ def _prepare(args):
 
 def describe_design(design, out: pathlib.Path, spec) -> str:
     """The ``--dry-run`` text: configurations, tasks, samples, chunks, estimate."""
-    from sweeps.budget import fmt_time
+    from sweeps.budget import estimate_line
     from sweeps.work import plan_units
 
     blocks, _ = plan_units(design, {})
@@ -142,9 +145,9 @@ def describe_design(design, out: pathlib.Path, spec) -> str:
             lines.append(f"  config {i:3d}: " + ", ".join(f"{k}={v}" for k, v in pt.items()))
         if len(design.points) > 20:
             lines.append(f"  ... {len(design.points) - 20} more")
-    secs = estimate_seconds(design, blocks)
-    lines.append(f"estimate: about {fmt_time(secs)} on 2 CPU cores (rough: model throughput and "
-                 "compilation; a warm compilation cache is faster)")
+    secs, peak = estimate_seconds(design, blocks), estimate_peak(design, blocks)
+    lines.append(estimate_line(secs, peak, "rough: model throughput and compilation; a warm "
+                               "compilation cache is faster"))
     return "\n".join(lines)
 
 
@@ -161,6 +164,18 @@ def estimate_seconds(design, blocks) -> float:
         total += u.samples / rate + 0.05
         shapes.add((cfg.kind, cfg.model, cfg.dtype, design.part(u.config_id).name))
     return total + COMPILE_S * (len(shapes) + 1)
+
+
+def estimate_peak(design, blocks) -> float:
+    """The peak memory (bytes) of a process running the study's largest unit of
+    work (:func:`robustness.peak_bytes`; with Dask, of each worker)."""
+    from robustness import model_for, peak_bytes
+
+    peak = 0.0
+    for u in blocks:
+        cfg = design.configs[u.config_id]
+        peak = max(peak, peak_bytes(model_for(cfg.model, cfg.kind), u.hi - u.lo))   # a task at a time
+    return peak or peak_bytes("quasistatic", 0)
 
 
 def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool = True) -> int:
@@ -277,4 +292,4 @@ def _short(v) -> str:
 
 
 if __name__ == "__main__":
-    run_main(main)
+    run_main(main, supervised=True)

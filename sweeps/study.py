@@ -23,7 +23,8 @@ carry ``deg``, lengths a unit: ``tau_v: 0.05 mm``, :mod:`sweeps.units`)::
     model: quasistatic                  # quasistatic | exact | mujoco (physics rollouts)
     physics: {backend: c, stroke: planned, cell: {timestep: 0.004}}   # model: mujoco only
     samples: 200                        # Monte-Carlo samples per (configuration, task)
-    chunk_samples: 200                  # samples per unit of work (resume granularity)
+    chunk_samples: 200                  # samples per unit of work (resume granularity; default:
+                                        # about 30 s of work, robustness.block_samples)
     seed: 0
     executor: local                     # local | dask | {kind: dask, workers: 2, address: ...}
     params:                             # the swept axes (sweeps.design; at most

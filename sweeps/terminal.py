@@ -166,11 +166,124 @@ def free_space(path=None) -> str:
         return "free space unknown"
 
 
-def run_main(main: Callable[[], int]) -> None:
+#: set in the environment of the child a supervised command runs in (:func:`supervise`)
+CHILD_ENV = "NUDGE_SUPERVISED"
+#: what follows every line about a run the machine could not finish
+RESUME = ("finished chunks are kept: run the same command again to resume (with fewer "
+          "samples per chunk, chunk_samples, or on a machine with more memory)")
+#: signals a supervisor passes on to its child (Ctrl-C, a polite kill, a closed terminal)
+FORWARDED = ("SIGINT", "SIGTERM", "SIGHUP")
+
+
+def out_of_memory(exc: BaseException) -> bool:
+    """Whether ``exc`` says the process ran out of memory (Python's
+    ``MemoryError``, XLA's ``RESOURCE_EXHAUSTED`` or a failed allocation)."""
+    text = str(exc)
+    return isinstance(exc, MemoryError) or "RESOURCE_EXHAUSTED" in text or \
+        "Cannot allocate memory" in text or "Out of memory" in text
+
+
+def death_line(signum: int) -> tuple[str, int]:
+    """The one ``error:`` line and the exit status (:class:`~sweeps.errors.Exit`)
+    of a supervised command whose process died by signal ``signum``."""
+    import signal
+
+    try:
+        name = signal.Signals(signum).name
+    except ValueError:
+        name = f"signal {signum}"
+    if signum == signal.SIGINT:
+        return ("stopped: finished chunks are kept; run the same command again to resume",
+                Exit.INTERRUPTED)
+    if signum in (signal.SIGTERM, signal.SIGHUP):
+        return (f"stopped by {name}: finished chunks are kept; run the same command again to "
+                "resume", 128 + signum)
+    if signum == signal.SIGKILL:
+        return (f"the run was killed ({name}), most often by the kernel when the machine is out "
+                f"of memory; {RESUME}", Exit.RESOURCES)
+    return (f"the run died in native code ({name}), most often out of memory or of memory maps "
+            f"(vm.max_map_count) in a compiler or the physics engine; {RESUME}", Exit.RESOURCES)
+
+
+def _die_with_parent(parent: int):
+    """A ``preexec_fn`` that has the child killed when its supervisor dies (a
+    ``kill -9`` of the command kills the run, as it did before supervision):
+    Linux's ``PR_SET_PDEATHSIG``; elsewhere nothing."""
+    def setup():
+        import ctypes
+        import signal
+
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)   # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):   # pragma: no cover - not Linux
+            return
+        if os.getppid() != parent:   # the supervisor died before prctl took effect
+            os._exit(Exit.INTERRUPTED)
+
+    return setup
+
+
+def supervise() -> "int | None":
+    """Run this command line again in a child process and answer for how it ends.
+
+    What a process cannot do itself (memory, memory maps, a crash in native
+    code: XLA's compiler, the MuJoCo engine) kills it by a signal, with no line
+    and no exit status of the table.  The supervisor, a process that imports
+    nothing heavy, runs the command in a child (its own process group, so that
+    Ctrl-C reaches it once, passed on by the supervisor) and turns a death by
+    signal into one ``error:`` line and an exit status (:func:`death_line`);
+    the finished chunks are on disk and the same command resumes.
+
+    Returns the child's exit status, or None in the child itself (and under
+    ``NUDGE_DEBUG``, which runs in one process for the traceback): run the
+    command here.
+    """
+    import signal
+    import subprocess
+
+    if os.environ.get(CHILD_ENV) or os.environ.get("NUDGE_DEBUG"):
+        return None
+    argv = [sys.executable, *list(getattr(sys, "orig_argv", sys.argv))[1:]]
+    children: list = []
+    pending: list = []   # signals that came before the child was started
+
+    def forward(signum, _frame):
+        if not children:
+            pending.append(signum)
+            return
+        try:
+            children[0].send_signal(signum)
+        except ProcessLookupError:   # gone already
+            pass
+
+    for name in FORWARDED:
+        signal.signal(getattr(signal, name), forward)
+    children.append(subprocess.Popen(argv, env={**os.environ, CHILD_ENV: "1"}, process_group=0,
+                                     preexec_fn=_die_with_parent(os.getpid())))
+    for signum in pending:
+        forward(signum, None)
+    rc = children[0].wait()
+    if rc >= 0:
+        return rc
+    line, code = death_line(-rc)
+    sys.stderr.write(f"error: {line}\n")
+    return code
+
+
+def run_main(main: Callable[[], int], supervised: bool = False) -> None:
     """``sys.exit(main())``; a :class:`~sweeps.errors.UserError` that reaches it
     is one ``error:`` line and exit status 2, so is a full disk (the line names
-    the folder and the free space; the run resumes), any other exception one line
-    and exit status 3 (``NUDGE_DEBUG=1`` re-raises it for the traceback)."""
+    the folder and the free space; the run resumes), running out of memory one
+    line and exit status 4, any other exception one line and exit status 3
+    (``NUDGE_DEBUG=1`` re-raises it for the traceback).
+
+    ``supervised``: the console entry points run ``main`` in a child process
+    (:func:`supervise`), so that a death by signal is one line too."""
+    if supervised:
+        rc = supervise()
+        if rc is not None:
+            sys.exit(rc)
     try:
         sys.exit(main())
     except KeyboardInterrupt:
@@ -187,6 +300,9 @@ def run_main(main: Callable[[], int]) -> None:
             sys.exit(fail(f"no space left on the disk holding {where} ({free}): "
                           "free some space or give --out on another disk, then run the same "
                           "command again to resume (finished chunks are kept)"))
+        if out_of_memory(exc):
+            sys.exit(fail(f"out of memory ({type(exc).__name__}: "
+                          f"{' '.join(str(exc).split())[:200]}); {RESUME}", Exit.RESOURCES))
         sys.stderr.write(f"error: internal error ({type(exc).__name__}: "
                          f"{' '.join(str(exc).split())}); rerun with NUDGE_DEBUG=1 for the "
                          "traceback\n")

@@ -249,9 +249,20 @@ def _column_value(v, typ):
 MAX_UNITS = 1_000_000
 
 
+def block_size(cfg) -> int:
+    """Samples per block of a configuration: its ``chunk_samples``, else what its
+    model evaluates in about half a minute (:func:`robustness.block_samples`: a
+    MuJoCo block holds 16-32 samples, a quasi-static one 16,384), never more
+    than its ``samples``."""
+    from robustness import block_samples
+
+    return cfg.chunk_samples or min(cfg.samples, block_samples(cfg.kind, cfg.model,
+                                                               cfg.friction.support))
+
+
 def _whole(cfg, n_tasks: int) -> bool:
     """Whether a configuration is one unit of work (:data:`CONFIGURATION_SAMPLES`)."""
-    size = cfg.chunk_samples or cfg.samples
+    size = block_size(cfg)
     return cfg.samples <= size and n_tasks * cfg.samples <= CONFIGURATION_SAMPLES
 
 
@@ -263,7 +274,7 @@ def count_units(design) -> int:
     total = 0
     for cfg in design.configs:
         n_tasks = len(cfg.tasks) if isinstance(cfg.tasks, list) else cfg.tasks.sample.n
-        size = cfg.chunk_samples or cfg.samples
+        size = block_size(cfg)
         blocks = 0 if _whole(cfg, n_tasks) else n_tasks * -(-cfg.samples // size)
         total += blocks + n_tasks * _designs(cfg) + 1
     return total
@@ -292,7 +303,7 @@ def plan_units(design, done: dict) -> tuple[list[Unit], list[Unit]]:
     yet in ``done``."""
     blocks, summaries = [], []
     for cid, cfg in enumerate(design.configs):
-        size = cfg.chunk_samples or cfg.samples
+        size = block_size(cfg)
         n_tasks = len(design.tasks(cid))
         if _whole(cfg, n_tasks):
             units = [Unit(cid, -1, CONFIGURATION, 0, cfg.samples, n_tasks=n_tasks)]

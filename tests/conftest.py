@@ -10,7 +10,7 @@
   executable holds memory maps of its own: past the kernel's limit
   (``vm.max_map_count``, 65,530 by default) the next compilation's mmap fails and
   XLA segfaults (CI exit 139 at 78-91% of the suite).  After a test that leaves
-  the process above :data:`MAX_MAPS` maps, JAX's compilation caches are cleared
+  the process above :data:`kernels.compiled.MAX_MAPS` maps, JAX's compilation caches are cleared
   (the next test compiles again what it needs).
 * The persistent compilation cache is one folder for the whole run
   (``NUDGE_JAX_CACHE``; made by the first pytest process, inherited by xdist's
@@ -44,6 +44,8 @@ jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 import pytest
 from hypothesis import settings
 
+from kernels import release_executables
+
 settings.register_profile("nudge", derandomize=True, deadline=None, print_blob=True)
 settings.load_profile("nudge")
 
@@ -58,27 +60,12 @@ def _scoped_float64(request):
         yield
 
 
-#: Memory maps above which the compiled executables are released (vm.max_map_count: 65,530).
-MAX_MAPS = 30_000
-
-
-def _n_maps() -> int:
-    try:
-        with open("/proc/self/maps", "rb") as f:
-            return sum(1 for _ in f)
-    except OSError:   # not Linux: no such limit to watch
-        return 0
-
-
 @pytest.fixture(autouse=True)
 def _release_executables():
-    """Keep the process under the kernel's memory-map limit (module docstring)."""
+    """Keep the process under the kernel's memory-map limit (module docstring;
+    :func:`kernels.release_executables`)."""
     yield
-    if _n_maps() > MAX_MAPS:
-        import gc
-
-        jax.clear_caches()
-        gc.collect()
+    release_executables()
 
 
 #: Test files heaviest first, by their measured time (``--durations``, 2 cores, seconds

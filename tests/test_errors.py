@@ -16,7 +16,20 @@ def test_every_bad_input_is_a_user_error():
 
 
 def test_exit_table():
-    assert [int(e) for e in Exit] == [0, 1, 2, 3, 130]
+    assert [int(e) for e in Exit] == [0, 1, 2, 3, 4, 130]
+
+
+def test_running_out_of_memory_is_exit_4_in_one_line(capsys, monkeypatch):
+    """Python's MemoryError (and XLA's RESOURCE_EXHAUSTED) is the machine's limit,
+    not a bug: exit 4, one line saying the finished chunks are kept."""
+    monkeypatch.delenv("NUDGE_DEBUG", raising=False)
+
+    def big():
+        raise MemoryError("Unable to allocate 3.07 EiB")
+
+    code, err = _run(big, capsys)
+    assert code == 4 and err.count("\n") == 1 and err.startswith("error: out of memory")
+    assert "run the same command again to resume" in err
 
 
 def _run(fn, capsys):
