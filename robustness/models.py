@@ -4,8 +4,10 @@
   (:mod:`kernels.quasistatic`: sticking / sliding fence contact, limit surface).
 * ``"limit_surface"``: push plans under the same quasi-static model on the
   exact limit surface of the sample's support points (its family's corners or
-  feet and their loads, :mod:`kernels.quasistatic_points`): some 800 times
-  slower (41 samples/s of an 8-push plan on rigid corners, 2 CPU cores), and it predicts the slip a part on 3-4 corners shows in
+  feet and their loads, :mod:`kernels.quasistatic_points`): some 1,000
+  times slower in the kernel (43 samples/s of a 7-push plan on rigid corners
+  against 48,000-70,000, 2 CPU cores; 180-500 times in a whole study), and it
+  predicts the slip a part on 3-4 corners shows in
   MuJoCo where the ellipsoid of the same ``c`` predicts none.
 * ``"exact"``: the papers' kinematics (push: :mod:`kernels.push`; tumble:
   :mod:`kernels.tumble`, the only non-physical model of a tumble).
@@ -29,28 +31,29 @@ def model_for(model: str, kind: str) -> str:
     return model if kind == "push" or model == "mujoco" else "exact"
 
 
-#: Measured throughput of a whole study, samples per second on 2 CPU cores after
-#: compilation (sampling, replay or rollout, summaries and Parquet writes), by
-#: (plan kind, model, support family); ``"*"`` stands for every family not listed.
-#: For the commands' estimates (the line before a run, ``--dry-run``, the budget).
-#: Push rows: ``bench/throughput.py`` (issue 41), the nice-stable pentagon, 4 random
-#: tasks 5-15 cm away, two sample counts, the time of the extra samples:
-#: ``RESULT quasistatic_any=821 exact_any=7.57e+03 limit_surface_rigid=7.87
-#: limit_surface_any=0.856 mujoco_rigid=1.98 mujoco_any=1.05`` (the kernels alone are
-#: faster: quasistatic 48,000-70,000/s in one process on one plan).  Families
-#: not measured (tripod, uniform, ring) take the ``"*"`` row: for limit_surface
-#: that is the mixture's, whose many-footed pads dominate it.  Tumble rows are
-#: not re-measured yet: the exact replay's figure is the earlier table's, and a
-#: MuJoCo tumble is taken to cost what a MuJoCo push does.
+#: Measured throughput of a whole study, samples per second on 2 CPU cores once
+#: compiled (sampling, replay or rollout, summaries and Parquet writes), by (plan
+#: kind, model, support family); ``"*"`` stands for every family not listed.  For the
+#: commands' estimates (the line before a run, ``--dry-run``, the budget) and the
+#: block size (:func:`block_samples`).  Push rows: ``bench/throughput.py`` (the
+#: nice-stable pentagon, 4 random tasks 5-15 cm away, the extra samples' time
+#: between two counts, each run in a new folder with its compilations warm):
+#: ``RESULT quasistatic_any=5.22e+03 exact_any=8.19e+04 limit_surface_rigid=28.5
+#: limit_surface_any=10.2 mujoco_rigid=6.23 mujoco_any=1.86``.  (The table before
+#: December 2026 took a cold whole run for the extra samples' time: quasistatic 800,
+#: limit_surface 8 and 0.85, 6-90 times too slow.)  Families not measured (tripod,
+#: uniform, ring) take the ``"*"`` row.  Tumble rows are not re-measured: the exact
+#: replay's figure is the earlier table's, and a MuJoCo tumble is taken to cost what
+#: a MuJoCo push on any support does.
 THROUGHPUT = {
-    ("push", "exact", "*"): 7_500.0,
-    ("push", "quasistatic", "*"): 800.0,
-    ("push", "limit_surface", "rigid"): 8.0,
-    ("push", "limit_surface", "*"): 0.85,
-    ("push", "mujoco", "rigid"): 2.0,
-    ("push", "mujoco", "*"): 1.0,
+    ("push", "exact", "*"): 80_000.0,
+    ("push", "quasistatic", "*"): 5_000.0,
+    ("push", "limit_surface", "rigid"): 28.0,
+    ("push", "limit_surface", "*"): 10.0,
+    ("push", "mujoco", "rigid"): 6.0,
+    ("push", "mujoco", "*"): 1.9,
     ("tumble", "exact", "*"): 20_000.0,
-    ("tumble", "mujoco", "*"): 1.0,
+    ("tumble", "mujoco", "*"): 1.9,
 }
 
 
@@ -76,7 +79,7 @@ def block_samples(kind: str, model: str, support: object = "any") -> int:
     (:func:`samples_per_second`), within [:data:`BLOCK_MIN`, :data:`BLOCK_MAX`].
 
     A block is the unit that is written, resumed and held in memory at once:
-    a 10^5-sample MuJoCo run builds 16 models at a time, not 10^5 (which grew
+    a 10^5-sample MuJoCo run builds 32-128 models at a time, not 10^5 (which grew
     to 4 GB before the first sample ran)."""
     r = samples_per_second(kind, model, support) * BLOCK_SECONDS
     return int(min(BLOCK_MAX, max(BLOCK_MIN, 2 ** math.floor(math.log2(max(r, 1.0))))))

@@ -155,12 +155,13 @@ def build_parser(prog: str = "nudge certify") -> Parser:
     return p
 
 
-def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int) -> float:
+def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> float:
     """The certification's time (s) on 2 CPU cores from the measured throughput
     of its model on its support (:func:`robustness.models.samples_per_second`):
     every task's samples (``auto``: up to ``max_samples``), the synthesis's
-    selection draws over its candidate cap, the margin search's grid; plus a
-    few seconds a task of planning and compilation."""
+    selection draws over its candidate cap, the margin search's grid, less the
+    ``kept`` samples of an interrupted run's finished blocks; plus a few
+    seconds a task of planning and compilation."""
     from robustness import samples_per_second
 
     kind = "push" if part.kind == "polygon" else "tumble"
@@ -171,7 +172,7 @@ def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int) -> float:
     elif kind == "push" and cfg.margin_search is not None and cfg.margin_search.enabled:
         m = cfg.margin_search
         n += m.n_samples * len(m.margins_deg) * len(m.safety_factors)
-    return n_tasks * (n / rate + 2.0) + 8.0
+    return max(n_tasks * n - kept, 0) / rate + 2.0 * n_tasks + 8.0
 
 
 def estimate_peak(cfg: CertifyConfig, part) -> float:
@@ -258,8 +259,14 @@ def main(argv=None, prog: str = "nudge certify") -> int:
         return Exit.INPUT
     report_part(part)   # a CAD part: its file, unit and what reading it found
     from sweeps.budget import estimate_line, refusal
+    from sweeps.store import finished_units
 
-    secs, peak = estimate_seconds(cfg, part, len(tasks)), estimate_peak(cfg, part)
+    run_id = "r" + hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:10]
+    out = pathlib.Path(args.out) if args.out else pathlib.Path("results") / f"certify-{path.stem}" / run_id
+    # a resumed run: the samples its finished blocks hold are not drawn again
+    kept = sum(int(r.get("rows") or 0) for r in finished_units(out).values())
+    secs = estimate_seconds(cfg, part, len(tasks), kept)
+    peak = estimate_peak(cfg, part)
     no = refusal(secs, f"certifying {len(tasks)} task(s) of {path.name} with model {cfg.model}",
                  args.yes, "lower --n-samples / --max-samples or choose a faster model", peak,
                  "lower --n-samples")
@@ -267,8 +274,6 @@ def main(argv=None, prog: str = "nudge certify") -> int:
         return fail(no)
     _log(args.quiet, estimate_line(secs, peak, f"model {cfg.model}, support "
                                    f"{cfg.friction.support}"))
-    run_id = "r" + hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:10]
-    out = pathlib.Path(args.out) if args.out else pathlib.Path("results") / f"certify-{path.stem}" / run_id
     try:
         code, certs = run(cfg, text, part, tasks, out, run_id, quiet=args.quiet)
     except (ConfigError, RunError) as exc:

@@ -86,9 +86,10 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "python -m sweeps.run
         sys.stdout.write(describe_design(design, out, spec) + "\n")
         return Exit.OK
     from sweeps.budget import estimate_line, refusal
+    from sweeps.store import finished_units
     from sweeps.work import plan_units
 
-    blocks = plan_units(design, {})[0]
+    blocks = plan_units(design, finished_units(out))[0]   # a resumed run: what is left
     secs, peak = estimate_seconds(design, blocks), estimate_peak(design, blocks)
     no = refusal(secs, f"study {design.name}", args.yes,
                  "lower samples, sweep fewer values or choose a faster model", peak)

@@ -40,6 +40,14 @@ class RunError(UserError):
     """A run folder that cannot be used for this run (one line: what and the fix)."""
 
 
+def finished_units(root: pathlib.Path) -> dict:
+    """``{unit key: log record}`` of the units an earlier run into ``root``
+    finished (:meth:`RunStore.done`; ``{}`` for a new folder): a resumed run's
+    estimate counts only what is left."""
+    root = pathlib.Path(root)
+    return RunStore(root, {}).done() if (root / LOG).is_file() else {}
+
+
 def check_writable(folder: pathlib.Path) -> None:
     """Create ``folder`` and check that files can be written there, before any work.
 

@@ -252,7 +252,7 @@ MAX_UNITS = 1_000_000
 def block_size(cfg) -> int:
     """Samples per block of a configuration: its ``chunk_samples``, else what its
     model evaluates in about half a minute (:func:`robustness.block_samples`: a
-    MuJoCo block holds 16-32 samples, a quasi-static one 16,384), never more
+    MuJoCo block holds 32-128 samples, a quasi-static one 65,536), never more
     than its ``samples``."""
     from robustness import block_samples
 

@@ -2,7 +2,7 @@
 
 * Blocks: a run whose block size is not set holds about half a minute of
   samples at once (:func:`robustness.block_samples`), so a 10^5-sample MuJoCo
-  certification builds 16 models at a time (it grew to 4 GB and died by SIGSEGV
+  certification builds a few dozen models at a time (it grew to 4 GB and died by SIGSEGV
   before its first sample).
 * The support loads compile once per shape (an uncompiled loop compiled an
   executable per sample: the memory maps grew past the kernel's limit).
@@ -48,20 +48,22 @@ def test_block_sizes_hold_about_half_a_minute_of_samples():
         secs = b / samples_per_second(kind, model, support)
         assert secs <= BLOCK_SECONDS or b == BLOCK_MIN, (model, support, secs)
         assert 2 * b > BLOCK_MAX or 2 * secs > BLOCK_SECONDS, (model, support, secs)
-    assert block_samples("push", "mujoco", "any") <= 32
-    assert peak_bytes("mujoco", 16) < 1.1e9 < peak_bytes("mujoco", 100_000)
+    assert block_samples("push", "mujoco", "any") <= 64
+    assert peak_bytes("mujoco", 64) < 1.2e9 < peak_bytes("mujoco", 100_000)
 
 
 def test_a_physics_study_of_many_samples_is_cut_into_small_units():
     """A study with no chunk_samples was one unit of all its samples per task:
     10^5 MuJoCo samples in one process call."""
+    from robustness import block_samples
     from sweeps.study import load_design
     from sweeps.work import block_size, plan_units
 
     d = load_design("margins.yaml", ["model=mujoco", "samples=100000"])
-    assert block_size(d.configs[0]) == 16
+    b = block_samples("push", "mujoco", "any")
+    assert block_size(d.configs[0]) == b <= 64
     blocks, _ = plan_units(d, {})
-    assert max(u.samples for u in blocks) == 16
+    assert max(u.samples for u in blocks) == b
     d = load_design("margins.yaml", ["model=mujoco", "samples=100000", "chunk_samples=500"])
     assert block_size(d.configs[0]) == 500   # the user's value is kept
     d = load_design("margins.yaml", [])     # the quick default study is unchanged: whole configurations
@@ -109,7 +111,6 @@ def test_every_death_by_signal_has_one_line_and_a_status(signum, code, word):
     assert "run the same command again to resume" in line
 
 
-@pytest.mark.slow
 def test_a_process_starved_of_memory_ends_in_one_line_not_a_signal(tmp_path):
     """Under ``ulimit -v`` 1 GB the command's process aborts in native code
     (std::bad_alloc: SIGABRT, exit -6 before); the supervisor answers for it."""
@@ -140,10 +141,12 @@ def _children(pid: int) -> list:
 @pytest.mark.skipif(not pathlib.Path("/proc/self/status").exists(), reason="reads /proc")
 def test_an_accepted_hundred_thousand_sample_physics_certification_runs_in_blocks(tmp_path):
     """Issue 41: 10^5 MuJoCo samples with ``--yes`` built every sample's model
-    before the first ran (4 GB, then SIGSEGV, nothing written).  Now blocks of 16
-    are written as they finish, memory stays flat, and Ctrl-C stops it cleanly
-    (exit 130, the blocks kept, no certificate)."""
+    before the first ran (4 GB, then SIGSEGV, nothing written).  Now blocks of
+    about half a minute's samples are written as they finish, memory stays flat,
+    and Ctrl-C stops it cleanly (exit 130, the blocks kept, no certificate)."""
     import pyarrow.parquet as pq
+
+    from robustness import block_samples
 
     cfg, out = _config(tmp_path, "mujoco"), tmp_path / "out"
     proc = subprocess.Popen([nudge_executable(), "certify", str(cfg), "--n-samples", "100000",
@@ -153,11 +156,11 @@ def test_an_accepted_hundred_thousand_sample_physics_certification_runs_in_block
     samples = out / "samples" / "config_id=00000"
     deadline, peak = time.monotonic() + 400, 0
     try:
-        while time.monotonic() < deadline and len(list(samples.glob("*.parquet"))) < 2:
+        while time.monotonic() < deadline and not list(samples.glob("*.parquet")):
             assert proc.poll() is None, proc.communicate()
             peak = max([peak] + [_rss_kb(c) for c in _children(proc.pid)])
             time.sleep(0.5)
-        assert len(list(samples.glob("*.parquet"))) >= 2, "no two blocks in 400 s"
+        assert list(samples.glob("*.parquet")), "no block in 400 s"
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=300)
     finally:
@@ -167,5 +170,36 @@ def test_an_accepted_hundred_thousand_sample_physics_certification_runs_in_block
     assert "resume" in err and "Traceback" not in err
     assert 0 < peak < 2_000_000, f"peak RSS {peak / 1e6:.2f} GB"
     files = sorted(samples.glob("*.parquet"))
-    assert all(pq.read_metadata(f).num_rows == 16 for f in files), files
+    size = block_samples("push", "mujoco", "any")
+    assert all(pq.read_metadata(f).num_rows == size for f in files), files
     assert not (out / "certificates").exists() and not (out / "report.html").exists()
+
+
+def test_a_resumed_run_is_estimated_on_what_is_left(tmp_path):
+    """The estimate of a resumed certification leaves out the samples of its
+    finished blocks (the log's ``rows``): a run interrupted after most of its
+    work is not refused again for the work it has done."""
+    import json
+
+    from sweeps import certify
+    from sweeps.store import LOG, finished_units
+
+    assert finished_units(tmp_path / "none") == {}
+    (tmp_path / "samples").mkdir()
+    for b in range(3):
+        (tmp_path / "samples" / f"b{b}.parquet").write_bytes(b"")
+    with open(tmp_path / LOG, "w") as f:
+        for b in range(3):
+            f.write(json.dumps({"key": f"t0000-b{b:04d}", "files": [f"samples/b{b}.parquet"],
+                                "rows": 1000}) + "\n")
+        f.write(json.dumps({"key": "t0000-b0003", "files": ["samples/gone.parquet"],
+                            "rows": 1000}) + "\n")   # its file is gone: not finished
+    done = finished_units(tmp_path)
+    assert sorted(done) == ["t0000-b0000", "t0000-b0001", "t0000-b0002"]
+    cfg, _, _, part, tasks = certify.load(_config(tmp_path, "mujoco"), n_samples=9000)
+    whole = certify.estimate_seconds(cfg, part, 1)
+    left = certify.estimate_seconds(cfg, part, 1, sum(r["rows"] for r in done.values()))
+    from robustness import samples_per_second
+
+    rate = samples_per_second("push", "mujoco", "any")
+    assert whole > 3600 > left and whole - left == pytest.approx(3000 / rate, rel=0.01)
