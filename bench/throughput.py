@@ -6,10 +6,12 @@ Run by hand from the repository root (no assertions)::
     python bench/throughput.py --rows mujoco:rigid limit_surface:any
 
 For each (model, support family) it runs one small study of the nice-stable
-pentagon (4 random tasks 5-15 cm away, one configuration, ``nudge sweep``
-in a subprocess with a compilation cache of its own, warmed at both counts) at
-two sample counts and takes the throughput from the difference (start-up,
-planning and loading the compiled kernels cancel), then prints it beside the table's figure and their ratio.
+pentagon (4 random tasks 5-15 cm away, one configuration; the ``tumble-`` rows:
+the irregular polyhedron, 4 random tasks of ``examples/studies/tolerances.yaml``),
+``nudge sweep`` in a subprocess with a compilation cache of its own, warmed at
+both counts, at two sample counts, and takes the throughput from the difference
+(start-up, planning and loading the compiled kernels cancel), then prints it
+beside the table's figure and their ratio.
 Ends with ``RESULT <model>_<support>=<samples/s> ... worst_ratio=R`` (R: the
 table's figure over the measured one furthest from 1; an estimate is good
 within a factor of 2).
@@ -45,16 +47,35 @@ samples: {samples}
 seed: 0
 report: false
 """
+TUMBLE_STUDY = """study: throughput
+kind: tumble
+part: irregular_polyhedron
+tasks:
+  sample: {{n: {tasks}, box: [[-0.15, 0.15], [-0.15, 0.15]], heading: [-180deg, 180deg]}}
+planner: {{tumble_eps: 2.0e-3, tumble_tau_v: 0.0}}
+tolerances: {{tau_v: 1.0e-5}}
+friction: {{mu_f: [1.5, 1.5], mu_s: [1.5, 1.5]}}
+eps: {{pos_eps_m: 0.004, theta_eps_rad: 0.02}}
+model: {model}
+samples: {samples}
+seed: 0
+report: false
+"""
 #: (model, support, fewer samples, more samples) per task
 #: (both at least 8: a batch is padded to 8 or more, and two counts padded alike cost alike)
 ROWS = {"quasistatic:any": (200, 4200), "exact:any": (200, 20200),
         "limit_surface:rigid": (8, 72), "limit_surface:any": (8, 40),
-        "mujoco:rigid": (8, 24), "mujoco:any": (8, 24)}
+        "mujoco:rigid": (8, 24), "mujoco:any": (8, 24),
+        "tumble-exact:any": (200, 20200), "tumble-mujoco:any": (8, 16)}
 
 
 def _run(folder: pathlib.Path, model: str, support: str, samples: int, tasks: int) -> float:
     cfg = folder / f"{model}-{support}-{samples}.yaml"
-    cfg.write_text(STUDY.format(model=model, support=support, samples=samples, tasks=tasks))
+    if model.startswith("tumble-"):   # a tumble study of the irregular polyhedron
+        text = TUMBLE_STUDY.format(model=model[len("tumble-"):], samples=samples, tasks=tasks)
+    else:
+        text = STUDY.format(model=model, support=support, samples=samples, tasks=tasks)
+    cfg.write_text(text)
     env = {**os.environ, "NUDGE_JAX_CACHE": str(folder / "cache")}
     # a new run folder every time: the same one would resume, finished, in no time
     out = tempfile.mkdtemp(prefix=cfg.stem + "-", dir=folder)
@@ -86,12 +107,14 @@ def main(argv=None) -> int:
             t_lo = _run(folder, model, support, lo, a.tasks)
             t_hi = _run(folder, model, support, hi, a.tasks)
             rate = (hi - lo) * a.tasks / max(t_hi - t_lo, 1e-3)
-            table = samples_per_second("push", model, support)
+            kind, name = ("tumble", model[len("tumble-"):]) if model.startswith("tumble-") \
+                else ("push", model)
+            table = samples_per_second(kind, name, support)
             results[row] = (rate, table)
             print(f"{model:14s} {support:8s} {rate:11.3g} {table:9.3g} {table / rate:15.2f}",
                   flush=True)
     worst = max((t / r for r, t in results.values()), key=lambda x: max(x, 1 / x))
-    print("RESULT " + " ".join(f"{k.replace(':', '_')}={r:.3g}" for k, (r, _) in results.items())
+    print("RESULT " + " ".join(f"{k.replace(':', '_').replace('-', '_')}={r:.3g}" for k, (r, _) in results.items())
           + f" worst_ratio={worst:.2f}")
     return 0
 
