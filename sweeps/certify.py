@@ -155,6 +155,16 @@ def build_parser(prog: str = "nudge certify") -> Parser:
     return p
 
 
+def _plan_kind(part) -> str:
+    """``"push"`` for a polygon, ``"tumble"`` for a polyhedron."""
+    return "push" if part.kind == "polygon" else "tumble"
+
+
+def _task_samples(cfg: CertifyConfig) -> int:
+    """The most samples a task draws (``auto``: up to ``max_samples``)."""
+    return cfg.max_samples if cfg.n_samples == "auto" else int(cfg.n_samples)
+
+
 def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> float:
     """The certification's time (s) on 2 CPU cores from the measured throughput
     of its model on its support (:func:`robustness.models.samples_per_second`):
@@ -164,9 +174,9 @@ def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> f
     seconds a task of planning and compilation."""
     from robustness import samples_per_second
 
-    kind = "push" if part.kind == "polygon" else "tumble"
+    kind = _plan_kind(part)
     rate = samples_per_second(kind, cfg.model, cfg.friction.support)
-    n = cfg.max_samples if cfg.n_samples == "auto" else int(cfg.n_samples)
+    n = _task_samples(cfg)
     if cfg.synthesize is not None and cfg.synthesize.enabled:
         n += cfg.synthesize.n_samples * cfg.synthesize.max_candidates
     elif kind == "push" and cfg.margin_search is not None and cfg.margin_search.enabled:
@@ -181,10 +191,10 @@ def estimate_peak(cfg: CertifyConfig, part) -> float:
     more than a task's sample count."""
     from robustness import block_samples, model_for, peak_bytes
 
-    kind = "push" if part.kind == "polygon" else "tumble"
-    n = cfg.max_samples if cfg.n_samples == "auto" else int(cfg.n_samples)
+    kind = _plan_kind(part)
     model = model_for(cfg.model, kind)
-    return peak_bytes(model, min(n, block_samples(kind, model, cfg.friction.support)))
+    return peak_bytes(model, min(_task_samples(cfg), block_samples(kind, model,
+                                                                   cfg.friction.support)))
 
 
 def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = False,
@@ -349,7 +359,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
                             no_plan, perturbed_sources)
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
-    kind = "push" if part.kind == "polygon" else "tumble"
+    kind = _plan_kind(part)
     model = model_for(cfg.model, kind)
     p, conf = cfg.required.probability, cfg.required.confidence
     caught: list = []

@@ -169,8 +169,8 @@ def free_space(path=None) -> str:
 #: set in the environment of the child a supervised command runs in (:func:`supervise`)
 CHILD_ENV = "NUDGE_SUPERVISED"
 #: what follows every line about a run the machine could not finish
-RESUME = ("finished chunks are kept: run the same command again to resume (with fewer "
-          "samples per chunk, chunk_samples, or on a machine with more memory)")
+RESUME = ("finished chunks are kept: run the same command again to resume (on a machine with "
+          "more memory, or a study with a lower chunk_samples)")
 #: signals a supervisor passes on to its child (Ctrl-C, a polite kill, a closed terminal)
 FORWARDED = ("SIGINT", "SIGTERM", "SIGHUP")
 
