@@ -65,10 +65,10 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from kernels import polygon as pg, release_executables  # noqa: E402
+from kernels import polygon as pg  # noqa: E402
 from kernels.planar import wrap_angle_np  # noqa: E402
 from planning import plan_pose, plan_tumble  # noqa: E402
-from robustness import Draws, FrictionRange, Sampler  # noqa: E402
+from robustness import Draws, FrictionRange, Sampler, release_executables  # noqa: E402
 from robustness.replay import run_push as _run_push  # noqa: E402  (the evaluation's own kernels)
 from robustness.physics import PhysicsSettings, rollout_push_plan, rollout_tumble_plan  # noqa: E402
 from robustness.physics.settings import SOFT_IMPRATIO  # noqa: E402

@@ -36,7 +36,6 @@ from kernels.support import (SUPPORT_FAMILIES, corner_weights, equilibrium_weigh
 
 # used by the layers above (the one boundary: tests/test_layers.py)
 from kernels import polygon, reorient, support  # noqa: F401  (modules other layers use)
-from kernels.compiled import release_executables
 from kernels.errors import warn_implausible_size
 from kernels.facets import extent, merge_distance
 from kernels.hulls import (polygon_hull_changed, polyhedron_hull_tables,
@@ -56,6 +55,6 @@ __all__ = [
     "SUPPORT_FAMILIES", "corner_weights", "equilibrium_weights", "family_c_range", "tripod_fit",
     "polygon", "reorient", "support", "DEFAULT_MERGE_TOL", "NEARLY_FLAT_RAD", "FAMILIES", "FOOT_INSET", "TWO_PI",
     "angle_distance", "combinatorics_changed", "extent", "float64", "merge_distance", "mod_2pi",
-    "polygon_hull_changed", "polyhedron_hull_tables", "release_executables", "polyhedron_hull_verdict_batch",
+    "polygon_hull_changed", "polyhedron_hull_tables", "polyhedron_hull_verdict_batch",
     "replay_trajectory", "rot2_np", "warn_implausible_size", "wrap_angle_near", "wrap_angle_np",
 ]

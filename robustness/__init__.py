@@ -39,6 +39,7 @@ from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTo
 
 # used by the layers above (the one boundary: tests/test_layers.py)
 from robustness import failure_modes, tables, tolerance_design  # noqa: F401  (modules other layers use)
+from robustness.compiled import release_executables
 from robustness.certificates import (Schedule, auto_schedule, decide, first_certifying, grow,
                                      no_plan, perturbed_sources)
 from robustness.models import (PUSH_KINEMATIC, THROUGHPUT, block_samples, model_for,
@@ -55,5 +56,5 @@ __all__ = [
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
     "one_sided_upper", "certify", "Certificate", "summarise",
     "tables", "tolerance_design", "failure_modes", "FAILURE_MODES", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
-    "first_certifying", "grow", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow",
+    "first_certifying", "grow", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "release_executables", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow",
 ]

@@ -112,7 +112,8 @@ import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 
-from kernels import polygon as pg, release_executables, wrap_angle_np, float64
+from kernels import polygon as pg, wrap_angle_np, float64
+from robustness.compiled import release_executables
 from robustness.hulls import face_merge_tol
 from robustness.models import MODELS, model_for
 from robustness.replay import edge_pairs, push_nominal, run_push, run_tumble, tumble_nominal

@@ -10,7 +10,7 @@
   executable holds memory maps of its own: past the kernel's limit
   (``vm.max_map_count``, 65,530 by default) the next compilation's mmap fails and
   XLA segfaults (CI exit 139 at 78-91% of the suite).  After a test that leaves
-  the process above :data:`kernels.compiled.MAX_MAPS` maps, JAX's compilation caches are cleared
+  the process above :data:`robustness.compiled.MAX_MAPS` maps, JAX's compilation caches are cleared
   (the next test compiles again what it needs).
 * The persistent compilation cache is one folder for the whole run
   (``NUDGE_JAX_CACHE``; made by the first pytest process, inherited by xdist's
@@ -44,7 +44,7 @@ jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 import pytest
 from hypothesis import settings
 
-from kernels import release_executables
+from robustness import release_executables
 
 settings.register_profile("nudge", derandomize=True, deadline=None, print_blob=True)
 settings.load_profile("nudge")
@@ -63,7 +63,7 @@ def _scoped_float64(request):
 @pytest.fixture(autouse=True)
 def _release_executables():
     """Keep the process under the kernel's memory-map limit (module docstring;
-    :func:`kernels.release_executables`)."""
+    :func:`robustness.release_executables`)."""
     yield
     release_executables()
 

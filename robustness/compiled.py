@@ -7,7 +7,8 @@ compilation's mmap then fails ("LLVM compilation error: Cannot allocate
 memory") and XLA dies by a segmentation fault.  :func:`release_executables`
 clears JAX's compilation caches once the process holds more than
 :data:`MAX_MAPS` maps: what is needed again compiles again (or loads from the
-persistent cache).
+persistent cache).  Here, not in ``kernels/``: it reads ``/proc`` and clears
+JAX's process-wide caches, which the kernels never do.
 """
 from __future__ import annotations
 
