@@ -33,7 +33,7 @@ COMMANDS = {
 
 
 def _help() -> str:
-    lines = ["usage: nudge COMMAND [ARGS...]", "",
+    lines = ["usage: nudge COMMAND [ARGS...]   (nudge --version: the installed versions)", "",
              "nudge: batch planner and robustness analyzer for non-prehensile manipulation.",
              "", "commands:"]
     for name, (_, text) in COMMANDS.items():
@@ -79,6 +79,22 @@ def list_parts() -> int:
     return 0
 
 
+def version_line() -> str:
+    """``nudge X.Y.Z (python ..., jax ..., mujoco ..., numpy ...)``: the installed
+    distributions' versions, read from their metadata (nothing heavy is imported)."""
+    import platform
+    from importlib import metadata
+
+    def ver(dist):
+        try:
+            return metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            return "not installed"
+
+    deps = ", ".join(f"{d} {ver(d)}" for d in ("jax", "jaxlib", "mujoco", "numpy"))
+    return f"nudge {ver('nudge')} (python {platform.python_version()}, {deps})"
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Run ``nudge``; returns the exit status."""
     import importlib
@@ -87,6 +103,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if not argv or argv[0] in ("-h", "--help", "help"):
         sys.stdout.write(_help() + "\n")
         return 0 if argv else Exit.INPUT
+    if argv[0] in ("-V", "--version"):
+        sys.stdout.write(version_line() + "\n")
+        return 0
     cmd, rest = argv[0], argv[1:]
     if cmd not in COMMANDS:
         sys.stderr.write(f"error: unknown command {cmd!r}; commands: {', '.join(COMMANDS)} "

@@ -15,10 +15,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Literal, Optional, Union
+import typing
+from typing import Any, Literal, Optional, Union
 
 from pydantic import (BaseModel, ConfigDict, Field, StrictInt, ValidationError, create_model,
-                      model_validator)
+                      field_validator, model_validator)
 
 from robustness.physics import PhysicsSettings
 from planning import PushOptions
@@ -38,10 +39,60 @@ class ConfigError(UserError):
     names the field and the fix)."""
 
 
+def _admits_bool(annotation) -> bool:
+    """Whether a field's type takes ``true``/``false`` anywhere in it (``bool``,
+    ``StrictBool``, ``Any``, or a union, list, mapping or annotation holding one)."""
+    if annotation is bool or annotation is Any:
+        return True
+    return any(_admits_bool(a) for a in typing.get_args(annotation))
+
+
+def _integral(annotation) -> bool:
+    """Whether a field's type is an integer (``int``, ``StrictInt``, optional or not)."""
+    if annotation is int:
+        return True
+    args = [a for a in typing.get_args(annotation) if a is not type(None)]
+    if typing.get_origin(annotation) is typing.Annotated:
+        args = args[:1]
+    return bool(args) and all(_integral(a) for a in args)
+
+
+def _bool_at(value, annotation):
+    """The dotted path inside ``value`` of a ``true``/``false`` that its type
+    reads as a number (``""``: the value itself), or None.  Looks into lists and
+    into the mappings of the robustness layer's dataclasses (tolerances)."""
+    if _admits_bool(annotation):
+        return None
+    if isinstance(value, bool):
+        return ""
+    if isinstance(value, (list, tuple)):
+        return "" if any(_bool_at(v, float) is not None for v in value) else None
+    if isinstance(value, dict):
+        for cls in (annotation, *typing.get_args(annotation)):
+            if dataclasses.is_dataclass(cls):
+                hints = typing.get_type_hints(cls)
+                for key, v in value.items():
+                    if key in hints and (sub := _bool_at(v, hints[key])) is not None:
+                        return f".{key}{sub}"
+    return None
+
+
 class Strict(BaseModel):
-    """Base of every config section: unknown keys are errors, numbers finite."""
+    """Base of every config section: unknown keys are errors, numbers finite,
+    and ``true``/``false`` is never read as the number 1 or 0 (pydantic's lax
+    mode would make ``samples: true`` one sample)."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _no_bool_numbers(cls, value, info):
+        field = cls.model_fields.get(info.field_name)
+        where = None if field is None else _bool_at(value, field.annotation)
+        if where is not None:
+            kind = "an integer" if where == "" and _integral(field.annotation) else "a number"
+            raise ValueError(f"{where[1:] + ': ' if where else ''}expected {kind}, not true/false")
+        return value
 
 
 Angle = Union[float, str]
@@ -332,6 +383,10 @@ HINTS = {
     "support_points": "an integer number of support points >= 1",
     "weight_concentration": "an integer Dirichlet concentration in 1..64",
     "support": "one of any, rigid, uniform, ring, tripod (with c: [lo, hi]), points",
+    # the planner's support is a family its distances hold for, fewer than the sampler's
+    "planner.support": "one of any, rigid, uniform, ring (the family the plan's push distances "
+                       "hold for; tripod and points are families of friction.support, the "
+                       "sampler's)",
     "seed": "an integer >= 0",
 }
 
@@ -404,7 +459,7 @@ def _one(e: dict, model) -> str:
                 + (f"; allowed keys: {', '.join(keys)}" if keys else "") + " (check the spelling)")
     field = _loc(loc)
     last = next((p for p in reversed(loc) if isinstance(p, str) and p not in _TAGS), "")
-    hint = HINTS.get(last)
+    hint = HINTS.get(field, HINTS.get(last))
     tail = f"; give {hint}" if hint else ""
     if typ == "missing":
         return f"{field}: required key is missing{tail}"

@@ -209,7 +209,8 @@ class PushPlan:
         return f"{what} in [{lo * 1e3:.3g}, {hi * 1e3:.3g}] mm only"
 
     def summary(self) -> str:
-        """A short human-readable table of the plan."""
+        """A short human-readable table of the plan (pushes numbered from 1, as in
+        the plan's figure, where pose i is the pose after push i)."""
         lines = [f"{self.object_class} part, {self.plan_class} plan ({self.strategy} strategy, "
                  f"{self.distance_rule} distances valid for {self._support_text()}): "
                  f"{self.n_pushes} pushes "
@@ -220,7 +221,7 @@ class PushPlan:
         for i, p in enumerate(self.pushes):
             mn = "" if p.min_distance is None else f"{p.min_distance:.4g}"
             pv = "" if p.contact_vertex is None else str(p.contact_vertex)
-            lines.append(f"{i:>3} {p.kind:<9} {p.direction[0]:>9.4f} {p.direction[1]:>9.4f} "
+            lines.append(f"{i + 1:>3} {p.kind:<9} {p.direction[0]:>9.4f} {p.direction[1]:>9.4f} "
                          f"{p.distance:>10.4g} {mn:>10} {str(list(p.edge)):>8} {pv:>5} "
                          f"{p.pose_after[0]:>10.4g} {p.pose_after[1]:>10.4g} "
                          f"{p.pose_after[2]:>9.4f}")
