@@ -42,10 +42,22 @@ asked for in issue 11 were not taken).
    reference (:func:`kernels.polyhedron.combinatorics_changed`, Qhull per
    sample), with their agreement on the benchmark's samples.
 
+4. **Push plan on a point support** (``model: limit_surface``, the exact limit
+   surface of :mod:`kernels.limit_surface`, against ``model: quasistatic`` on
+   the same draws, measured in the same run): the nice-stable pentagon's
+   7-push default plan (start ``(0, 0, 0)``, goal ``PS_GOAL``), tolerances as
+   in ``bench/throughput.py``'s study, support ``rigid`` (3-4 loaded corners)
+   and ``any`` (every family, the pads of 25 and 24 feet included); the
+   replay kernel (``robustness.replay.run_push``) in float64, and float32's
+   final poses against float64's.
+
 The last line is
-``RESULT push_samples_per_s=N tumble_steps_per_s=M tumble_eval_samples_per_s=K``
+``RESULT push_samples_per_s=N tumble_steps_per_s=M tumble_eval_samples_per_s=K
+ls_samples_per_s=L ls_any_samples_per_s=A ls_over_quasistatic=R``
 (float64: the push kernel; the tumble replay in evaluate, steps = samples x
-200; the whole evaluate() of the tumble plan).
+200; the whole evaluate() of the tumble plan; the limit-surface kernel on
+rigid corners and on ``any``; R: how many times slower than the quasi-static
+kernel on the same rigid draws).
 """
 from __future__ import annotations
 
@@ -82,6 +94,17 @@ from timing import best_of  # noqa: E402
 TUMBLE_LEN = 200
 PUSH_START = (0.0, 0.0, 0.0)
 PUSH_GOALS = ((0.08, 0.03, 0.0), (0.08, 0.03, -2.0), (0.05, 0.05, 2.0), (0.08, 0.03, 1.0))
+
+PS_GOAL = (0.05, 0.02, 1.0)       # the nice-stable pentagon's 7-push default plan
+
+
+def point_support_sampler(support: str) -> Sampler:
+    """The tolerances of ``bench/throughput.py``'s study on the given support family."""
+    return Sampler(GeometryTolerance(tau_v=2e-5, tau_com=1e-4),
+                   FrictionRange(mu_f=(0.5, 0.8), mu_s=(0.3, 0.5), support=support),
+                   ExecutionTolerance(start_xy=5e-4, start_theta=0.01, fence_angle=0.002,
+                                      distance_abs=1e-4, distance_rel=0.005))
+
 
 PUSH_SAMPLER = Sampler(
     GeometryTolerance(tau_v=2e-5, tau_com=1e-4),
@@ -190,6 +213,44 @@ def push_bench(n: int, n_np: int, repeat: int) -> dict:
                 err_np_xy=float(np.max(np.abs(tight[:, :2] - f64[:k, :2]))),
                 err_np_th=float(np.max(np.abs(wrap_angle_np(tight[:, 2] - f64[:k, 2])))),
                 err32_xy=float(np.max(np.abs(finals["float32"][:, :2] - f64[:, :2]))))
+
+
+# --------------------------------------------------------------------------
+# 4. push plan on a point support
+# --------------------------------------------------------------------------
+def point_support_bench(n: int, repeat: int) -> dict:
+    """Samples/s of the limit-surface and quasi-static kernels on the same draws."""
+    part = load_part(ROOT / "examples" / "nice_stable.yaml")
+    plan = plan_pose(part.vertices, PUSH_START, PS_GOAL, com=part.com)
+    poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    rows, out = [], dict(n_pushes=plan.n_pushes)
+    for support in ("rigid", "any"):
+        draws = point_support_sampler(support).sample(
+            jax.random.key(2), n, n_vertices=len(plan.vertices), dim=2, n_pushes=plan.n_pushes,
+            body=poly.body)
+        jax.block_until_ready(draws.params)
+        finals = {}
+        for model, dtype in (("quasistatic", jnp.float64), ("limit_surface", jnp.float64),
+                             ("limit_surface", jnp.float32)):
+            name = jnp.dtype(dtype).name
+
+            def kernel():
+                return replay.run_push(plan, draws, model, dtype, 4096)
+
+            t0 = time.perf_counter()
+            _, _, res = kernel()
+            first = time.perf_counter() - t0
+            t = best_of(kernel, repeat)
+            finals[(model, name)] = np.stack([res.x, res.y, res.theta], 1).astype(np.float64)
+            rows.append(dict(method=f"{model} {name}, support {support}", n=n, seconds=t,
+                             rate=n / t, first=first, support=support, model=model, dtype=name))
+        ls64, ls32 = finals[("limit_surface", "float64")], finals[("limit_surface", "float32")]
+        qs = finals[("quasistatic", "float64")]
+        out[f"err32_{support}"] = float(np.max(np.abs(ls32[:, :2] - ls64[:, :2])))
+        out[f"models_apart_{support}"] = float(np.median(np.linalg.norm(ls64[:, :2] - qs[:, :2],
+                                                                        axis=1)))
+    out["rows"] = rows
+    return out
 
 
 # --------------------------------------------------------------------------
@@ -321,14 +382,14 @@ def tumble_bench(n: int, n_np: int, n_hull: int, repeat: int) -> dict:
                 err32_xy=float(np.max(np.abs(finals["float32"] - finals["float64"]))))
 
 
-def print_table(title: str, rows: list, unit: str, ref_rate: float) -> None:
+def print_table(title: str, rows: list, unit: str, ref_rate: float, ref: str = "x numpy") -> None:
     print(f"\n## {title}")
-    hdr = f"{'method':38s} {'n':>7s} {'seconds':>9s} {unit:>14s} {'x numpy':>8s} {'1st call s':>10s}"
+    hdr = f"{'method':38s} {'n':>7s} {'seconds':>9s} {unit:>14s} {ref:>8s} {'1st call s':>10s}"
     print(hdr)
     print("-" * len(hdr))
     for r in rows:
         print(f"{r['method']:38s} {r['n']:7d} {r['seconds']:9.4f} {r['rate']:14.4g} "
-              f"{r['rate'] / ref_rate:8.1f} {r['first']:10.3f}")
+              f"{r['rate'] / ref_rate:8.4g} {r['first']:10.3f}")
 
 
 def main(argv=None) -> int:
@@ -337,6 +398,8 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int, help="push samples (default 16384; quick 4096)")
     ap.add_argument("--tumble-samples", type=int, help="tumble samples (default 16384; quick 4096)")
     ap.add_argument("--numpy", type=int, help="samples in the numpy loops (default 64; quick 8)")
+    ap.add_argument("--ls-samples", type=int,
+                    help="samples of the point-support section (default 512; quick 128)")
     args = ap.parse_args(argv)
     q = args.quick
     n_push = args.samples or (4096 if q else 16384)
@@ -371,10 +434,29 @@ def main(argv=None) -> int:
           f"{h['agree2']}/{h['k']} ({h['changed2']} changed) at 13 x; evaluate()'s check equals "
           f"the reference: {h['eval_agrees']}")
     print(f"float32 vs float64 tumble replay: max |dxy| {tr['err32_xy']:.2e} m")
+    n_ls = args.ls_samples or (128 if q else 512)
+    ps = point_support_bench(n_ls, repeat)
+
+    def rate(support, model, dtype="float64"):
+        return next(r["rate"] for r in ps["rows"] if (r["support"], r["model"], r["dtype"])
+                    == (support, model, dtype))
+
+    qs_rigid = rate("rigid", "quasistatic")
+    print_table(f"{ps['n_pushes']}-push plan of the nice-stable pentagon (goal {PS_GOAL}) on a point "
+                "support (samples/s; ratio to quasistatic float64 on rigid draws)", ps["rows"],
+                "samples/s", qs_rigid, ref="x qs")
+    for support in ("rigid", "any"):
+        print(f"support {support}: limit_surface {rate(support, 'quasistatic') / rate(support, 'limit_surface'):.0f} x "
+              f"slower than quasistatic on the same draws; float32 vs float64 final positions: max "
+              f"{ps[f'err32_{support}']:.1e} m; the two models' final positions apart (median): "
+              f"{ps[f'models_apart_{support}']:.1e} m")
     push_rate = pr["rows"][0]["rate"]
     tumble_rate = next(r["rate"] for r in tr["rows"] if r["method"] == "replay in evaluate float64")
     print(f"RESULT push_samples_per_s={push_rate:.0f} tumble_steps_per_s={tumble_rate:.0f} "
-          f"tumble_eval_samples_per_s={f['rate']:.0f}")
+          f"tumble_eval_samples_per_s={f['rate']:.0f} "
+          f"ls_samples_per_s={rate('rigid', 'limit_surface'):.0f} "
+          f"ls_any_samples_per_s={rate('any', 'limit_surface'):.1f} "
+          f"ls_over_quasistatic={qs_rigid / rate('rigid', 'limit_surface'):.0f}")
     return 0
 
 

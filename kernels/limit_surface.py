@@ -156,7 +156,7 @@ def _line_solve(q, weights, c, size, phi, lo, hi, iters, step):
     from ``phi`` within the bracket ``[lo, hi]`` (``step``: the previous step's
     length, bounding the next).  Returns ``(phi, lo, hi, last step)``."""
     dtype = q.dtype
-    tiny = jnp.finfo(dtype).tiny
+    tiny, eps = jnp.finfo(dtype).tiny, jnp.finfo(dtype).eps
     qq = jnp.sum(q * q, -1)
     qn = jnp.sqrt(qq)
     moving = qq > 0                  # q_j = 0: the contact point itself, |v_j| = |c|
@@ -202,7 +202,7 @@ def _line_solve(q, weights, c, size, phi, lo, hi, iters, step):
         near = (jnp.abs(y) < 0.99) & (sharp | (h_terms[j] > 0.5 * h)) & jnp.isfinite(om_k)
         dx = jnp.where(near, jnp.arctan(om_k * size) - phi, dx)
         nxt = phi + dx
-        done = jnp.abs(dx) <= 1e-13
+        done = jnp.abs(dx) <= 64 * eps                     # converged: a step at rounding
         ok = done | ((nxt >= lo) & (nxt <= hi) & jnp.isfinite(nxt) & (2.0 * jnp.abs(dx) <= last))
         nxt = jnp.where(ok, jnp.clip(nxt, lo, hi), 0.5 * (lo + hi))
         return nxt, lo, hi, jnp.abs(nxt - phi)
@@ -254,7 +254,7 @@ def _kinks(points, weights, r, d, e, size):
     own = lam[:, None] * e - F
     w = 1.0 / jnp.where(jnp.abs(cr) > 0, cr, 1.0)
     vr = w[:, None] * _perp(rj)
-    feasible = (weights > 0) & (jnp.abs(cr) > 1e-12 * size) & (vr @ d > 0)
+    feasible = (weights > 0) & (jnp.abs(cr) > 64 * jnp.finfo(dtype).eps * size) & (vr @ d > 0)
     optimal = feasible & (jnp.sum(own * own, -1) <= weights ** 2)
     V = jnp.concatenate([vr - w[:, None] * _perp(r)[None], w[:, None]], 1)
     return optimal, feasible, jnp.abs(w) * M, V
@@ -264,7 +264,7 @@ def _slide(points, weights, r, d, q, e, sigma, m, size, half, w_stick):
     """The smooth point minimising ``D`` on the plane ``<v_r, e> = 1`` (module
     docstring): ``(V with |v_r| = 1, its D on the plane)``."""
     dtype = points.dtype
-    tiny = jnp.finfo(dtype).tiny
+    tiny, eps = jnp.finfo(dtype).tiny, jnp.finfo(dtype).eps
     t = _perp(d)
     pr = _perp(r)
     scale = jnp.maximum(jnp.sum(weights * jnp.sqrt(jnp.sum(q * q, -1))), tiny)
@@ -305,7 +305,7 @@ def _slide(points, weights, r, d, q, e, sigma, m, size, half, w_stick):
         phi, ilo, ihi, istep = _line_solve(q, weights, c, size, phi, blo, bhi, INNER_ITERATIONS,
                                            jnp.where(more, istep, 4.0))
         w = jnp.tan(phi) / size
-        conv = istep <= 1e-9
+        conv = istep <= 0.1 * jnp.sqrt(eps)                  # the line solve converged
         F, J, dw = conditions(g, w)
         ang, slope = F[1], J[1, 0] + J[1, 1] * dw             # d ang / dg along the solves
         beyond = ang * sigma > 0                              # the force still past e
@@ -314,7 +314,7 @@ def _slide(points, weights, r, d, q, e, sigma, m, size, half, w_stick):
         dx = -ang / jnp.where(jnp.abs(slope) > tiny, slope, tiny)
         nxt = g + dx
         a, b = jnp.minimum(lo, hi), jnp.maximum(lo, hi)
-        done = jnp.abs(dx) <= 1e-13
+        done = jnp.abs(dx) <= 64 * eps
         ok = done | ((nxt >= a) & (nxt <= b) & jnp.isfinite(nxt) & (2.0 * jnp.abs(dx) <= last))
         nxt = jnp.where(ok, jnp.clip(nxt, a, b), 0.5 * (lo + hi))
         nxt = jnp.where(conv, nxt, g)

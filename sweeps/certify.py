@@ -290,7 +290,9 @@ def main(argv=None, prog: str = "nudge certify") -> int:
         return fail(str(exc))
     if code == Exit.INTERRUPTED:
         return code
-    sys.stdout.write(format_table(certs) + "\n")
+    sys.stdout.write(format_table(certs, lambda c: next_steps(
+        c, cfg.friction.support, synthesized=bool(args.synthesize), designed=bool(args.design)))
+        + "\n")
     sys.stdout.write(f"results: {out}\n")
     return code
 
@@ -594,8 +596,61 @@ def margin_search(part, start, goal, cfg, key, model):
     return first_certifying(grid, ok)
 
 
-def format_table(certs: list) -> str:
-    """The verdict table printed on stdout (one line per task, then its claim)."""
+#: what to change, by the dominant failure of a plan that did not certify
+_REMEDIES = {
+    "slip": "a fence that grips better (friction.mu_f: the paper's experiments used a "
+            "sandpaper-coated fence) or a plan that allows for slip (planner.min_fence_mu)",
+    "wrong_edge": "a wider stability margin (planner.margin_deg) or longer reorient pushes "
+                  "(planner.safety_factor)",
+    "incomplete_reorientation": "longer reorient pushes (planner.safety_factor) or a wider "
+                                "stability margin (planner.margin_deg)",
+    "position": "tighter execution errors (execution:)",
+    "orientation": "tighter execution errors (execution:)",
+    "hull_changed": "a tighter vertex tolerance (tolerances.tau_v)",
+    "combinatorics_changed": "a tighter vertex tolerance (tolerances.tau_v)",
+    "wrong_face": "a smaller tumble accuracy (planner.tumble_eps) or a tighter vertex tolerance",
+    "toppled": "the cell settings (physics:): a lower push height or a slower fence",
+    "left_workspace": "a larger workspace (physics:) or shorter plans",
+    "fence_strike": "the fence's clearance (physics:)",
+}
+
+
+def next_steps(cert: dict, support: str = "any", synthesized: bool = False,
+               designed: bool = False) -> str:
+    """What an engineer can change when a task did not certify (one line, empty
+    when it certified): more samples where they can still decide, else the
+    remedy of the dominant failure, robust synthesis, tolerance design and a
+    measured support."""
+    if cert.get("verdict") == "certified":
+        return ""
+    reason, kind = cert.get("reason"), cert.get("kind")
+    if reason == "too_few_samples":
+        need = int(cert.get("samples_needed") or 0)
+        return (f"next: more samples: --n-samples {need} (or --n-samples auto) can certify it "
+                "if no sample fails")
+    if reason == "nothing_perturbed":
+        return "next: give the tolerances to certify against (tolerances:, friction:, execution:)"
+    if reason not in ("failures", "below_requirement"):
+        return ""
+    steps = []
+    remedy = _REMEDIES.get(str(cert.get("dominant_failure_mode")))
+    if remedy:
+        steps.append(remedy)
+    if kind == "push" and not synthesized:
+        steps.append("--synthesize (a plan chosen for these draws)")
+    if kind == "push" and support == "any":
+        steps.append("a measured support (friction.support: rigid, uniform, ring or tripod) in "
+                     "place of any, which draws every family")
+    if not designed:
+        steps.append("--design (which tolerance drives the failures)")
+    head = ("more samples cannot certify this plan; try" if reason == "below_requirement"
+            else "to certify it, try")
+    return f"next: {head} " + "; ".join(steps) if steps else ""
+
+
+def format_table(certs: list, advice=None) -> str:
+    """The verdict table printed on stdout (one line per task, then its claim;
+    ``advice``: a function of a certificate row giving its next-steps line)."""
     hdr = (f"{'task':16s} {'kind':6s} {'steps':>5s} {'n':>6s} {'success':>8s} {'CP low':>8s} "
            f"{'bound mm':>9s} {'bound deg':>9s} {'verdict':14s} {'reason':18s} {'dominant failure':24s}")
     lines = [hdr, "-" * len(hdr)]
@@ -618,6 +673,9 @@ def format_table(certs: list) -> str:
             lines.append(f"{'':16s} {c['selection']}")
         if c.get("note"):
             lines.append(f"{'':16s} note: {c['note']}")
+        step = advice(c) if advice else ""
+        if step:
+            lines.append(f"{'':16s} {step}")
     return "\n".join(lines)
 
 

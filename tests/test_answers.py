@@ -60,3 +60,40 @@ def test_plan_text_numbers_pushes_as_its_figure_does(tmp_path):
             if re.match(r"^\s*\d+ (translate|reorient)\b", ln)]
     assert [int(row[0]) for row in rows] == list(range(1, len(rows) + 1)) and len(rows) >= 2
     assert fig.exists()
+
+
+def test_a_plan_that_does_not_certify_gets_next_steps(tmp_path):
+    """A not-certified line never suggested --synthesize, more fence friction or a
+    measured support; one that needs only more samples says how many."""
+    cfg = ROOT / "examples" / "certify_triangle.yaml"
+    r = nudge_here("certify", cfg, "--n-samples", "40", "--out", tmp_path / "a")
+    assert r.returncode == 1, r.stderr
+    lines = r.stdout.splitlines()
+    turn = next(i for i, ln in enumerate(lines) if ln.startswith("turn "))
+    assert "slip" in lines[turn] and "below_requirement" in lines[turn]
+    step = next(ln.strip() for ln in lines[turn + 1:] if ln.strip().startswith("next:"))
+    assert step.startswith("next: more samples cannot certify this plan; try")
+    for hint in ("friction.mu_f", "planner.min_fence_mu", "--synthesize", "friction.support",
+                 "--design"):
+        assert hint in step, (hint, step)
+    translate = next(i for i, ln in enumerate(lines) if ln.startswith("translate "))
+    assert "certified" in lines[translate] and not lines[translate + 2].strip().startswith("next:")
+
+    r = nudge_here("certify", cfg, "--n-samples", "10", "--out", tmp_path / "b")
+    lines = r.stdout.splitlines()
+    translate = next(i for i, ln in enumerate(lines) if ln.startswith("translate "))
+    assert "too_few_samples" in lines[translate]
+    need = re.search(r"at least (\d+) successes", lines[translate + 1]).group(1)
+    assert lines[translate + 2].strip().startswith(f"next: more samples: --n-samples {need} ")
+
+
+def test_next_steps_leave_out_what_the_run_already_did():
+    from sweeps.certify import next_steps
+
+    cert = dict(verdict="not certified", reason="failures", kind="push",
+                dominant_failure_mode="position")
+    both = next_steps(cert, support="rigid", synthesized=True, designed=True)
+    assert "--synthesize" not in both and "--design" not in both and "friction.support" not in both
+    assert both.startswith("next: to certify it, try tighter execution errors")
+    assert next_steps(dict(cert, verdict="certified")) == ""
+    assert "--synthesize" not in next_steps(dict(cert, kind="tumble"))
