@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import base64
 import html
+import math
 import pathlib
 
 import jinja2
@@ -22,6 +23,7 @@ td, th { border: 1px solid #ccc; padding: 2px 6px; text-align: right; }
 th { background: #f3f3f3; } td.l, th.l { text-align: left; }
 pre { background: #f7f7f7; padding: 0.8em; font-size: 0.8em; overflow-x: auto; }
 .note { color: #555; font-size: 0.9em; }
+.advice { background: #f4f4fa; border: 1px solid #aac; padding: 0.6em; }
 """
 
 TEMPLATE = jinja2.Template("""<!doctype html>
@@ -39,6 +41,7 @@ from <code>{{ part_source }}</code>
 of the goal{% if kind == "tumble" %}, on the goal face{% endif %}. Rates are pooled over tasks;
 bands are two-sided Clopper-Pearson intervals at {{ confidence }} confidence.
 Tables: <code>pd.read_parquet("{{ root }}/summary")</code> (also <code>samples</code>, <code>plans</code>).</p>
+<h2>Recommendation</h2><p class="advice">{{ advice }}</p>
 {% for section, figs in sections %}
 <h2>{{ section }}</h2><div class="figs">
 {% for title, png in figs %}<figure><img alt="{{ title }}" src="data:image/png;base64,{{ png }}"></figure>{% endfor %}
@@ -143,7 +146,8 @@ def write_report(store, design) -> pathlib.Path:
         n_tasks=len(design.tasks(0)), samples=top.samples, seed=top.seed,
         pos_eps=top.eps.pos_eps_m, theta_eps=f"{top.eps.theta_eps_rad:.4g}", confidence=conf,
         root=html.escape(str(store.root)), sections=sections, header=header, rows=rows,
-        designs=designs, config=design.text, style=STYLE, modes=_modes_seen(summary))
+        designs=designs, config=design.text, style=STYLE, modes=_modes_seen(summary),
+        advice=recommendation(summary, plans, design))
     path = store.root / "report.html"
     atomic_write(path, lambda fh: fh.write(page), mode="w")
     return path
@@ -167,6 +171,52 @@ def _by_effect(frame, axes, path, value: str = "n_success", weight=None):
     for _, _, p, c in ranked[:2]:
         out += [c, p]
     return tuple(out + [None, ""] * (2 - len(ranked[:2])))
+
+
+def recommendation(summary: pd.DataFrame, plans: pd.DataFrame, design) -> str:
+    """Which configuration to use, in one sentence: the configurations that meet
+    the requirement (every task planned, each task's one-sided Clopper-Pearson
+    lower bound at least ``required.probability``), or, when none does, that
+    none does and the best one's figures.  Best: every task planned, then the
+    highest worst-task lower bound, then the success rate, then the shortest
+    median plan."""
+    from sweeps.figures.study import fmt
+
+    req = design.top.required
+    if summary.empty:
+        return "no configuration was evaluated"
+    labels = [", ".join(f"{p}={fmt(pt[p])}" for p in design.paths) or f"config {i}"
+              for i, pt in enumerate(design.points)]
+    ranked = []
+    for cid in range(len(design.configs)):
+        s = summary[summary["config_id"].astype(int) == cid]
+        p = plans[plans["config_id"].astype(int) == cid] if not plans.empty else plans
+        planned, tasks = (int(p["planned"].sum()), len(p)) if len(p) else (0, 0)
+        lows = s["ci_low_one_sided"].dropna()
+        low = float(lows.min()) if len(lows) == len(s) and len(s) else -1.0
+        n, k = int(s["n"].sum()), int(s["n_success"].sum())
+        steps = (float(p.loc[p["planned"], "n_steps"].median()) if planned else math.inf)
+        meets = tasks > 0 and planned == tasks and len(lows) == tasks and low >= req.probability
+        modes = s["dominant_failure_mode"].value_counts() if len(s) else pd.Series(dtype=int)
+        modes = modes[modes.index != "none"]
+        ranked.append(dict(cid=cid, meets=meets, planned=planned, tasks=tasks, low=low,
+                           rate=k / n if n else 0.0, steps=steps,
+                           mode=modes.index[0] if len(modes) else "none"))
+    ranked.sort(key=lambda r: (not r["meets"], -(r["planned"] == r["tasks"]), -r["low"],
+                               -r["rate"], r["steps"]))
+    best = ranked[0]
+    need = f"P(success) >= {req.probability:g} at {req.confidence:.0%} confidence on every task"
+    what = (f"configuration {best['cid']} ({labels[best['cid']]}): worst task's lower bound "
+            f"{max(best['low'], 0.0):.3f}, success {best['rate']:.3f}")
+    n_meet = sum(r["meets"] for r in ranked)
+    if n_meet:
+        return (f"use {what}; {n_meet} of {len(ranked)} configuration(s) meet {need}, this one "
+                "with the highest lower bound")
+    tail = (f"; {best['tasks'] - best['planned']} of its {best['tasks']} task(s) unplanned"
+            if best["planned"] < best["tasks"] else "")
+    return (f"no configuration meets {need}; the best is {what}{tail}, dominant failure "
+            f"{best['mode']} (more samples, a fence that grips better, a measured support or "
+            "robust synthesis may close the gap: nudge certify prints what to try)")
 
 
 def _config_rows(summary, plans, design, labels):

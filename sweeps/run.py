@@ -246,7 +246,10 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
         path = write_report(store, design)
         _say(quiet, f"wrote {path}")
     if not quiet:
+        from sweeps.report import recommendation
+
         sys.stdout.write(summary_table(store, design) + "\n")
+        sys.stdout.write(recommendation(store.read("summary"), store.read("plans"), design) + "\n")
     sys.stdout.write(f"results: {out}\n")
     return Exit.OK
 

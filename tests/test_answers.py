@@ -97,3 +97,41 @@ def test_next_steps_leave_out_what_the_run_already_did():
     assert both.startswith("next: to certify it, try tighter execution errors")
     assert next_steps(dict(cert, verdict="certified")) == ""
     assert "--synthesize" not in next_steps(dict(cert, kind="tumble"))
+
+
+def _frames(lows, planned=((True, True), (True, True))):
+    """A two-configuration, two-task summary and plans table."""
+    import pandas as pd
+
+    summ, plans = [], []
+    for cid, (cfg_lows, cfg_planned) in enumerate(zip(lows, planned)):
+        for t, (low, ok) in enumerate(zip(cfg_lows, cfg_planned)):
+            plans.append(dict(config_id=cid, task=f"t{t}", planned=ok, n_steps=7))
+            if ok:
+                summ.append(dict(config_id=cid, task=f"t{t}", n=100, n_success=int(100 * low),
+                                 ci_low_one_sided=low, dominant_failure_mode="slip"))
+    return pd.DataFrame(summ), pd.DataFrame(plans)
+
+
+def _design():
+    from types import SimpleNamespace as NS
+
+    return NS(top=NS(required=NS(probability=0.9, confidence=0.95)), paths=["friction.mu_f"],
+              points=[{"friction.mu_f": 0.5}, {"friction.mu_f": 1.5}], configs=[0, 1])
+
+
+def test_the_recommendation_names_the_configuration_to_use_or_says_none_meets():
+    """The study report never said which configuration to use, or that none meets
+    the requirement."""
+    from sweeps.report import recommendation
+
+    rec = recommendation(*_frames([(0.5, 0.95), (0.93, 0.91)]), _design())
+    assert rec.startswith("use configuration 1 (friction.mu_f=1.5): worst task's lower bound 0.910")
+    assert "1 of 2 configuration(s) meet P(success) >= 0.9 at 95% confidence on every task" in rec
+    rec = recommendation(*_frames([(0.5, 0.85), (0.8, 0.6)]), _design())
+    assert rec.startswith("no configuration meets P(success) >= 0.9") and "dominant failure slip" in rec
+    assert "the best is configuration 1 (friction.mu_f=1.5): worst task's lower bound 0.600" in rec
+    # a configuration that plans every task beats one with a higher bound on fewer tasks
+    rec = recommendation(*_frames([(0.6, 0.6), (0.99, 0.0)], ((True, True), (True, False))),
+                         _design())
+    assert "the best is configuration 0" in rec

@@ -529,6 +529,17 @@ def test_report_is_self_contained(tmp_path, monkeypatch):
     assert html.count("data:image/png;base64,") >= 4
     assert "http://" not in html and "https://" not in html and "<script" not in html
     assert "alt=\"success vs planner.margin_deg\"" in html
+    # which configuration to use, in the report and under the run's table (issue 42)
+    from markupsafe import escape
+
+    from sweeps.report import recommendation
+
+    rec = recommendation(pd.read_parquet(out / "summary"), pd.read_parquet(out / "plans"),
+                         load_design(str(p), []))
+    assert f'<h2>Recommendation</h2><p class="advice">{escape(rec)}</p>' in html
+    assert rec.startswith(("use configuration", "no configuration meets"))
+    r = nudge_here("sweep", p, "--out", out)
+    assert r.returncode == 0 and rec in r.stdout.splitlines(), r.stdout
     # of the samples the report reads only what its error figure draws, and it is the
     # report that the whole table gives
     from sweeps.report import write_report
