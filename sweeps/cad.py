@@ -193,11 +193,43 @@ def _hull(points: np.ndarray, what: str, path: pathlib.Path):
 # --------------------------------------------------------------------------
 # Meshes
 # --------------------------------------------------------------------------
+#: the first bytes of files that are often given a mesh's name by mistake
+_MAGIC = {b"\x89PNG": "a PNG image", b"\xff\xd8\xff": "a JPEG image", b"%PDF": "a PDF document",
+          b"PK\x03\x04": "a ZIP archive (a 3MF or an office file?)", b"GIF8": "a GIF image",
+          b"\x1f\x8b": "a gzip archive"}
+
+
+def _check_stl(path: pathlib.Path, field: str) -> None:
+    """An STL file's own consistency, before a mesh library guesses at it: ASCII
+    (``solid`` ... ``facet``) or binary (an 80-byte header, a triangle count
+    ``n``, then exactly ``50 n`` bytes).  A file of another kind, or a truncated
+    one, is one line naming what it is."""
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(84)
+        if head.lstrip().startswith(b"solid") and b"facet" in head + fh.read(4096):
+            return                                             # ASCII STL
+    for magic, what in _MAGIC.items():
+        if head.startswith(magic):
+            raise ValueError(f"{field}: {path.name} is {what}, not an STL mesh (its first bytes "
+                             "say so); export the part as STL, OBJ or PLY")
+    if size < 84:
+        raise ValueError(f"{field}: {path.name} is not an STL mesh: {size} bytes, fewer than a "
+                         "binary STL's 84-byte header")
+    n = int.from_bytes(head[80:84], "little")
+    if size != 84 + 50 * n:
+        raise ValueError(f"{field}: {path.name} is not a whole binary STL: its header promises {n} "
+                         f"triangles ({84 + 50 * n} bytes), the file has {size} bytes "
+                         "(truncated, or not an STL); export it again")
+
+
 def _load_mesh(path: pathlib.Path, field: str):
     import trimesh
 
     if not path.is_file():
         raise ValueError(f"{field}: no such file {str(path)!r}")
+    if path.suffix.lower() == ".stl":
+        _check_stl(path, field)
     try:
         mesh = trimesh.load(str(path), force="mesh", process=True)
     except Exception as exc:   # noqa: BLE001 - trimesh raises many types for a bad file

@@ -135,3 +135,21 @@ def test_the_recommendation_names_the_configuration_to_use_or_says_none_meets():
     rec = recommendation(*_frames([(0.6, 0.6), (0.99, 0.0)], ((True, True), (True, False))),
                          _design())
     assert "the best is configuration 0" in rec
+
+
+@pytest.mark.parametrize("content, words", [
+    (b"\x89PNG\r\n\x1a\n" + bytes(200), "is a PNG image, not an STL mesh"),
+    ((ROOT / "examples" / "bracket.stl").read_bytes()[:300],
+     "is not a whole binary STL: its header promises 824 triangles (41284 bytes), the file has "
+     "300 bytes"),
+    (b"\x00" * 40, "fewer than a binary STL's 84-byte header"),
+])
+def test_a_file_that_is_no_stl_says_what_it_is(tmp_path, content, words):
+    """A PNG renamed .stl or a truncated STL said "No module named
+    'charset_normalizer'" (the mesh library's guess at an ASCII file)."""
+    p = tmp_path / "part.stl"
+    p.write_bytes(content)
+    r = nudge_here("plan-push", p, "--units", "mm", "--start", "0,0,0", "--goal", "0.05,0,0")
+    line = r.stderr.strip()
+    assert r.returncode == 2 and "\n" not in line and words in line, r.stderr
+    assert line.startswith(f"error: {p}: footprint: part.stl ")
