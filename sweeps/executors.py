@@ -39,6 +39,46 @@ def _unreachable(address: str, why) -> str:
             "(dask scheduler) or use executor: local")
 
 
+def _connect(address: str, timeout_s: float | None = None):
+    """A Dask ``Client`` of the scheduler at ``address``, or one
+    :class:`ExecutorError` line within ``timeout_s`` seconds: something that
+    accepts connections but is no scheduler either never answers Dask's
+    handshake (an HTTP server: the client's own timeout does not cover that
+    wait) or answers bytes that Dask reads as a frame length (once 3 EiB: a
+    MemoryError).  The client is made in a daemon thread, abandoned on timeout."""
+    import threading
+
+    from dask.distributed import Client
+
+    timeout_s = CONNECT_TIMEOUT_S if timeout_s is None else timeout_s
+    box: dict = {}
+
+    def make():
+        try:
+            box["client"] = Client(address, timeout=f"{timeout_s:g}s")
+        except BaseException as exc:   # noqa: BLE001 - reported below, in this thread's caller
+            box["error"] = exc
+
+    t = threading.Thread(target=make, name="nudge-dask-connect", daemon=True)
+    t.start()
+    t.join(timeout_s + 1.0)
+    not_dask = (f"executor.address: something answers at {address} but it is not a Dask "
+                "scheduler ({why}); give the scheduler's address (dask scheduler prints it, "
+                "tcp://HOST:8786 by default) or leave executor.address out for a local cluster")
+    if t.is_alive():
+        raise ExecutorError(not_dask.format(why=f"no Dask handshake in {timeout_s:g} s"))
+    exc = box.get("error")
+    if isinstance(exc, OSError):     # the handshake timed out or the connection closed
+        raise ExecutorError(_unreachable(address, exc))
+    if isinstance(exc, Exception):   # bytes read as a Dask frame: MemoryError, ValueError, ...
+        raise ExecutorError(not_dask.format(
+            why=f"its reply is no Dask message: {type(exc).__name__}: "
+                f"{' '.join(str(exc).split())[:80]}"))
+    if exc is not None:              # KeyboardInterrupt, SystemExit
+        raise exc
+    return box["client"]
+
+
 def check_scheduler(address: str, timeout_s: float = PROBE_TIMEOUT_S) -> None:
     """Check, within ``timeout_s`` seconds, that something listens at a Dask
     scheduler address (``tcp://HOST:PORT`` or ``tls://HOST:PORT``: a TCP
@@ -188,10 +228,7 @@ class DaskExecutor:
             os.environ.setdefault(k, v)
         if self.address:
             check_scheduler(self.address)
-            try:
-                self.client = Client(self.address, timeout=f"{CONNECT_TIMEOUT_S:g}s")
-            except OSError as exc:   # the handshake timed out or the connection closed
-                raise ExecutorError(_unreachable(self.address, exc)) from None
+            self.client = _connect(self.address)
         else:
             # loopback only; without the dashboard the scheduler's small HTTP server (health,
             # metrics) takes a free loopback port instead of 8787

@@ -153,3 +153,46 @@ def test_a_file_that_is_no_stl_says_what_it_is(tmp_path, content, words):
     line = r.stderr.strip()
     assert r.returncode == 2 and "\n" not in line and words in line, r.stderr
     assert line.startswith(f"error: {p}: footprint: part.stl ")
+
+
+@pytest.mark.parametrize("reply, words", [
+    (None, "no Dask handshake in 2 s"),                       # an HTTP server: waits for a request
+    (b"\xff" * 64 + b"garbage" * 100, "its reply is no Dask message"),
+])
+def test_an_address_that_answers_but_is_no_scheduler_is_one_line(tmp_path, monkeypatch, reply,
+                                                                 words):
+    """It was a MemoryError of 3.07 EiB (exit 3), or a hang of minutes (an HTTP server)."""
+    import socket
+    import threading
+
+    from sweeps import executors
+
+    monkeypatch.setattr(executors, "CONNECT_TIMEOUT_S", 2.0)
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(8)
+    port = srv.getsockname()[1]
+    held = []
+
+    def serve():
+        while True:
+            try:
+                conn, _ = srv.accept()
+            except OSError:
+                return
+            held.append(conn)
+            if reply:
+                conn.sendall(reply)
+
+    threading.Thread(target=serve, daemon=True).start()
+    try:
+        r = nudge_here("sweep", STUDY, "--out", tmp_path / "out", "--set",
+                       f"executor={{kind: dask, address: 'tcp://127.0.0.1:{port}'}}")
+    finally:
+        srv.close()
+        for c in held:
+            c.close()
+    line = r.stderr.strip().splitlines()[-1]
+    assert r.returncode == 2, r.stderr
+    assert line.startswith(f"error: executor.address: something answers at tcp://127.0.0.1:{port} "
+                           "but it is not a Dask scheduler (") and words in line, line
