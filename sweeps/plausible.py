@@ -31,6 +31,9 @@ a friction coefficient (mu_f, mu_s,           > 3                        (< 0: t
 min_fence_mu, ``--min-fence-mu``)
 execution.distance_rel (a fraction)           > 0.2                      >= 1
 the part's size                               outside 0.1 mm .. 5 m
+a task's travel (start to goal; a sampled    > 100 ``S``                >= 1000 ``S`` (a part in
+task's annulus or box; ``--goal``)                                       mm with config lengths
+                                                                         read as metres)
 ============================================  =========================  ==========================
 
 The thresholds: an error where the value cannot be meant (a tolerance as
@@ -167,6 +170,33 @@ def support_ratio(field: str, c, s: float) -> list[Finding]:
                   f"of mass to the farthest support point - lengths are metres; {hint}")
 
 
+#: A task's travel (m) beyond these multiples of the part's size: a warning, an error.
+TRAVEL_WARN, TRAVEL_ERROR = 100.0, 1000.0
+
+
+def travel(field: str, d: float, s: float, units: str = "m", xy=None) -> list[Finding]:
+    """A task that moves the part ``d`` metres (start to goal, or the farthest a
+    sampled goal can be) against the part's size ``s``: a config's lengths are
+    metres even when the part file is in millimetres, so ``goal: [120, 30, 0]``
+    on an mm part is a goal 120 m away.  ``units``: the part file's unit (the
+    hint writes ``xy``, the numbers as typed, in metres)."""
+    if not (d > 0 and s > 0) or d < TRAVEL_WARN * s:
+        return []
+    head = (f"{field}: the part travels {d:.3g} m, {d / s:,.0f} times its size ({s * 1e3:.3g} mm "
+            "across); lengths in a config or on the command line are metres")
+    if units != "m" and xy is not None:
+        from sweeps.units import unit_factor
+
+        k = unit_factor(units)
+        hint = (f" even when the part file is in {units}: if you meant {units}, write "
+                f"{', '.join(f'{float(v) * k:g}' for v in xy)}")
+    else:
+        hint = "; check the unit of the numbers"
+    if d >= TRAVEL_ERROR * s:
+        return _error(head + hint)
+    return _warning(head + hint)
+
+
 def angle_tolerance(field: str, v: Optional[float]) -> list[Finding]:
     """An angle tolerance or accuracy ``v`` (rad, a half-width)."""
     if v is None or not v > 0:
@@ -270,22 +300,50 @@ def config_findings(cfg, part, s: Optional[float] = None) -> list[Finding]:
     out += friction("friction.mu_f", f.mu_f) + friction("friction.mu_s", f.mu_s)
     out += friction("planner.min_fence_mu", p.min_fence_mu)
     tasks = cfg.tasks
+    units = getattr(part, "units", "m") or "m"
     if isinstance(tasks, list):
         for i, task in enumerate(tasks):
             for key in ("start", "goal"):
                 pose = getattr(task, key)
                 if isinstance(pose, list) and len(pose) >= 3:
                     out += pose_angle(f"tasks[{i}].{key}[2]", pose[2])
+            a, b = _xy(task.start), _xy(task.goal)
+            if a is not None and b is not None:
+                out += travel(f"tasks[{i}].goal", math.dist(a, b), s, units, b)
     else:
         from sweeps.config import parse_angle
 
         sm = tasks.sample
         if isinstance(sm.start, list) and len(sm.start) >= 3:
             out += pose_angle("tasks.sample.start[2]", sm.start[2])
+        far = _sample_reach(sm)
+        if far is not None:
+            out += travel(f"tasks.sample.{far[0]}", far[1], s, units, far[2])
         lo = parse_angle(sm.heading[0], "tasks.sample.heading[0]")
         hi = parse_angle(sm.heading[1], "tasks.sample.heading[1]")
         out += heading("tasks.sample.heading", sm.heading, lo, hi)
     return out
+
+
+def _xy(pose):
+    """The (x, y) of a pose as a config holds it (a list of numbers), else None."""
+    try:
+        return float(pose[0]), float(pose[1])
+    except (TypeError, ValueError, IndexError):
+        return None
+
+
+def _sample_reach(sm):
+    """``(key, metres, numbers)``: how far a sampled task's goal can be from its
+    start (the annulus's outer radius, the box's farthest corner), or None."""
+    ann = getattr(sm, "annulus", None)
+    if ann is not None:
+        return "annulus", abs(float(ann[1])), (ann[1],)
+    box = getattr(sm, "box", None)
+    if box is not None:
+        (x0, x1), (y0, y1) = box
+        return "box", math.hypot(max(abs(x0), abs(x1)), max(abs(y0), abs(y1))), (x1, y1)
+    return None
 
 
 def vet(findings: Iterable[Finding]) -> list[str]:
@@ -350,10 +408,19 @@ def cli_findings(part, poses: Optional[dict] = None, lengths: Optional[dict] = N
     ``limit_surface`` ``{flag: (lo, hi)}`` (None where not given)."""
     s = part_size(part.vertices)
     out = size(s)
+    xy = {}
     for flag, text in (poses or {}).items():
         words = str(text).split(",") if text is not None else []
         if len(words) >= 3:
             out += pose_angle(flag, words[2].strip())
+        try:
+            xy[flag] = (float(words[0]), float(words[1]))
+        except (ValueError, IndexError):
+            pass
+    if "--goal" in xy:
+        units = getattr(part, "units", "m") or "m"
+        out += travel("--goal", math.dist(xy.get("--start", (0.0, 0.0)), xy["--goal"]), s, units,
+                      xy["--goal"])
     for flag, v in (lengths or {}).items():
         out += length(flag, v, s)
     for flag, v in (frictions or {}).items():

@@ -196,3 +196,24 @@ def test_an_address_that_answers_but_is_no_scheduler_is_one_line(tmp_path, monke
     assert r.returncode == 2, r.stderr
     assert line.startswith(f"error: executor.address: something answers at tcp://127.0.0.1:{port} "
                            "but it is not a Dask scheduler (") and words in line, line
+
+
+def test_config_lengths_on_a_part_in_millimetres_are_caught_before_work(tmp_path):
+    """``goal: [120, 30, 0]`` on a part file in mm was a 120 m goal, planned
+    silently (14 pushes, 0/100 succeed): one line naming the field and the fix."""
+    study = tmp_path / "mm.yaml"
+    study.write_text(f"study: mm\nkind: push\npart: {ROOT / 'examples' / 'plate.yaml'}\n"
+                     "tasks:\n  - {name: a, start: [0, 0, 0], goal: [120, 30, 0]}\n"
+                     "model: exact\nsamples: 10\n")
+    r = nudge_here("sweep", study, "--dry-run")
+    line = r.stderr.strip()
+    assert r.returncode == 2 and "\n" not in line, r.stderr
+    assert "tasks[0].goal: the part travels 124 m" in line
+    assert "even when the part file is in mm: if you meant mm, write 0.12, 0.03" in line
+    r = nudge_here("plan-push", ROOT / "examples" / "plate.yaml", "--start", "0,0,0",
+                   "--goal", "120,30,0")
+    assert r.returncode == 2 and "--goal: the part travels 124 m" in r.stderr
+    # a long but possible travel is a warning, and the run goes on
+    r = nudge_here("plan-push", ROOT / "examples" / "plate.yaml", "--start", "0,0,0",
+                   "--goal", "12,3,0")
+    assert "warning: --goal: the part travels 12.4 m" in r.stderr
