@@ -62,6 +62,7 @@ def test_plan_text_numbers_pushes_as_its_figure_does(tmp_path):
     assert fig.exists()
 
 
+@pytest.mark.slow
 def test_a_plan_that_does_not_certify_gets_next_steps(tmp_path):
     """A not-certified line never suggested --synthesize, more fence friction or a
     measured support; one that needs only more samples says how many."""

@@ -119,6 +119,18 @@ def test_the_hard_motions_equal_the_oracle(S, k):
     np.testing.assert_allclose(got, np.r_[v, 0.02 * om, u], atol=1e-4)
 
 
+def _jit_line_solve(*args):
+    from kernels.limit_surface import _line_solve
+
+    global _LINE_SOLVE
+    if _LINE_SOLVE is None:     # one compilation per support size, not one op at a time
+        _LINE_SOLVE = jax.jit(_line_solve, static_argnums=(7,))
+    return _LINE_SOLVE(*args)
+
+
+_LINE_SOLVE = None
+
+
 def _line_minimum(q, w, c):
     """The rotation rate minimising sum_i w_i |c + om q_i| by bisection on the
     derivative in float64 (numpy, 200 halvings of a bracket of 1e6 rad/m)."""
@@ -159,12 +171,13 @@ def test_the_line_solve_converges_next_to_a_support_point_at_rest(seed, log_gap)
         lo, hi = _bracket(qj, wj, cj, half)
         w0 = -float(np.sum(w * (q @ c))) / float(np.sum(w * np.sum(q * q, 1)))
         phi0 = jnp.clip(jnp.arctan(w0 * size), lo, hi)
-        phi = _line_solve(qj, wj, cj, size, phi0, lo, hi, STICK_ITERATIONS, 4.0)[0]
+        phi = _jit_line_solve(qj, wj, cj, size, phi0, lo, hi, STICK_ITERATIONS, 4.0)[0]
     om = math.tan(float(phi)) / size
     ref = _line_minimum(q, w, c)
     assert om == pytest.approx(ref, rel=1e-9, abs=1e-9 * abs(ref) + 1e-12), (om, ref)
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None, derandomize=True)
 @given(st.integers(0, 10_000))
 def test_motion_laws(seed):

@@ -201,8 +201,9 @@ def test_dry_run_prints_the_design_and_writes_nothing(tmp_path):
 def test_dry_run_estimates_every_model_it_can_run(tmp_path):
     """``--dry-run`` answers for the physics model and for the limit-surface model
     on each support (issue 41: KeyError 'mujoco', exit 3), from the measured
-    rates: limit_surface on the mixture of supports (its pads' 30 points) is
-    slower than on rigid corners, MuJoCo far slower than the quasi-static model."""
+    rates: limit_surface on the mixture of supports (its pads of 25 points) is
+    slower than on rigid corners (since the solver of issue 38, by a little:
+    THROUGHPUT's 60 and 70 samples/s), MuJoCo far slower than the quasi-static model."""
     import re
 
     secs = {}
@@ -214,7 +215,7 @@ def test_dry_run_estimates_every_model_it_can_run(tmp_path):
         m = re.search(r"estimate: about ([\d.]+) (s|min|h)", r.stdout)
         assert m, r.stdout
         secs[model, support] = float(m.group(1)) * {"s": 1, "min": 60, "h": 3600}[m.group(2)]
-    assert secs["limit_surface", "any"] > 2 * secs["limit_surface", "rigid"]
+    assert secs["limit_surface", "any"] > secs["limit_surface", "rigid"]
     assert secs["mujoco", "any"] > 10 * secs["quasistatic", "any"]
 
 
