@@ -331,15 +331,17 @@ def _slide(points, weights, r, d, q, e, sigma, m, size, half, w_stick):
                                INNER_ITERATIONS, 4.0)
 
     def polish(_, x):
-        g, w = x
-        F, J, _ = conditions(g, w)
+        g, w, F, J = x            # the point and its conditions (evaluated once a point)
         dg, dw = _solve2(J, F)
         g2, w2 = g - dg, w - dw
-        F2, _, _ = conditions(g2, w2)
+        F2, J2, _ = conditions(g2, w2)
         ok = (jnp.sum(F2 * F2) < jnp.sum(F * F)) & jnp.isfinite(g2) & jnp.isfinite(w2)
-        return jnp.where(ok, g2, g), jnp.where(ok, w2, w)
+        return (jnp.where(ok, g2, g), jnp.where(ok, w2, w), jnp.where(ok, F2, F),
+                jnp.where(ok, J2, J))
 
-    g, w = jax.lax.fori_loop(0, POLISH_ITERATIONS, polish, (g, jnp.tan(phi) / size))
+    w = jnp.tan(phi) / size
+    F, J, _ = conditions(g, w)
+    g, w, _, _ = jax.lax.fori_loop(0, POLISH_ITERATIONS, polish, (g, w, F, J))
     c = direction(g)
     V = jnp.concatenate([c - w * pr, w[None]])
     ce = jnp.dot(c, e)
