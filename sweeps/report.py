@@ -90,8 +90,7 @@ def write_report(store, design) -> pathlib.Path:
             df["config_id"] = df["config_id"].astype(int)
     labels = [", ".join(figs.fmt(pt[p]) for p in design.paths) or f"config {i}"
               for i, pt in enumerate(design.points)]
-    long_labels = [", ".join(f"{p}={figs.fmt(pt[p])}" for p in design.paths) or f"config {i}"
-                   for i, pt in enumerate(design.points)]
+    long_labels = config_labels(design)
     axis_label = ", ".join(design.paths) or "configuration"
     conf = top.required.confidence
     sections = []
@@ -173,6 +172,37 @@ def _by_effect(frame, axes, path, value: str = "n_success", weight=None):
     return tuple(out + [None, ""] * (2 - len(ranked[:2])))
 
 
+def config_stats(summary: pd.DataFrame, plans: pd.DataFrame, cid: int) -> dict:
+    """One configuration's figures over its tasks (the one home of what the run's
+    table, the report's table and the recommendation show): samples ``n``,
+    successes ``k``, tasks ``planned`` of ``tasks``, the tasks' one-sided lower
+    bounds ``lows`` (NaN dropped), the median plan ``steps`` and the worst q99
+    position error ``q99`` (None where there is none), the dominant failure
+    ``mode`` (``none`` when nothing failed)."""
+    s = summary[summary["config_id"].astype(int) == cid] if not summary.empty else summary
+    p = plans[plans["config_id"].astype(int) == cid] if not plans.empty else plans
+    planned = int(p["planned"].sum()) if len(p) else 0
+    modes = s["dominant_failure_mode"].value_counts() if len(s) else pd.Series(dtype=int)
+    modes = modes[modes.index != "none"]
+    return dict(n=int(s["n"].sum()) if len(s) else 0,
+                k=int(s["n_success"].sum()) if len(s) else 0,
+                planned=planned, tasks=len(p),
+                lows=s["ci_low_one_sided"].dropna() if len(s) else pd.Series(dtype=float),
+                n_summaries=len(s),
+                steps=float(p.loc[p["planned"], "n_steps"].median()) if planned else None,
+                q99=(float(s["err_pos_m_q99"].max()) if len(s) and "err_pos_m_q99" in s
+                     else None),
+                mode=modes.index[0] if len(modes) else "none")
+
+
+def config_labels(design) -> list:
+    """``path=value, ...`` of every configuration (``config i`` without swept paths)."""
+    from sweeps.figures.study import fmt
+
+    return [", ".join(f"{p}={fmt(pt[p])}" for p in design.paths) or f"config {i}"
+            for i, pt in enumerate(design.points)]
+
+
 def recommendation(summary: pd.DataFrame, plans: pd.DataFrame, design) -> str:
     """Which configuration to use, in one sentence: the configurations that meet
     the requirement (every task planned, each task's one-sided Clopper-Pearson
@@ -180,28 +210,20 @@ def recommendation(summary: pd.DataFrame, plans: pd.DataFrame, design) -> str:
     none does and the best one's figures.  Best: every task planned, then the
     highest worst-task lower bound, then the success rate, then the shortest
     median plan."""
-    from sweeps.figures.study import fmt
-
     req = design.top.required
     if summary.empty:
         return "no configuration was evaluated"
-    labels = [", ".join(f"{p}={fmt(pt[p])}" for p in design.paths) or f"config {i}"
-              for i, pt in enumerate(design.points)]
+    labels = config_labels(design)
     ranked = []
     for cid in range(len(design.configs)):
-        s = summary[summary["config_id"].astype(int) == cid]
-        p = plans[plans["config_id"].astype(int) == cid] if not plans.empty else plans
-        planned, tasks = (int(p["planned"].sum()), len(p)) if len(p) else (0, 0)
-        lows = s["ci_low_one_sided"].dropna()
-        low = float(lows.min()) if len(lows) == len(s) and len(s) else -1.0
-        n, k = int(s["n"].sum()), int(s["n_success"].sum())
-        steps = (float(p.loc[p["planned"], "n_steps"].median()) if planned else math.inf)
-        meets = tasks > 0 and planned == tasks and len(lows) == tasks and low >= req.probability
-        modes = s["dominant_failure_mode"].value_counts() if len(s) else pd.Series(dtype=int)
-        modes = modes[modes.index != "none"]
-        ranked.append(dict(cid=cid, meets=meets, planned=planned, tasks=tasks, low=low,
-                           rate=k / n if n else 0.0, steps=steps,
-                           mode=modes.index[0] if len(modes) else "none"))
+        c = config_stats(summary, plans, cid)
+        lows, tasks = c["lows"], c["tasks"]
+        low = float(lows.min()) if len(lows) == c["n_summaries"] and len(lows) else -1.0
+        meets = (tasks > 0 and c["planned"] == tasks and len(lows) == tasks
+                 and low >= req.probability)
+        ranked.append(dict(cid=cid, meets=meets, planned=c["planned"], tasks=tasks, low=low,
+                           rate=c["k"] / c["n"] if c["n"] else 0.0,
+                           steps=math.inf if c["steps"] is None else c["steps"], mode=c["mode"]))
     ranked.sort(key=lambda r: (not r["meets"], -(r["planned"] == r["tasks"]), -r["low"],
                                -r["rate"], r["steps"]))
     best = ranked[0]
@@ -226,18 +248,14 @@ def _config_rows(summary, plans, design, labels):
               "median plan steps", "worst q99 error (mm)", "dominant failure"]
     rows = []
     for cid, label in enumerate(labels):
-        s = summary[summary["config_id"] == cid] if not summary.empty else summary
-        p = plans[plans["config_id"] == cid] if not plans.empty else plans
-        n = int(s["n"].sum()) if len(s) else 0
-        k = int(s["n_success"].sum()) if len(s) else 0
-        modes = s["dominant_failure_mode"].value_counts() if len(s) else None
-        modes = modes[modes.index != "none"] if modes is not None else []
-        rows.append([label, f"{int(p['planned'].sum())}/{len(p)}" if len(p) else "-", n,
-                     fmt(k / n) if n else "-",
-                     fmt(s["ci_low_one_sided"].min()) if len(s) else "-",
-                     fmt(float(p.loc[p["planned"], "n_steps"].median())) if len(p) and p["planned"].any() else "-",
-                     fmt(float(s["err_pos_m_q99"].max()) * 1e3) if len(s) and "err_pos_m_q99" in s else "-",
-                     modes.index[0] if len(modes) else "none"])
+        c = config_stats(summary, plans, cid)
+        n = c["n"]
+        rows.append([label, f"{c['planned']}/{c['tasks']}" if c["tasks"] else "-", n,
+                     fmt(c["k"] / n) if n else "-",
+                     fmt(c["lows"].min()) if c["n_summaries"] else "-",
+                     fmt(c["steps"]) if c["steps"] is not None else "-",
+                     fmt(c["q99"] * 1e3) if c["q99"] is not None else "-",
+                     c["mode"]])
     return header, rows
 
 

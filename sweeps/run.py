@@ -261,6 +261,8 @@ def _say(quiet: bool, text: str) -> None:
 
 def summary_table(store, design) -> str:
     """Per configuration: swept values, tasks planned, samples, success, weakest task."""
+    from sweeps.report import config_stats
+
     s = store.read("summary")
     p = store.read("plans")
     if s.empty:
@@ -270,18 +272,14 @@ def summary_table(store, design) -> str:
     head = ["config"] + [f.replace(".", "_") for f in design.paths] + \
         ["planned", "samples", "success", "worst CP low", "dominant failure"]
     rows = []
-    for cid, g in s.groupby("config_id", sort=True):
-        pg = p[p["config_id"] == cid]
-        n = int(g["n"].sum())
-        k = int(g["n_success"].sum())
-        lows = g["ci_low_one_sided"].dropna()
-        modes = g["dominant_failure_mode"].value_counts()
-        modes = modes[modes.index != "none"]
+    for cid in sorted(s["config_id"].unique()):
+        c = config_stats(s, p, int(cid))
+        n, lows = c["n"], c["lows"]
         pt = design.points[cid]
         rows.append([str(cid)] + [_short(pt[x]) for x in design.paths] + [
-            f"{int(pg['planned'].sum())}/{len(pg)}", str(n),
-            f"{k / n:.3f}" if n else "-", f"{lows.min():.3f}" if len(lows) else "-",
-            modes.index[0] if len(modes) else "none"])
+            f"{c['planned']}/{c['tasks']}", str(n),
+            f"{c['k'] / n:.3f}" if n else "-", f"{lows.min():.3f}" if len(lows) else "-",
+            c["mode"]])
     widths = [max(len(r[i]) for r in rows + [head]) for i in range(len(head))]
     fmt = "  ".join(f"{{:>{w}}}" for w in widths)
     lines = [fmt.format(*head), fmt.format(*["-" * w for w in widths])]
