@@ -69,6 +69,16 @@ iteration ran out before converging again; this one on 0-2 (by at most 1e-2,
 a smooth optimum within ~1e-3 of a kink), in a third to a fifth of the time
 (S = 4: 19 -> 9 us a motion; S = 25: 200 -> 50 us; 2 CPU cores).
 
+Many nearby motions (a pivot's quadrature nodes): :func:`warm_motion` starts
+both solves from a prediction (:class:`Warm`): a few safeguarded line-solve
+steps for the sticking rate and a few two-dimensional Newton steps on the
+sliding conditions, and says whether they converged (the sticking step at
+rounding, the sliding conditions at ``sqrt(eps)``, or an optimal kink); where
+they did, the motion is the cold solve's to convergence, where they did not the
+caller solves cold (:func:`kernels.quasistatic_points.node_motions`).  The
+contact-independent half of the kink test (:func:`kink_base`) is computed once
+per support.
+
 Every rate is per metre of fence travel (``<v_r, d> = 1``).  A rotation sense
 is never reversed by friction: ``sign(w) = sign(r x d)`` (``D'(0) = -(r x d)``
 because the loads' centroid is the centre of mass), as in
@@ -218,17 +228,38 @@ def _bracket(q, weights, c, half):
     return jnp.where(g0 < 0, zero, -half), jnp.where(g0 < 0, half, zero)
 
 
+def _weiszfeld(q, weights, d):
+    """One Weiszfeld step from ``w = 0`` for the sticking rate (rad/m): the
+    line solve's start."""
+    tiny = jnp.finfo(q.dtype).tiny
+    return -jnp.sum(weights * (q @ d)) / jnp.maximum(jnp.sum(weights * jnp.sum(q * q, -1)), tiny)
+
+
 def _stick(q, weights, d, size, half):
     """The sticking rotation rate (module docstring), rad/m."""
-    tiny = jnp.finfo(q.dtype).tiny
     lo, hi = _bracket(q, weights, d, half)
-    w0 = -jnp.sum(weights * (q @ d)) / jnp.maximum(jnp.sum(weights * jnp.sum(q * q, -1)), tiny)
-    phi = jnp.clip(jnp.arctan(w0 * size), lo, hi)            # one Weiszfeld step from 0
+    phi = jnp.clip(jnp.arctan(_weiszfeld(q, weights, d) * size), lo, hi)
     phi, _, _, _ = _line_solve(q, weights, d, size, phi, lo, hi, STICK_ITERATIONS, 4.0)
     return jnp.tan(phi) / size
 
 
-def _kinks(points, weights, r, d, e, size):
+def kink_base(points, weights):
+    """The contact-independent half of :func:`_kinks`: for each support point
+    ``p_j``, the unit sum ``F0_j = sum_{i != j} w_i perp(p_i - p_j) / |p_i - p_j|``
+    and the moment ``M_j = sum_{i != j} w_i |p_i - p_j|`` of the others' friction
+    when the part turns about ``p_j`` (body frame, m).  Computed once per support,
+    not once per contact, by callers that solve many motions on one support."""
+    dtype = points.dtype
+    tiny = jnp.finfo(dtype).tiny
+    S = points.shape[0]
+    dp = points[None, :, :] - points[:, None, :]            # (j, i, 2): p_i - p_j
+    dist = jnp.linalg.norm(dp, axis=-1)
+    others = jnp.where(jnp.eye(S, dtype=bool), 0.0, weights[None, :])
+    F0 = jnp.sum(others[..., None] * _perp(dp) / jnp.maximum(dist, tiny)[..., None], 1)
+    return F0, jnp.sum(others * dist, 1)
+
+
+def _kinks(points, weights, r, d, e, size, base):
     """The turns about each support point ``p_j`` on the plane ``<v_r, e> = 1``
     (closed form): ``(optimal (S,), feasible (S,), D (S,), twists (S, 3))``.
 
@@ -237,19 +268,14 @@ def _kinks(points, weights, r, d, e, size):
     fence's force ``lambda e`` balances the moment (``lambda = M_j / |(r - p_j) x e|``)
     and ``p_j``'s own friction ``lambda e - F_j`` must lie in its disc of radius
     ``w_j``: then the turn is optimal.  Feasible: a loaded point, a turn that
-    advances the contact (``<v_r, d> > 0``)."""
+    advances the contact (``<v_r, d> > 0``).  ``base``: :func:`kink_base`."""
     dtype = points.dtype
     tiny = jnp.finfo(dtype).tiny
-    S = points.shape[0]
-    dp = points[None, :, :] - points[:, None, :]            # (j, i, 2): p_i - p_j
-    dist = jnp.linalg.norm(dp, axis=-1)
-    others = jnp.where(jnp.eye(S, dtype=bool), 0.0, weights[None, :])
+    F0, M = base
     rj = r[None] - points                                   # (j, 2): r - p_j
     cr = rj[:, 0] * e[1] - rj[:, 1] * e[0]                  # (r - p_j) x e
     sense = jnp.where(cr >= 0, 1.0, -1.0).astype(dtype)
-    F = sense[:, None] * jnp.sum(others[..., None] * _perp(dp)
-                                 / jnp.maximum(dist, tiny)[..., None], 1)
-    M = jnp.sum(others * dist, 1)
+    F = sense[:, None] * F0
     lam = M / jnp.maximum(jnp.abs(cr), tiny)
     own = lam[:, None] * e - F
     w = 1.0 / jnp.where(jnp.abs(cr) > 0, cr, 1.0)
@@ -258,6 +284,54 @@ def _kinks(points, weights, r, d, e, size):
     optimal = feasible & (jnp.sum(own * own, -1) <= weights ** 2)
     V = jnp.concatenate([vr - w[:, None] * _perp(r)[None], w[:, None]], 1)
     return optimal, feasible, jnp.abs(w) * M, V
+
+
+def _conditions(q, weights, d, scale, sigma, m, g, w):
+    """The smooth sliding point's two conditions at ``(g, w)`` (module
+    docstring): ``(D'(w) along v_r(g) / scale, the force's angle from e)``, their
+    Jacobian in ``(g, w)``, and ``dw/dg`` along the line solves."""
+    tiny = jnp.finfo(q.dtype).tiny
+    c = jnp.cos(g) * d + jnp.sin(g) * _perp(d)
+    a = c + w * q
+    n = jnp.sqrt(jnp.maximum(jnp.sum(a * a, -1), tiny))
+    u = a / n[:, None]
+    f = jnp.sum(weights[:, None] * u, 0)
+    cp = _perp(c)
+    Pq = q - u * jnp.sum(u * q, -1, keepdims=True)        # (I - u u^T) q_i
+    Pc = cp[None] - u * (u @ cp)[:, None]                 # (I - u u^T) dc/dg
+    Dw = jnp.sum(weights * jnp.sum(q * u, -1)) / scale
+    Dww = jnp.sum(weights * jnp.sum(q * Pq, -1) / n) / scale
+    Dwg = jnp.sum(weights * jnp.sum(q * Pc, -1) / n) / scale
+    fw = jnp.sum((weights / n)[:, None] * Pq, 0)
+    fg = jnp.sum((weights / n)[:, None] * Pc, 0)
+    ff = jnp.maximum(jnp.dot(f, f), tiny)
+    # f lies within pi/2 of c (its power <f, c> = D > 0): no branch cut
+    ang = jnp.arctan2(c[0] * f[1] - c[1] * f[0], jnp.dot(c, f)) + g - sigma * jnp.arctan(m)
+    Aw = (f[0] * fw[1] - f[1] * fw[0]) / ff
+    Ag = (f[0] * fg[1] - f[1] * fg[0]) / ff
+    J = jnp.stack([jnp.stack([Dwg, Dww]), jnp.stack([Ag, Aw])])
+    return jnp.stack([Dw, ang]), J, -Dwg / jnp.maximum(Dww, tiny)
+
+
+def _polish(q, weights, d, scale, sigma, m, g, w, iters):
+    """``iters`` two-dimensional Newton steps on the sliding conditions from
+    ``(g, w)``, each accepted only where it lowers their residual.  Returns
+    ``(g, w, residual (2,))``."""
+    def conditions(g, w):
+        return _conditions(q, weights, d, scale, sigma, m, g, w)
+
+    def polish(_, x):
+        g, w, F, J = x            # the point and its conditions (evaluated once a point)
+        dg, dw = _solve2(J, F)
+        g2, w2 = g - dg, w - dw
+        F2, J2, _ = conditions(g2, w2)
+        ok = (jnp.sum(F2 * F2) < jnp.sum(F * F)) & jnp.isfinite(g2) & jnp.isfinite(w2)
+        return (jnp.where(ok, g2, g), jnp.where(ok, w2, w), jnp.where(ok, F2, F),
+                jnp.where(ok, J2, J))
+
+    F, J, _ = conditions(g, w)
+    g, w, F, _ = jax.lax.fori_loop(0, iters, polish, (g, w, F, J))
+    return g, w, F
 
 
 def _slide(points, weights, r, d, q, e, sigma, m, size, half, w_stick):
@@ -273,28 +347,7 @@ def _slide(points, weights, r, d, q, e, sigma, m, size, half, w_stick):
         return jnp.cos(g) * d + jnp.sin(g) * t
 
     def conditions(g, w):
-        """``(D'(w) along v_r(g), the force's angle from e)`` and their Jacobian
-        in ``(g, w)``, and ``dw/dg`` along the line solves."""
-        c = direction(g)
-        a = c + w * q
-        n = jnp.sqrt(jnp.maximum(jnp.sum(a * a, -1), tiny))
-        u = a / n[:, None]
-        f = jnp.sum(weights[:, None] * u, 0)
-        cp = _perp(c)
-        Pq = q - u * jnp.sum(u * q, -1, keepdims=True)        # (I - u u^T) q_i
-        Pc = cp[None] - u * (u @ cp)[:, None]                 # (I - u u^T) dc/dg
-        Dw = jnp.sum(weights * jnp.sum(q * u, -1)) / scale
-        Dww = jnp.sum(weights * jnp.sum(q * Pq, -1) / n) / scale
-        Dwg = jnp.sum(weights * jnp.sum(q * Pc, -1) / n) / scale
-        fw = jnp.sum((weights / n)[:, None] * Pq, 0)
-        fg = jnp.sum((weights / n)[:, None] * Pc, 0)
-        ff = jnp.maximum(jnp.dot(f, f), tiny)
-        # f lies within pi/2 of c (its power <f, c> = D > 0): no branch cut
-        ang = jnp.arctan2(c[0] * f[1] - c[1] * f[0], jnp.dot(c, f)) + g - sigma * jnp.arctan(m)
-        Aw = (f[0] * fw[1] - f[1] * fw[0]) / ff
-        Ag = (f[0] * fg[1] - f[1] * fg[0]) / ff
-        J = jnp.stack([jnp.stack([Dwg, Dww]), jnp.stack([Ag, Aw])])
-        return jnp.stack([Dw, ang]), J, -Dwg / jnp.maximum(Dww, tiny)
+        return _conditions(q, weights, d, scale, sigma, m, g, w)
 
     def trip(_, x):
         g, phi, lo, hi, last, more, ilo, ihi, istep = x
@@ -330,23 +383,69 @@ def _slide(points, weights, r, d, q, e, sigma, m, size, half, w_stick):
     phi, _, _, _ = _line_solve(q, weights, c, size, jnp.clip(phi, blo, bhi), blo, bhi,
                                INNER_ITERATIONS, 4.0)
 
-    def polish(_, x):
-        g, w, F, J = x            # the point and its conditions (evaluated once a point)
-        dg, dw = _solve2(J, F)
-        g2, w2 = g - dg, w - dw
-        F2, J2, _ = conditions(g2, w2)
-        ok = (jnp.sum(F2 * F2) < jnp.sum(F * F)) & jnp.isfinite(g2) & jnp.isfinite(w2)
-        return (jnp.where(ok, g2, g), jnp.where(ok, w2, w), jnp.where(ok, F2, F),
-                jnp.where(ok, J2, J))
+    g, w, _ = _polish(q, weights, d, scale, sigma, m, g, jnp.tan(phi) / size, POLISH_ITERATIONS)
+    return _smooth_twist(points, weights, d, e, pr, g, w)
 
-    w = jnp.tan(phi) / size
-    F, J, _ = conditions(g, w)
-    g, w, _, _ = jax.lax.fori_loop(0, POLISH_ITERATIONS, polish, (g, w, F, J))
-    c = direction(g)
+
+def _smooth_twist(points, weights, d, e, pr, g, w):
+    """The twist of the sliding point ``(g, w)`` (``|v_r| = 1``) and its ``D``
+    on the plane ``<v_r, e> = 1`` (``inf`` where ``v_r`` does not advance along ``e``)."""
+    c = jnp.cos(g) * d + jnp.sin(g) * _perp(d)
     V = jnp.concatenate([c - w * pr, w[None]])
     ce = jnp.dot(c, e)
     D = jnp.where(ce > 0, dissipation(points, weights, V) / jnp.where(ce > 0, ce, 1.0), jnp.inf)
     return V, D
+
+
+def _setup(points, weights, r, d, mu_f):
+    points = jnp.asarray(points)
+    dtype = points.dtype
+    weights = jnp.asarray(weights, dtype)
+    r = jnp.asarray(r, dtype)
+    d = jnp.asarray(d, dtype)
+    mu = jnp.asarray(mu_f, dtype)
+    half = jnp.asarray(0.5 * jnp.pi, dtype) * (1.0 - 64 * jnp.finfo(dtype).eps)
+    size = jnp.maximum(jnp.max(jnp.linalg.norm(points - r, axis=-1)), jnp.finfo(dtype).tiny)
+    return points, weights, r, d, mu, half, size, _perp(points - r)
+
+
+def _mode(points, weights, r, d, mu, om):
+    """From the sticking rate ``om``: the sticking twist, its force, whether the
+    contact slides, and the friction cone's edge ``(sigma, m, e)``."""
+    tiny = jnp.finfo(points.dtype).tiny
+    t = _perp(d)
+    V_st = jnp.concatenate([d - om * _perp(r), om[None]])
+    a = _velocities(points, V_st)
+    f = jnp.sum(weights[:, None] * a / jnp.maximum(jnp.linalg.norm(a, axis=-1), tiny)[:, None], 0)
+    fn, ft = jnp.dot(f, d), jnp.dot(f, t)
+    sliding = jnp.isfinite(mu) & (jnp.abs(ft) > mu * fn)
+    sigma = jnp.where(ft >= 0, 1.0, -1.0).astype(points.dtype)
+    m = jnp.where(jnp.isfinite(mu), mu, 0.0)
+    return V_st, f, sliding, sigma, m, d + sigma * m * t
+
+
+def _motion(points, weights, r, d, V_st, f, sliding, e, kinks, V_s, D_s):
+    """The motion from the sticking twist, the kinks and the smooth sliding
+    point: of the smooth point and the kinks, the lowest ``D`` on the plane
+    (an optimal kink is the minimum; a smooth optimum within a hair of a kink
+    that the solve did not resolve loses to that kink's twist).  Returns
+    ``(Motion, the sliding twist with |v_r| = 1)``."""
+    optimal, feasible, Dk, Vk = kinks
+    pr = _perp(r)
+    Dk = jnp.where(optimal, -jnp.inf, jnp.where(feasible, Dk, jnp.inf))
+    j = jnp.argmin(Dk)
+    V_u = jnp.where(Dk[j] < D_s, Vk[j], V_s)
+    vr_u = V_u[:2] + V_u[2] * pr
+    V_sl = V_u / jnp.dot(vr_u, d)
+    V = jnp.where(sliding, V_sl, V_st)
+    vr = V[:2] + V[2] * pr
+    # sliding: the force is lambda e, lambda from the power balance D(V) = <f, v_r>
+    # (exact also at a kink, where the resting point's friction is indeterminate)
+    f_sl = e * dissipation(points, weights, V_sl) / jnp.dot(e, V_sl[:2] + V_sl[2] * pr)
+    f = jnp.where(sliding, f_sl, f)
+    motion = Motion(v=V[:2], omega=V[2], slip=jnp.where(sliding, jnp.dot(vr, _perp(d)), 0.0),
+                    sliding=sliding, force=f)
+    return motion, V_u / jnp.linalg.norm(vr_u)
 
 
 def push_motion(points, weights, r, d, mu_f) -> Motion:
@@ -366,42 +465,96 @@ def push_motion(points, weights, r, d, mu_f) -> Motion:
       :class:`Motion`, normalised so that the contact point advances with the
       fence (``<v_r, d> = 1``).
     """
+    points, weights, r, d, mu, half, size, q = _setup(points, weights, r, d, mu_f)
+    om = _stick(q, weights, d, size, half)
+    V_st, f, sliding, sigma, m, e = _mode(points, weights, r, d, mu, om)
+    kinks = _kinks(points, weights, r, d, e, size, kink_base(points, weights))
+    V_s, D_s = _slide(points, weights, r, d, q, e, sigma, m, size, half, om)
+    return _motion(points, weights, r, d, V_st, f, sliding, e, kinks, V_s, D_s)[0]
+
+
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class Warm:
+    """Where :func:`warm_motion` starts: the previous motion's solution (a JAX
+    pytree).  ``omega``: its sticking rate (rad/m); ``g``, ``w``: its sliding
+    twist as the direction of ``v_r`` from ``d`` (rad) and the rotation rate at
+    ``|v_r| = 1`` (rad/m); ``sigma``: the side of the cone it slid on (+-1, 0: none)."""
+
+    omega: jax.Array
+    g: jax.Array
+    w: jax.Array
+    sigma: jax.Array
+
+
+def _warm_of(V_u, d, r, om, sigma, sliding):
+    vr = V_u[:2] + V_u[2] * _perp(r)
+    g = jnp.arctan2(jnp.dot(vr, _perp(d)), jnp.dot(vr, d))
+    return Warm(omega=om, g=g, w=V_u[2], sigma=jnp.where(sliding, sigma, 0.0))
+
+
+#: sticking line-solve iterations from a warm start: ``(few, many)`` for a
+#: support of at most / more than ``MANY_POINTS`` points (a line that passes many
+#: points' rests takes more).  Share of a pivot's nodes not converged warm, the
+#: nice-stable pentagon's random pushes: rigid corners 0.17 % at 6 (10 costs 15 %
+#: more time for nothing); a ring of 29 points 4.5 % at 6, 0.03 % at 10; a
+#: uniform pad of 30, 1.6 % -> 0.9 %
+WARM_STICK_ITERATIONS = (6, 10)
+MANY_POINTS = 8
+#: two-dimensional Newton steps on the sliding conditions from a warm start
+WARM_SLIDE_ITERATIONS = 4
+
+
+def first_start(points, weights, r, d) -> "Warm":
+    """A :class:`Warm` start with no motion solved before: the sticking rate's
+    one Weiszfeld step, no sliding (arguments as :func:`push_motion`)."""
     points = jnp.asarray(points)
     dtype = points.dtype
-    weights = jnp.asarray(weights, dtype)
-    r = jnp.asarray(r, dtype)
-    d = jnp.asarray(d, dtype)
-    mu = jnp.asarray(mu_f, dtype)
-    tiny = jnp.finfo(dtype).tiny
-    half = jnp.asarray(0.5 * jnp.pi, dtype) * (1.0 - 64 * jnp.finfo(dtype).eps)
-    size = jnp.maximum(jnp.max(jnp.linalg.norm(points - r, axis=-1)), tiny)
-    t = _perp(d)
-    pr = _perp(r)
-    q = _perp(points - r)
-    om = _stick(q, weights, d, size, half)
-    V_st = jnp.concatenate([d - om * pr, om[None]])
-    a = _velocities(points, V_st)
-    f = jnp.sum(weights[:, None] * a / jnp.maximum(jnp.linalg.norm(a, axis=-1), tiny)[:, None], 0)
-    fn, ft = jnp.dot(f, d), jnp.dot(f, t)
-    sliding = jnp.isfinite(mu) & (jnp.abs(ft) > mu * fn)
-    sigma = jnp.where(ft >= 0, 1.0, -1.0).astype(dtype)
-    m = jnp.where(jnp.isfinite(mu), mu, 0.0)
-    e = d + sigma * m * t
-    optimal, feasible, Dk, Vk = _kinks(points, weights, r, d, e, size)
-    V_s, D_s = _slide(points, weights, r, d, q, e, sigma, m, size, half, om)
-    # of the smooth point and the kinks, the lowest D on the plane (an optimal kink
-    # is the minimum; a smooth optimum within a hair of a kink that the solve did not
-    # resolve loses to that kink's twist)
-    Dk = jnp.where(optimal, -jnp.inf, jnp.where(feasible, Dk, jnp.inf))
-    j = jnp.argmin(Dk)
-    V_sl = jnp.where(Dk[j] < D_s, Vk[j], V_s)
-    vr = V_sl[:2] + V_sl[2] * pr
-    V_sl = V_sl / jnp.dot(vr, d)
-    V = jnp.where(sliding, V_sl, V_st)
-    vr = V[:2] + V[2] * pr
-    # sliding: the force is lambda e, lambda from the power balance D(V) = <f, v_r>
-    # (exact also at a kink, where the resting point's friction is indeterminate)
-    f_sl = e * dissipation(points, weights, V_sl) / jnp.dot(e, V_sl[:2] + V_sl[2] * pr)
-    f = jnp.where(sliding, f_sl, f)
-    return Motion(v=V[:2], omega=V[2], slip=jnp.where(sliding, jnp.dot(vr, t), 0.0),
-                  sliding=sliding, force=f)
+    q = _perp(points - jnp.asarray(r, dtype))
+    om = _weiszfeld(q, jnp.asarray(weights, dtype), jnp.asarray(d, dtype))
+    zero = jnp.zeros((), dtype)
+    return Warm(omega=om, g=zero, w=zero, sigma=zero)
+
+
+def warm_motion(points, weights, r, d, mu_f, start: Warm, base=None):
+    """:func:`push_motion` started from a nearby motion's solution: for a
+    sequence of contacts ``(r, d)`` that changes little from one to the next
+    (a pivot's quadrature nodes), Newton's method converges in a few steps where
+    the cold solve brackets from scratch.
+
+    The sticking rate takes ``WARM_STICK_ITERATIONS`` safeguarded line-solve
+    steps from ``start.omega``; the smooth sliding point ``WARM_SLIDE_ITERATIONS``
+    two-dimensional Newton steps from ``(start.g, start.w)`` (from the sticking
+    twist when the start did not slide on the same side).  The result is the
+    cold solve's wherever it says ``converged``: the line solve's last step at
+    ``0.1 sqrt(eps)`` in ``atan(w L)``, and, sliding with no optimal kink, both
+    sliding conditions at ``sqrt(eps)`` (the point is then the convex problem's
+    unique stationary point on the plane); elsewhere the caller solves cold.
+
+    Returns ``(Motion, Warm, converged)``; arguments as :func:`push_motion`,
+    ``base``: :func:`kink_base` of the support, if the caller has it.
+    """
+    points, weights, r, d, mu, half, size, q = _setup(points, weights, r, d, mu_f)
+    dtype = points.dtype
+    tiny, eps = jnp.finfo(dtype).tiny, jnp.finfo(dtype).eps
+    if base is None:
+        base = kink_base(points, weights)
+    lo, hi = _bracket(q, weights, d, half)
+    phi0 = jnp.clip(jnp.arctan(start.omega * size), lo, hi)
+    iters = WARM_STICK_ITERATIONS[int(points.shape[0] > MANY_POINTS)]
+    phi, _, _, last = _line_solve(q, weights, d, size, phi0, lo, hi, iters, 4.0)
+    om = jnp.tan(phi) / size
+    stuck = last <= 0.1 * jnp.sqrt(eps)
+    V_st, f, sliding, sigma, m, e = _mode(points, weights, r, d, mu, om)
+    kinks = _kinks(points, weights, r, d, e, size, base)
+    same = start.sigma == sigma
+    g0 = jnp.where(same, start.g, 0.0)
+    w0 = jnp.where(same, start.w, om)
+    scale = jnp.maximum(jnp.sum(weights * jnp.sqrt(jnp.sum(q * q, -1))), tiny)
+    g, w, F = _polish(q, weights, d, scale, sigma, m, g0, w0, WARM_SLIDE_ITERATIONS)
+    V_s, D_s = _smooth_twist(points, weights, d, e, _perp(r), g, w)
+    inside = (g * sigma <= 0) & (jnp.abs(g) < half) & jnp.isfinite(D_s)
+    smooth = inside & (jnp.max(jnp.abs(F)) <= jnp.sqrt(eps))
+    converged = stuck & (~sliding | jnp.any(kinks[0]) | smooth)
+    motion, V_u = _motion(points, weights, r, d, V_st, f, sliding, e, kinks, V_s, D_s)
+    return motion, _warm_of(V_u, d, r, om, sigma, sliding), converged

@@ -374,3 +374,70 @@ def test_certify_on_the_exact_limit_surface(tmp_path):
     assert verdicts["quasistatic"] == ("certified", 1.0)
     assert verdicts["limit_surface"][0] != "certified"
     assert verdicts["limit_surface"][1] <= 0.25
+
+
+def _sweep(rng, S, N=24):
+    """A pivot-like sequence of contacts: a random support of ``S`` points, the
+    contact at the rearmost point of the first direction, and ``N`` fence
+    directions turning by up to 0.6 rad (body frame), as a pivot's nodes do."""
+    P = rng.uniform(-0.02, 0.02, (S, 2))
+    w = rng.dirichlet(np.ones(S))
+    P = P - w @ P
+    a0 = rng.uniform(0, 2 * math.pi)
+    a = a0 + rng.uniform(0.05, 0.6) * np.linspace(0.0, 1.0, N) * rng.choice([-1.0, 1.0])
+    d_b = np.stack([np.cos(a), np.sin(a)], -1)
+    r = P[int(np.argmin(P @ d_b[0]))]
+    r = r - d_b[0] * 1e-3                     # behind every point at each node
+    mu = float(rng.choice([0.3, 0.8, 1.5]))
+    return P, w, r, d_b, mu
+
+
+@settings(max_examples=25, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2 ** 31 - 1), S=st.sampled_from([3, 4, 6, 12]))
+def test_warm_started_motions_equal_the_cold_solve(seed, S):
+    """Along a pivot's nodes each motion warm-started from the last two
+    (kernels.quasistatic_points.warm_nodes) is the cold solve's wherever it says
+    it converged, and it converges on most nodes (else it would cost more than
+    the cold solve it replaces)."""
+    from kernels.quasistatic_points import warm_nodes
+
+    P, w, r, d_b, mu = _sweep(np.random.default_rng(seed), S)
+    with jax.enable_x64(True):
+        ms, ok = jax.jit(warm_nodes)(P, w, r, d_b, mu)
+        cold = jax.jit(jax.vmap(push_motion, in_axes=(None, None, None, 0, None)))(P, w, r, d_b, mu)
+    ok = np.asarray(ok)
+    assert ok.mean() >= 0.75
+    np.testing.assert_array_equal(np.asarray(ms.sliding)[ok], np.asarray(cold.sliding)[ok])
+    for a, b in ((ms.omega, cold.omega), (ms.slip, cold.slip)):
+        np.testing.assert_allclose(0.02 * np.asarray(a)[ok], 0.02 * np.asarray(b)[ok],
+                                   atol=1e-8, rtol=1e-7)
+    np.testing.assert_allclose(np.asarray(ms.v)[ok], np.asarray(cold.v)[ok], atol=1e-8, rtol=1e-7)
+
+
+@pytest.mark.parametrize("starved", [False, True])
+def test_node_motions_equal_the_cold_solve_batched_or_not(starved, monkeypatch):
+    """kernels.quasistatic_points.node_motions: the nodes a warm solve leaves
+    unconverged are solved cold, one support's a few at a time, or a batch's
+    gathered over the whole batch (its vmap rule); starved of warm iterations
+    (every node falls back) the motions are still the cold solve's, batched and
+    unbatched alike."""
+    import kernels.limit_surface as lsm
+    import kernels.quasistatic_points as qp
+
+    if starved:
+        monkeypatch.setattr(lsm, "WARM_STICK_ITERATIONS", (0, 0))
+        monkeypatch.setattr(lsm, "WARM_SLIDE_ITERATIONS", 0)
+    rng = np.random.default_rng(11)
+    cases = [_sweep(rng, 4, N=12) for _ in range(6)]
+    P, w, r, d_b, mu = (np.stack([c[i] for c in cases]) for i in range(5))
+    with jax.enable_x64(True):
+        cold = jax.jit(jax.vmap(jax.vmap(push_motion, in_axes=(None, None, None, 0, None))))(
+            P, w, r, d_b, mu)
+        batched = jax.jit(jax.vmap(lambda *a: qp.node_motions(*a)))(P, w, r, d_b, mu)
+        one = jax.jit(lambda *a: qp.node_motions(*a))
+        single = [one(P[i], w[i], r[i], d_b[i], mu[i]) for i in range(len(cases))]
+    for got in (batched, jax.tree_util.tree_map(lambda *x: np.stack(x), *single)):
+        np.testing.assert_array_equal(np.asarray(got.sliding), np.asarray(cold.sliding))
+        for f in ("v", "omega", "slip", "force"):
+            np.testing.assert_allclose(np.asarray(getattr(got, f)), np.asarray(getattr(cold, f)),
+                                       atol=1e-9 if not starved else 1e-15, rtol=1e-7 if not starved else 1e-13)
