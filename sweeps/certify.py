@@ -386,8 +386,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         _log(quiet, f"[{name}] no plan: {reason}")
         from robustness import empty_summary
 
-        s = empty_summary(name, kind, model, cfg.dtype, cfg.eps.pos_eps_m, cfg.eps.theta_eps_rad,
-                          conf)
+        s = empty_summary(name, kind, model, cfg.dtype, cfg.eps, conf)
         _write_summary(store, ti, s)
         return {**row, **no_plan(reason, p, conf, model, schedule).to_row()}
     size = min(schedule.counts[0], block_samples(kind, model, cfg.friction.support))
@@ -398,8 +397,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     summary = blocks.summary()
     _write_summary(store, ti, summary)
     cert = decide(summary, p, conf, kind=kind, model=model,
-                  perturbed=perturbed_sources(cfg.sampler(), kind, model),
-                  pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+                  perturbed=perturbed_sources(cfg.sampler(), kind, model), criterion=cfg.eps,
                   schedule=schedule)
     row.update(cert.to_row())
     if syn is not None:
@@ -585,9 +583,8 @@ def margin_search(part, start, goal, cfg, key, model):
             return False
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, model=model,
-                          dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                          pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+            ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, cfg.eps, model,
+                          jnp.float64 if cfg.dtype == "float64" else jnp.float32,
                           confidence=cfg.required.confidence, physics=cfg.physics_run(), bound=False)
         s = ev.summary
         return one_sided_lower(int(s["n_success"]), int(s["n"]),

@@ -3,7 +3,8 @@ configs and parameter studies, and the error messages a user reads.
 
 The config layer only validates and converts: tolerances are the robustness
 layer's own types (:class:`~robustness.GeometryTolerance`,
-:class:`~robustness.FrictionRange`, :class:`~robustness.ExecutionTolerance`,
+:class:`~robustness.FrictionRange`, :class:`~robustness.ExecutionTolerance`, and
+the success criterion ``eps:`` :class:`~robustness.SuccessCriterion`,
 stdlib dataclasses that pydantic validates field by field and whose
 ``__post_init__`` checks the values), so a tolerance is defined once.
 
@@ -24,7 +25,7 @@ from pydantic import (BaseModel, ConfigDict, Field, StrictInt, ValidationError, 
 from robustness.physics import PhysicsSettings
 from planning import PushOptions
 from robustness import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES, ExecutionTolerance,
-                        FrictionRange, GeometryTolerance, SuccessCriterion)
+                        FrictionRange, GeometryTolerance, SuccessCriterion, CONFIDENCE, REQUIRED_PROBABILITY)
 from sweeps.errors import UserError
 from sweeps.partfile import part_fields
 from sweeps.plausible import wrap
@@ -227,18 +228,12 @@ class Design(Strict):
                                 "fence_friction", "tumble_slip"]]] = None
 
 
-class Eps(Strict):
-    """Success tolerances: position (m) and orientation (rad)."""
-
-    pos_eps_m: float = Field(SuccessCriterion.pos_eps_m, gt=0)
-    theta_eps_rad: float = Field(SuccessCriterion.theta_eps_rad, gt=0)
-
-
 class Required(Strict):
-    """Required success probability and the confidence of its claim."""
+    """Required success probability and the confidence of its claim (defaults:
+    :data:`robustness.REQUIRED_PROBABILITY`, :data:`robustness.CONFIDENCE`)."""
 
-    probability: float = Field(0.9, gt=0, lt=1)
-    confidence: float = Field(0.95, gt=0, lt=1)
+    probability: float = Field(REQUIRED_PROBABILITY, gt=0, lt=1)
+    confidence: float = Field(CONFIDENCE, gt=0, lt=1)
 
 
 class Task(Strict):
@@ -326,7 +321,7 @@ class Evaluation(Strict):
     friction: FrictionRange = Field(default_factory=FrictionRange)
     execution: ExecutionTolerance = Field(default_factory=ExecutionTolerance)
     planner: Planner = Field(default_factory=Planner)
-    eps: Eps = Field(default_factory=Eps)
+    eps: SuccessCriterion = Field(default_factory=SuccessCriterion)
     required: Required = Field(default_factory=Required)
     seed: int = Field(0, ge=0)
     model: Literal["quasistatic", "limit_surface", "exact", "mujoco"] = "quasistatic"
@@ -366,6 +361,7 @@ HINTS = {
     "tumble_slip_theta": "the rotational slip half-width after each tumble in radians (0 for none)",
     "pos_eps_m": "the position accuracy in metres, > 0",
     "theta_eps_rad": "the orientation accuracy in radians, > 0",
+    "slip_fraction": "the fraction of pos_eps_m a failed sample's slip must reach to fail by slip, >= 0",
     "probability": "the required success probability, strictly between 0 and 1 (e.g. 0.95)",
     "confidence": "the confidence level, strictly between 0 and 1 (e.g. 0.95)",
     "n_samples": "a positive number of Monte-Carlo samples",
@@ -476,7 +472,9 @@ def _one(e: dict, model) -> str:
         # a dataclass's own check names its field first ('tau_v: must be ...'): join the paths
         head, sep, rest = msg.partition(": ")
         if sep and head in _fields(_model_at(model, loc)):
-            return f"{_loc(loc + (head,))}: {rest}"
+            path = _loc(loc + (head,))
+            hint = HINTS.get(path, HINTS.get(head))
+            return f"{path}: {rest}" + (f"; give {hint}" if hint else "")
         return msg if field == "(top level)" else f"{field}: {msg}"
     return f"{field}: {msg}, got {got!r}{tail}"
 
