@@ -57,6 +57,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from kernels import VARYING_SUPPORTS
 from robustness import stats
 from robustness.tolerances import SuccessCriterion
 
@@ -197,7 +198,7 @@ def perturbed_sources(sampler, kind: str, model: str) -> tuple:
         if model in ("quasistatic", "limit_surface", "mujoco"):  # the exact replay does not depend on friction
             if f.mu_f[1] > f.mu_f[0]:
                 out.append("fence friction")
-            if f.support in ("any", "rigid", "points") or (f.c is not None and f.c[1] > f.c[0]):
+            if f.support in VARYING_SUPPORTS or (f.c is not None and f.c[1] > f.c[0]):
                 out.append(f"support ({f.support})")   # uniform, ring: one c, nothing drawn
     elif e.tumble_slip_xy > 0 or e.tumble_slip_theta > 0:
         out.append("slip after tumbles")

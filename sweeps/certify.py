@@ -71,6 +71,7 @@ from typing import Literal, Optional, Union
 import numpy as np
 from pydantic import Field, StrictBool, field_validator
 
+from kernels import ANY_COMPONENTS
 from robustness import GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, model_for
 from sweeps.errors import Exit, UserError
 from sweeps.config import (ConfigError, Design, Evaluation, PartInline, Strict, Synthesize,
@@ -636,8 +637,8 @@ def next_steps(cert: dict, support: str = "any", synthesized: bool = False,
     if kind == "push" and not synthesized:
         steps.append("--synthesize (a plan chosen for these draws)")
     if kind == "push" and support == "any":
-        steps.append("a measured support (friction.support: rigid, uniform, ring or tripod) in "
-                     "place of any, which draws every family")
+        steps.append(f"a measured support (friction.support: {', '.join(ANY_COMPONENTS[:-1])} or "
+                     f"{ANY_COMPONENTS[-1]}) in place of any, which draws every family")
     if not designed:
         steps.append("--design (which tolerance drives the failures)")
     head = ("more samples cannot certify this plan; try" if reason == "below_requirement"

@@ -22,6 +22,8 @@ from typing import Any, Literal, Optional, Union
 from pydantic import (BaseModel, ConfigDict, Field, StrictInt, ValidationError, create_model,
                       field_validator, model_validator)
 
+from kernels import (FAMILY, PLAN_SUPPORTS, PLANNED_FAMILIES, REALISABLE_SUPPORTS,
+                     SUPPORT_FAMILIES)
 from robustness.physics import PhysicsSettings
 from planning import PushOptions
 from robustness import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES, ExecutionTolerance,
@@ -149,7 +151,7 @@ class Planner(Strict):
     objective: Literal["distance", "pushes"] = PUSH_DEFAULTS.objective
     strategy: Literal["search", "paper"] = PUSH_DEFAULTS.strategy
     support_c: Optional[tuple[float, float]] = None
-    support: Literal["any", "rigid", "uniform", "ring"] = "any"
+    support: Literal[PLAN_SUPPORTS] = "any"
     min_fence_mu: Optional[float] = Field(None, ge=0)
     workspace: Optional[tuple[float, float, float, float]] = None
     max_reorients: StrictInt = Field(PUSH_DEFAULTS.max_reorients,
@@ -209,8 +211,7 @@ class Synthesize(Strict):
         support family drawn (a named family other than ``any``); slip-aware
         variants at the range's lowest fence friction."""
         fam = friction.support
-        supports = [None] + ([fam] if self.model_distances and fam in ("rigid", "uniform", "ring")
-                             else [])
+        supports = [None] + ([fam] if self.model_distances and fam in PLANNED_FAMILIES else [])
         return dict(margins_deg=tuple(self.margins_deg), safety_factors=tuple(self.safety_factors),
                     strategies=tuple(self.strategies), supports=tuple(supports),
                     min_fence_mu=float(friction.mu_f[0]) if self.slip_aware else None,
@@ -336,7 +337,7 @@ class Evaluation(Strict):
 
     @model_validator(mode="after")
     def _support_in_physics(self):
-        if self.model == "mujoco" and self.friction.support == "points":
+        if self.model == "mujoco" and self.friction.support not in REALISABLE_SUPPORTS:
             from robustness.physics import POINTS_NOT_REALISABLE
 
             raise ValueError(f"friction.{POINTS_NOT_REALISABLE}")
@@ -378,11 +379,13 @@ HINTS = {
     "c": "a range [low, high] of limit-surface ratios in metres, > 0",
     "support_points": "an integer number of support points >= 1",
     "weight_concentration": "an integer Dirichlet concentration in 1..64",
-    "support": "one of any, rigid, uniform, ring, tripod (with c: [lo, hi]), points",
+    "support": "one of " + ", ".join(
+        n + (" (with c: [lo, hi])" if n in FAMILY and FAMILY[n].c_given else "")
+        for n in SUPPORT_FAMILIES),
     # the planner's support is a family its distances hold for, fewer than the sampler's
-    "planner.support": "one of any, rigid, uniform, ring (the family the plan's push distances "
-                       "hold for; tripod and points are families of friction.support, the "
-                       "sampler's)",
+    "planner.support": (f"one of {', '.join(PLAN_SUPPORTS)} (the family the plan's push distances "
+                        f"hold for; {' and '.join(n for n in FAMILY if n not in PLAN_SUPPORTS)} "
+                        "are families of friction.support, the sampler's)"),
     "seed": "an integer >= 0",
 }
 
