@@ -60,17 +60,15 @@ def direct(design) -> int:
             frames = []
             for b, lo in enumerate(range(0, cfg.samples, size)):
                 key = jax.random.fold_in(jax.random.fold_in(jax.random.key(cfg.seed), ti), b)
-                ev = evaluate(plan, cfg.sampler(), min(size, cfg.samples - lo), key,
+                ev = evaluate(plan, cfg.sampler(), min(size, cfg.samples - lo), key, cfg.eps,
                               model=cfg.model, dtype=jnp.float64 if cfg.dtype == "float64"
-                              else jnp.float32, pos_eps_m=cfg.eps.pos_eps_m,
-                              theta_eps_rad=cfg.eps.theta_eps_rad,
-                              confidence=cfg.required.confidence, physics=cfg.physics_run(part),
+                              else jnp.float32, confidence=cfg.required.confidence, physics=cfg.physics_run(part),
                               task=name, summary=False)
                 frames.append(ev.samples)
             df = pd.concat(frames, ignore_index=True)
             summarise(df, plan, cfg.sampler(), kind=cfg.kind, model=cfg.model, dtype=cfg.dtype,
-                      pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
-                      confidence=cfg.required.confidence, task=name, bound=cfg.bounds)
+                      criterion=cfg.eps, confidence=cfg.required.confidence, task=name,
+                      bound=cfg.bounds)
             total += len(df)
     return total
 

@@ -75,8 +75,8 @@ def main() -> int:
     import numpy as np
 
     from planning import plan_pose
-    from robustness import (evaluate, one_sided_lower, physics_tiebreak, selection_key,
-                            synthesize)
+    from robustness import (SuccessCriterion, evaluate, one_sided_lower, physics_tiebreak,
+                            selection_key, synthesize)
     from robustness import tolerance_design as td
     from sweeps.executors import enable_compilation_cache
     from sweeps.study import load_part_ref
@@ -91,7 +91,7 @@ def main() -> int:
     warnings.simplefilter("ignore")
     enable_compilation_cache()
     sampler = _sampler()
-    eps = dict(pos_eps_m=0.003, theta_eps_rad=0.05)
+    eps = dict(criterion=SuccessCriterion(pos_eps_m=0.003, theta_eps_rad=0.05))
     tri = load_part_ref("biplus_stable", ROOT / "examples")
     ref = _size(tri.vertices)
     tasks = (("translate", (0.08, 0.03, 0.0)), ("turn", (0.10, 0.05, np.pi / 3)))

@@ -43,7 +43,8 @@ from kernels.hulls import (polygon_hull_changed, polyhedron_hull_tables,
 from kernels.planar import TWO_PI, angle_distance, mod_2pi, rot2_np, wrap_angle_near, wrap_angle_np
 from kernels.polyhedron import DEFAULT_MERGE_TOL, NEARLY_FLAT_RAD, combinatorics_changed
 from kernels.precision import float64
-from kernels.support import FAMILIES, FOOT_INSET
+from kernels.support import (ANY_COMPONENTS, FAMILIES, FAMILY, FOOT_INSET, PLAN_SUPPORTS,
+                             PLANNED_FAMILIES, REALISABLE_SUPPORTS, VARYING_SUPPORTS)
 from kernels.tumble import replay_trajectory
 
 __all__ = [
@@ -53,7 +54,9 @@ __all__ = [
     "simulate_push", "simulate_pushes", "Motion", "push_motion", "simulate_push_on_points",
     "simulate_pushes_on_points", "family_support", "TumbleConfig", "make_config", "replay", "tumble",
     "SUPPORT_FAMILIES", "corner_weights", "equilibrium_weights", "family_c_range", "tripod_fit",
-    "polygon", "reorient", "support", "DEFAULT_MERGE_TOL", "NEARLY_FLAT_RAD", "FAMILIES", "FOOT_INSET", "TWO_PI",
+    "polygon", "reorient", "support", "DEFAULT_MERGE_TOL", "NEARLY_FLAT_RAD", "ANY_COMPONENTS",
+    "FAMILIES", "FAMILY", "FOOT_INSET",
+    "PLAN_SUPPORTS", "PLANNED_FAMILIES", "REALISABLE_SUPPORTS", "VARYING_SUPPORTS", "TWO_PI",
     "angle_distance", "combinatorics_changed", "extent", "float64", "merge_distance", "mod_2pi",
     "polygon_hull_changed", "polyhedron_hull_tables", "polyhedron_hull_verdict_batch",
     "replay_trajectory", "rot2_np", "warn_implausible_size", "wrap_angle_near", "wrap_angle_np",

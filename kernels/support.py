@@ -46,6 +46,7 @@ of ``c`` a family can take on a part, for the planner's distances.
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import itertools
 import math
@@ -54,15 +55,67 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-#: named support families; ``points`` is the sampled Dirichlet distribution of
-#: :mod:`robustness.support` (model only: its loads cannot be realised by feet)
-FAMILIES = ("rigid", "uniform", "ring", "tripod", "points")
+@dataclasses.dataclass(frozen=True)
+class Family:
+    """One support family: a row of :data:`TABLE`, the one place a family is
+    declared (every list of names in nudge is read from the table; ``nudge
+    plan-push``'s parser, which imports no JAX, keeps a copy of
+    :data:`PLAN_SUPPORTS` that ``tests/test_support_families.py`` holds equal).
+
+    Attributes:
+      name: the family's name (configs, tables; its row is the sampler's code).
+      in_any: a component of the ``any`` mixture (drawn with equal probability).
+      planned: its ``c`` on a part follows from the part (:func:`family_c_range`),
+        so a plan's push distances can be made valid for it (``planner.support``).
+      feet: the MuJoCo scene realises it (feet, or the part's own corners);
+        False: a model only.
+      c_given: its ``c`` range is configured (``friction.c``), not the part's.
+      varies: its ``c`` differs from sample to sample on one part (rigid: which
+        three corners carry it; points: the sampled pressure); a ``c_given``
+        family varies when its range has width.
+    """
+
+    name: str
+    in_any: bool
+    planned: bool
+    feet: bool
+    c_given: bool
+    varies: bool
+
+
+#: The support families (the order is the codes' order: never reorder, append).
+#: ``points`` is the sampled Dirichlet distribution of :mod:`robustness.support`
+#: (model only: its loads cannot be realised by feet).
+TABLE = (
+    Family("rigid", in_any=True, planned=True, feet=True, c_given=False, varies=True),
+    Family("uniform", in_any=True, planned=True, feet=True, c_given=False, varies=False),
+    Family("ring", in_any=True, planned=True, feet=True, c_given=False, varies=False),
+    Family("tripod", in_any=True, planned=False, feet=True, c_given=True, varies=False),
+    Family("points", in_any=False, planned=False, feet=False, c_given=False, varies=True),
+)
+#: the mixture of the ``in_any`` families (a configuration's default: the support unknown);
+#: for the planner, Peshkin's distances, valid for every support
+ANY = "any"
+#: named support families, in code order
+FAMILIES = tuple(f.name for f in TABLE)
+#: the row of each family
+FAMILY = {f.name: f for f in TABLE}
 #: integer codes of the families (the sampler's per-sample ``family`` column)
 CODES = {name: i for i, name in enumerate(FAMILIES)}
-#: the names a configuration may give (``any`` mixes ANY_COMPONENTS)
-SUPPORT_FAMILIES = ("any",) + FAMILIES
+#: the names a configuration may give (``friction.support``)
+SUPPORT_FAMILIES = (ANY,) + FAMILIES
 #: the components of the ``any`` mixture, drawn with equal probability
-ANY_COMPONENTS = ("rigid", "uniform", "ring", "tripod")
+ANY_COMPONENTS = tuple(f.name for f in TABLE if f.in_any)
+#: the families whose ``c`` range a part determines (:func:`family_c_range`)
+PLANNED_FAMILIES = tuple(f.name for f in TABLE if f.planned)
+#: the supports a plan's distances can be valid for (``planner.support``)
+PLAN_SUPPORTS = (ANY,) + PLANNED_FAMILIES
+#: the supports the MuJoCo scene realises (``any``: when its components all have feet)
+REALISABLE_SUPPORTS = ((ANY,) if all(FAMILY[n].feet for n in ANY_COMPONENTS) else ()) + tuple(
+    f.name for f in TABLE if f.feet)
+#: the supports whose ``c`` is drawn afresh for every sample of one part (a
+#: ``c_given`` family's too when its range has width)
+VARYING_SUPPORTS = (ANY,) + tuple(f.name for f in TABLE if f.varies)
 #: points of the uniform and ring families
 UNIFORM_FEET = 25
 RING_FEET = 24
@@ -262,7 +315,8 @@ def family_points(family: str, body, c=None):
         return tripod_points(c, body)
     if family == "rigid":
         return jnp.asarray(body)
-    raise ValueError(f"family: expected one of {FAMILIES[:4]}, got {family!r}")
+    raise ValueError(f"family: expected one of {tuple(f.name for f in TABLE if f.feet)}, "
+                     f"got {family!r}")
 
 
 def family_c_range(family: str, body) -> tuple[float, float]:
@@ -281,16 +335,17 @@ def family_c_range(family: str, body) -> tuple[float, float]:
             r = np.linalg.norm(b, axis=1)[idx[valid]]
             cs = np.sum(lam * r, axis=1) / np.sum(lam, axis=1)
             return float(cs.min()), float(cs.max())
-        if family in ("uniform", "ring"):
+        row = FAMILY.get(family)
+        if row is not None and row.planned and not row.varies:   # uniform, ring: one value
             pts = np.asarray(family_points(family, bj))
             w = np.asarray(equilibrium_weights(jnp.asarray(pts)))
             c = float(w @ np.linalg.norm(pts, axis=1))
             return c, c
-        if family == "any":
+        if family == ANY:
             lo = TRIPOD_MIN_FRACTION * float(tripod_fit(bj))
-            his = [family_c_range(f, b)[1] for f in ("rigid", "uniform", "ring")]
+            his = [family_c_range(f, b)[1] for f in ANY_COMPONENTS if FAMILY[f].planned]
             return lo, max(his)
-    raise ValueError(f"family: expected rigid, uniform, ring or any, got {family!r}")
+    raise ValueError(f"family: expected one of {', '.join(PLAN_SUPPORTS)}, got {family!r}")
 
 
 def family_support(families: tuple, code, body, c, lift, points, weights):

@@ -19,7 +19,11 @@
 * Tolerance design: :mod:`tolerance_design` (the loosest value of each tolerance
   that still certifies a plan, what drives its failures, a joint design
   verified on fresh draws).
-* Statistics: :func:`clopper_pearson`, :func:`one_sided_lower`, :func:`one_sided_upper`.
+* Success: :class:`SuccessCriterion` (the tolerances, their defaults by plan kind
+  and the one classification of every model's samples).
+* Statistics: :func:`clopper_pearson`, :func:`one_sided_lower`, :func:`one_sided_upper`;
+  the default confidence :data:`CONFIDENCE` and required probability
+  :data:`REQUIRED_PROBABILITY`.
 
 Units: metres, radians.  Nothing here reads or writes files; the edge
 (:mod:`sweeps`) does.
@@ -29,7 +33,8 @@ from robustness.bounds import (Bound, SourceBound, push_plan_bound, tumble_first
                                tumble_plan_paper_bounds)
 from robustness.evaluation import MODELS, BoundViolation, Evaluation, evaluate
 from robustness.samplers import Draws, PerturbationParams, Sampler
-from robustness.stats import clopper_pearson, one_sided_lower, one_sided_upper
+from robustness.stats import (CONFIDENCE, REQUIRED_PROBABILITY, clopper_pearson, one_sided_lower,
+                              one_sided_upper)
 from robustness.summary import summarise
 from robustness.synthesis import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES,
                                   Candidate, Scores, Synthesis, physics_tiebreak, push_candidates,
@@ -43,7 +48,7 @@ from robustness.compiled import release_executables
 from robustness.certificates import (Schedule, auto_schedule, decide, first_certifying, grow,
                                      no_plan, perturbed_sources)
 from robustness.models import (PUSH_KINEMATIC, THROUGHPUT, block_samples, model_for,
-                               peak_bytes, samples_per_second)
+                               peak_bytes, plan_kind, samples_per_second)
 from robustness.summary import STAT_COLUMNS, empty_summary
 from robustness.tables import FAILURE_MODES, to_arrow
 
@@ -51,6 +56,7 @@ __all__ = [
     "synthesize", "physics_tiebreak", "push_candidates", "score_candidates", "select", "selection_key", "Candidate",
     "Scores", "Synthesis", "GRID_MARGINS_DEG", "GRID_SAFETY_FACTORS", "GRID_STRATEGIES",
     "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Sampler",
+    "CONFIDENCE", "REQUIRED_PROBABILITY", "plan_kind",
     "Draws", "PerturbationParams",
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "Bound", "SourceBound", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",

@@ -57,7 +57,9 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from kernels import VARYING_SUPPORTS
 from robustness import stats
+from robustness.tolerances import SuccessCriterion
 
 VERDICTS = ("certified", "not certified", "no plan")
 PROCEDURES = ("fixed", "sequential_bonferroni")
@@ -196,7 +198,7 @@ def perturbed_sources(sampler, kind: str, model: str) -> tuple:
         if model in ("quasistatic", "limit_surface", "mujoco"):  # the exact replay does not depend on friction
             if f.mu_f[1] > f.mu_f[0]:
                 out.append("fence friction")
-            if f.support in ("any", "rigid", "points") or (f.c is not None and f.c[1] > f.c[0]):
+            if f.support in VARYING_SUPPORTS or (f.c is not None and f.c[1] > f.c[0]):
                 out.append(f"support ({f.support})")   # uniform, ring: one c, nothing drawn
     elif e.tumble_slip_xy > 0 or e.tumble_slip_theta > 0:
         out.append("slip after tumbles")
@@ -204,8 +206,8 @@ def perturbed_sources(sampler, kind: str, model: str) -> tuple:
 
 
 def decide(summary: dict, required_probability: float, confidence: float, *, kind: str,
-           model: str, perturbed: tuple, pos_eps_m: float = math.nan,
-           theta_eps_rad: float = math.nan, schedule: Optional[Schedule] = None) -> Certificate:
+           model: str, perturbed: tuple, criterion: Optional[SuccessCriterion] = None,
+           schedule: Optional[Schedule] = None) -> Certificate:
     """The certificate of a task's Monte-Carlo summary (see the module docstring).
 
     Args:
@@ -214,8 +216,9 @@ def decide(summary: dict, required_probability: float, confidence: float, *, kin
       required_probability, confidence: the requirement.
       kind, model: the plan kind and the evaluation model (named in the claim).
       perturbed: :func:`perturbed_sources` of the sampler.
-      pos_eps_m, theta_eps_rad: the success tolerances (to report whether the
-        analytic bound lies within them).
+      criterion: the :class:`~robustness.SuccessCriterion` of the samples (to
+        report whether the analytic bound lies within its tolerances; None: not
+        reported).
       schedule: the looks the samples were drawn by (:func:`auto_schedule`;
         ``n`` must be one of its counts); None: one fixed look at ``n``.  Every
         bound is taken at its ``look_confidence``.
@@ -236,8 +239,8 @@ def decide(summary: dict, required_probability: float, confidence: float, *, kin
     dominant = str(summary.get("dominant_failure_mode") or "none")
     bp = float(summary.get("bound_position_m", math.nan))
     bt = float(summary.get("bound_theta_rad", math.nan))
-    within = (bool(bp <= pos_eps_m and bt <= theta_eps_rad)
-              if math.isfinite(bp) and math.isfinite(bt) else None)
+    within = (bool(criterion.within(bp, bt))
+              if criterion is not None and math.isfinite(bp) and math.isfinite(bt) else None)
     common = dict(n_samples=n, n_success=k, success_rate=k / n if n else math.nan,
                   ci_low_one_sided=low, samples_needed=need, required_probability=p,
                   confidence=conf, nothing_perturbed=not perturbed, perturbed=tuple(perturbed),
@@ -381,10 +384,11 @@ def first_certifying(candidates, evaluate_one: Callable) -> Optional[object]:
     return None
 
 
-def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence: float = 0.95,
-            n_samples="auto", max_samples: int = 100_000, model: str = "quasistatic",
-            dtype=None, pos_eps_m: Optional[float] = None, theta_eps_rad: Optional[float] = None,
-            physics=None, task: str = "task", bound: bool = True):
+def certify(plan, sampler, key, criterion: Optional[SuccessCriterion] = None, *,
+            required_probability: float = stats.REQUIRED_PROBABILITY,
+            confidence: float = stats.CONFIDENCE, n_samples="auto", max_samples: int = 100_000,
+            model: str = "quasistatic", dtype=None, physics=None, task: str = "task",
+            bound: bool = True):
     """Certify one plan: sample, replay, decide (see the module docstring).
 
     Args:
@@ -392,13 +396,14 @@ def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence
       sampler: the :class:`~robustness.Sampler` of the tolerances.
       key: a ``jax.random`` key; block ``b`` of samples uses ``fold_in(key, b)``, so
         growing the sample count keeps the samples drawn before.
+      criterion: the :class:`~robustness.SuccessCriterion` (default: the plan
+        kind's, :meth:`~robustness.SuccessCriterion.for_plan`).
       required_probability, confidence: the requirement (both in (0, 1)).
       n_samples: an integer (one look, the plain one-sided bound), or ``"auto"``:
         the sequential procedure of :func:`auto_schedule` (looks from the fewest
         samples that could certify, doubling, up to ``max_samples``; Bonferroni
         over the looks), stopping at the first look that decides.
-      model, dtype, pos_eps_m, theta_eps_rad, physics, task, bound: as in
-        :func:`robustness.evaluate`.
+      model, dtype, physics, task, bound: as in :func:`robustness.evaluate`.
 
     Returns:
       ``(certificate, samples, summary)``: the :class:`Certificate`, the
@@ -409,18 +414,13 @@ def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence
     import pandas as pd
 
     from robustness.evaluation import evaluate
-    from robustness.models import model_for
+    from robustness.models import model_for, plan_kind
     from robustness.summary import summarise
 
-    kind = "push" if hasattr(plan, "pushes") else "tumble"
+    kind = plan_kind(plan)
     model = model_for(model, kind)
     dtype = jnp.float64 if dtype is None else dtype
-    if kind == "tumble":
-        pe = float(plan.eps) if pos_eps_m is None else pos_eps_m
-        te = float(plan.eps) if theta_eps_rad is None else theta_eps_rad
-    else:
-        pe = 1e-3 if pos_eps_m is None else pos_eps_m
-        te = math.radians(1.0) if theta_eps_rad is None else theta_eps_rad
+    criterion = SuccessCriterion.for_plan(plan) if criterion is None else criterion
     if n_samples == "auto":
         schedule = auto_schedule(required_probability, confidence, int(max_samples))
     elif isinstance(n_samples, int) and not isinstance(n_samples, bool) and n_samples >= 1:
@@ -435,9 +435,8 @@ def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence
         b = len(frames)
         while drawn < total:
             m = min(block, total - drawn)
-            ev = evaluate(plan, sampler, m, jax.random.fold_in(key, b), model=model, dtype=dtype,
-                          pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, physics=physics,
-                          task=task, bound=False)
+            ev = evaluate(plan, sampler, m, jax.random.fold_in(key, b), criterion, model, dtype,
+                          confidence=confidence, physics=physics, task=task, bound=False)
             df = ev.samples.copy()
             df["sample_id"] += drawn
             frames.append(df)
@@ -449,11 +448,11 @@ def certify(plan, sampler, key, *, required_probability: float = 0.9, confidence
     grow(more, schedule, required_probability)
     samples = pd.concat(frames, ignore_index=True)
     summary = summarise(samples, plan, sampler, kind=kind, model=model,
-                        dtype=jnp.dtype(dtype).name, pos_eps_m=pe, theta_eps_rad=te,
+                        dtype=jnp.dtype(dtype).name, criterion=criterion,
                         confidence=confidence, task=task, bound=bound)
     cert = decide(summary, required_probability, confidence, kind=kind, model=model,
-                  perturbed=perturbed_sources(sampler, kind, model), pos_eps_m=pe,
-                  theta_eps_rad=te, schedule=schedule)
+                  perturbed=perturbed_sources(sampler, kind, model), criterion=criterion,
+                  schedule=schedule)
     return cert, samples, summary
 
 

@@ -1,6 +1,6 @@
 """Monte-Carlo evaluation of push and tumble plans on perturbed parts.
 
-``evaluate(plan, sampler, n, key)`` draws ``n`` perturbations
+``evaluate(plan, sampler, n, key, criterion)`` draws ``n`` perturbations
 (:mod:`robustness.samplers`), replays the plan on every one of them in
 jit-compiled batches (no per-sample host work: the Python loop is over
 chunks of ``chunk`` samples), and returns an :class:`Evaluation`: a
@@ -69,9 +69,11 @@ therefore moves nothing (tumbling about edges does not depend on it).
 
 Success, failure modes
 ----------------------
-A sample succeeds when its kernel model is valid (no hull / combinatorics
-change) and its final pose is within ``pos_eps_m`` (Euclidean, m) AND
-``theta_eps_rad`` (|wrapped difference|) of the goal, and (tumbles) the goal
+The :class:`~robustness.SuccessCriterion` judges every model's rows (its
+:meth:`~robustness.SuccessCriterion.classify`, each model naming its own faults
+in order).  A sample succeeds when its kernel model is valid (no hull /
+combinatorics change) and its final pose is within ``pos_eps_m`` (Euclidean, m)
+AND ``theta_eps_rad`` (|wrapped difference|) of the goal, and (tumbles) the goal
 face is on the plane.  A failed sample gets the first failure mode that
 applies, in this order: ``hull_changed`` (polygon no longer convex in the
 nominal order, or its centre of mass outside) / ``combinatorics_changed``
@@ -79,7 +81,8 @@ nominal order, or its centre of mass outside) / ``combinatorics_changed``
 flush); ``wrong_edge`` (a push ended flush on another edge than planned);
 ``wrong_face`` (tumbles: an invalid tumble or another face on the plane at the
 end); ``slip`` (slip distance at least ``slip_fraction`` x ``pos_eps_m``; for
-tumbles the summed execution slip); ``position``; ``orientation``.  Success
+tumbles the summed execution slip); ``position`` (above ``pos_eps_m``, or not a
+number); ``orientation``.  Success
 has ``failure_mode = "none"``.
 
 A push still moving at the quasi-static kernel's phase cap (never seen) is
@@ -104,7 +107,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 import warnings
 from typing import Optional
 
@@ -115,16 +117,13 @@ import pandas as pd
 from kernels import polygon as pg, wrap_angle_np, float64
 from robustness.compiled import release_executables
 from robustness.hulls import face_merge_tol
-from robustness.models import MODELS, model_for
+from robustness.models import MODELS, model_for, plan_kind
 from robustness.replay import edge_pairs, push_nominal, run_push, run_tumble, tumble_nominal
 from robustness.samplers import Sampler, parameter_columns, parameter_lists
+from robustness.stats import CONFIDENCE
 from robustness.summary import summarise
 from robustness.summary import BoundViolation
 from robustness.tolerances import SuccessCriterion
-
-DEFAULT_POS_EPS = SuccessCriterion.pos_eps_m          # m
-DEFAULT_THETA_EPS = SuccessCriterion.theta_eps_rad    # rad
-SLIP_FRACTION = SuccessCriterion.slip_fraction
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -183,11 +182,9 @@ class SampleOutcomes:
       hull_changed: the perturbed part is not the nominal part's combinatorics;
         model_valid: the model's assumptions hold for the sample;
         in_bound_model: inside the analytic bound's model.
-      structural: kinematic models: the structural failure of each sample
-        (``""``: none; ``hull_changed``, ``incomplete_reorientation``,
-        ``wrong_edge``, ``combinatorics_changed``, ``wrong_face``).
-      success, failure_mode: physics: the rollout classified the samples
-        itself (None for the kinematic models: decided from the errors).
+      success, failure_mode: the samples classified by the evaluation's
+        :class:`~robustness.SuccessCriterion` (:meth:`~robustness.SuccessCriterion.classify`,
+        with the model's own faults).
       max_tilt_rad: physics: the largest tilt of the part (rad; None: NaN).
       c_physical_m: physics, push: the limit-surface ratio that MuJoCo's support
         loads realise after the part settled (m; None: NaN), beside the drawn ``c``.
@@ -210,9 +207,8 @@ class SampleOutcomes:
     hull_changed: np.ndarray
     model_valid: np.ndarray
     in_bound_model: np.ndarray
-    structural: Optional[np.ndarray] = None
-    success: Optional[np.ndarray] = None
-    failure_mode: Optional[np.ndarray] = None
+    success: np.ndarray
+    failure_mode: np.ndarray
     max_tilt_rad: Optional[np.ndarray] = None
     c_physical_m: Optional[np.ndarray] = None
     support_ok: Optional[np.ndarray] = None
@@ -231,21 +227,11 @@ def _warn_truncated(r, task) -> None:
                       RuntimeWarning, stacklevel=4)
 
 
-def _kind(plan) -> str:
-    if hasattr(plan, "pushes"):
-        return "push"
-    if hasattr(plan, "tumbles"):
-        return "tumble"
-    raise TypeError(f"plan: expected a PushPlan or a TumblePlan, got {type(plan).__name__}")
-
-
 @float64
-def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
-             dtype=jnp.float64, *, pos_eps_m: Optional[float] = None,
-             theta_eps_rad: Optional[float] = None, confidence: float = 0.95,
+def evaluate(plan, sampler: Sampler, n: int, key, criterion: Optional[SuccessCriterion] = None,
+             model: str = "quasistatic", dtype=jnp.float64, *, confidence: float = CONFIDENCE,
              chunk: int = 4096, task: str = "task", bound: bool = True,
-             slip_fraction: float = SLIP_FRACTION, merge_factor: float = 8.0,
-             physics=None, summary: bool = True) -> Evaluation:
+             merge_factor: float = 8.0, physics=None, summary: bool = True) -> Evaluation:
     """Evaluate a plan on ``n`` perturbed samples.
 
     Args:
@@ -254,6 +240,9 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
       sampler: the :class:`~robustness.samplers.Sampler` (tolerances).
       n: number of samples (>= 1).
       key: a ``jax.random`` key.
+      criterion: the :class:`~robustness.SuccessCriterion` that judges each
+        sample (default :meth:`SuccessCriterion.for_plan`: the tumble plan's eps
+        for both tolerances; 1 mm and 1 degree for push plans).
       model: ``"quasistatic"`` or ``"exact"`` (push plans; tumbles are exact),
         or ``"mujoco"``: the plan rolled out in MuJoCo (:mod:`robustness.physics`;
         push and tumble plans; slow: seconds of CPU per sample).
@@ -261,15 +250,11 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
         perturbations are drawn in float64 and cast, so both dtypes see the same
         samples (compare them row by row).  MuJoCo: float64 on the C engine,
         float32 under MJX, whatever ``dtype``.
-      pos_eps_m, theta_eps_rad: success tolerances (default: the tumble plan's
-        eps for both; 1 mm and 1 degree for push plans).
       confidence: of the Clopper-Pearson interval.
       chunk: samples per compiled call (bounds memory; the last, partial
         chunk is padded to a power of two, so sample counts share compilations).
       task: the task name written in the tables.
       bound: compute the analytic bound (set False to skip it).
-      slip_fraction: a failed sample whose slip is at least this times
-        ``pos_eps_m`` fails by ``slip``.
       merge_factor: polyhedra: face-merging tolerance factor for the
         combinatorics check (:func:`robustness.samplers.face_merge_tol`).
       physics: ``model="mujoco"`` only: a :class:`robustness.physics.PhysicsRun`
@@ -281,22 +266,16 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
     Returns:
       :class:`Evaluation`.
     """
-    kind = _kind(plan)
+    kind = plan_kind(plan)
     if model not in MODELS:
         raise ValueError(f"model: expected one of {MODELS}, got {model!r}")
     if not (isinstance(n, (int, np.integer)) and n >= 1):
         raise ValueError(f"n: expected an integer >= 1, got {n!r}")
     dtype = jnp.dtype(dtype)
-    if kind == "tumble":
-        model = model_for(model, kind)
-        pe = float(plan.eps) if pos_eps_m is None else float(pos_eps_m)
-        te = float(plan.eps) if theta_eps_rad is None else float(theta_eps_rad)
-    else:
-        pe = DEFAULT_POS_EPS if pos_eps_m is None else float(pos_eps_m)
-        te = DEFAULT_THETA_EPS if theta_eps_rad is None else float(theta_eps_rad)
-    for name, v in (("pos_eps_m", pe), ("theta_eps_rad", te)):
-        if not (math.isfinite(v) and v > 0):
-            raise ValueError(f"{name}: expected a finite number > 0, got {v!r}")
+    model = model_for(model, kind)
+    crit = SuccessCriterion.for_plan(plan) if criterion is None else criterion
+    if not isinstance(crit, SuccessCriterion):
+        raise TypeError(f"criterion: expected a robustness.SuccessCriterion, got {crit!r}")
     chunk = max(1, int(chunk))
     release_executables()   # a long run of many plan shapes stays under the map limit
     m = len(plan.vertices)
@@ -319,24 +298,22 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
 
             grip = (physics.settings.grip_ratio if physics is not None else 2.0)
             check_pad_friction(sampler.friction, kind, nominal_polyhedron(plan), grip)
-        rows, dtype = _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction,
-                                    merge_factor, physics)
+        rows, dtype = _physics_rows(plan, kind, draws, sampler, crit, merge_factor, physics)
     elif kind == "push":
-        rows = _push_rows(plan, draws, model, dtype, chunk, task)
+        rows = _push_rows(plan, draws, crit, model, dtype, chunk, task)
     else:
-        rows = _tumble_rows(plan, draws, dtype, chunk, sampler, merge_factor)
+        rows = _tumble_rows(plan, draws, crit, dtype, chunk, sampler, merge_factor)
     cast = draws.astype(dtype)   # a float32 evaluation sees the float64 one's samples
     cols = parameter_columns(cast, **shape)
     lists = parameter_lists(cast, **shape)
-    data = _columns(rows, cols, plan, kind, model, dtype, task, pe, te, slip_fraction)
+    data = _columns(rows, cols, plan, kind, model, dtype, task)
     if model == "mujoco":
-        _compare_with_kinematics(data, plan, kind, draws, chunk, task, sampler, merge_factor, pe,
-                                 te, slip_fraction)
+        _compare_with_kinematics(data, plan, kind, draws, crit, chunk, task, sampler, merge_factor)
     ev = Evaluation(columns=data, summary=None, param_columns=tuple(cols), kind=kind,
                     model=model, lists=lists)
     if summary:
         s = summarise(ev.samples, plan, sampler, kind=kind, model=model, dtype=dtype.name,
-                      pos_eps_m=pe, theta_eps_rad=te, confidence=confidence, task=task,
+                      criterion=crit, confidence=confidence, task=task,
                       bound=bound and model != "mujoco", warn_stacklevel=5)
         frame = ev.samples
         ev = dataclasses.replace(ev, summary=s)
@@ -344,8 +321,12 @@ def evaluate(plan, sampler: Sampler, n: int, key, model: str = "quasistatic",
     return ev
 
 
-def _push_rows(plan, draws, model, dtype, chunk, task) -> SampleOutcomes:
-    """Per-sample outcomes of a push plan under the quasi-static or exact kernel."""
+def _push_rows(plan, draws, criterion, model, dtype, chunk, task) -> SampleOutcomes:
+    """Per-sample outcomes of a push plan under the quasi-static or exact kernel,
+    classified by ``criterion`` (faults: ``hull_changed``,
+    ``incomplete_reorientation``, ``wrong_edge``; a success whose intermediate push
+    was incomplete or landed another edge stays a success, its flags visible in
+    its columns)."""
     P, n = len(plan.pushes), draws.n
     poly, planned, r = run_push(plan, draws, model, dtype, chunk)
     _warn_truncated(r, task)
@@ -358,21 +339,26 @@ def _push_rows(plan, draws, model, dtype, chunk, task) -> SampleOutcomes:
     slip = np.asarray(r.slip, np.float64)
     fa, fb = edge_pairs(poly, edges[:, -1] if P else np.full(n, -1))
     pa, pb = edge_pairs(poly, np.full(n, planned[-1] if P else -1))
+    valid = ~changed & ~trunc
+    *_, ep, et = goal_errors(r.x, r.y, r.theta, plan.goal)
+    success, mode = criterion.classify(ep, et, slip, valid=valid, faults=(
+        ("hull_changed", changed), ("incomplete_reorientation", (n_incomplete > 0) | trunc),
+        ("wrong_edge", wrong.any(axis=1))))
     return SampleOutcomes(
         x=r.x, y=r.y, theta=r.theta, final_edge_a=fa, final_edge_b=fb,
         planned_edge_a=pa, planned_edge_b=pb, final_face=np.full(n, -1, np.int64),
         planned_face=np.full(n, -1, np.int64), slip=slip, n_incomplete=n_incomplete,
         first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
-        hull_changed=changed, model_valid=~changed & ~trunc,
+        hull_changed=changed, model_valid=valid,
         in_bound_model=(~changed) & (n_incomplete == 0) & (~wrong.any(axis=1)) & (slip == 0.0)
-        & ~trunc,
-        structural=np.select([changed, (n_incomplete > 0) | trunc, wrong.any(axis=1)],
-                             ["hull_changed", "incomplete_reorientation", "wrong_edge"],
-                             default=""))
+        & ~trunc, success=success, failure_mode=mode)
 
 
-def _tumble_rows(plan, draws, dtype, chunk, sampler, merge_factor) -> SampleOutcomes:
-    """Per-sample outcomes of a tumble plan under the exact tumble kinematics."""
+def _tumble_rows(plan, draws, criterion, dtype, chunk, sampler, merge_factor) -> SampleOutcomes:
+    """Per-sample outcomes of a tumble plan under the exact tumble kinematics,
+    classified by ``criterion`` (faults: ``combinatorics_changed``, ``wrong_face``:
+    an invalid tumble or another face on the plane at the end, which rules a
+    success out)."""
     poly = tumble_nominal(plan)
     tol = None
     if sampler.geometry.tau_v > 0:   # the perturbed hulls, checked in the same compiled call
@@ -388,21 +374,23 @@ def _tumble_rows(plan, draws, dtype, chunk, sampler, merge_factor) -> SampleOutc
     pface = np.full(n, int(plan.goal[3]), np.int64)
     bad_face = (~ok) | (face != pface)
     none = np.full(n, -1, np.int64)
+    slip = np.asarray(r.slip, np.float64)
+    *_, ep, et = goal_errors(r.x, r.y, r.theta, plan.goal)
+    success, mode = criterion.classify(ep, et, slip, valid=~changed & ~bad_face, faults=(
+        ("combinatorics_changed", changed), ("wrong_face", bad_face)))
     return SampleOutcomes(
         x=r.x, y=r.y, theta=r.theta, final_edge_a=none, final_edge_b=none,
         planned_edge_a=none, planned_edge_b=none, final_face=face, planned_face=pface,
-        slip=np.asarray(r.slip, np.float64), n_incomplete=(~ok).astype(np.int64),
+        slip=slip, n_incomplete=(~ok).astype(np.int64),
         first_wrong_step=none, hull_changed=changed, model_valid=~changed,
-        in_bound_model=(~changed) & (~bad_face),
-        structural=np.select([changed, bad_face], ["combinatorics_changed", "wrong_face"],
-                             default=""))
+        in_bound_model=(~changed) & (~bad_face), success=success, failure_mode=mode)
 
 
-def _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction, merge_factor,
-                  physics) -> tuple:
+def _physics_rows(plan, kind, draws, sampler, criterion, merge_factor, physics) -> tuple:
     """Per-sample outcomes of a plan rolled out in MuJoCo (:mod:`robustness.physics`):
-    the physics layer classifies every sample itself (tipping, toppling, a fence
-    strike, leaving the workspace come on top of the kernels' failure modes);
+    the physics layer classifies every sample by ``criterion`` itself (tipping,
+    toppling, a fence strike, leaving the workspace come on top of the kernels'
+    failure modes);
     no sample is inside an analytic bound's model (physics always slips a
     little), so the bound columns stay empty.  Returns ``(SampleOutcomes, dtype)``
     (float32 under MJX)."""
@@ -411,8 +399,7 @@ def _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction, merge_facto
     run = physics or PhysicsRun()
     if not isinstance(run, PhysicsRun):
         raise ValueError(f"physics: expected a robustness.physics.PhysicsRun, got {run!r}")
-    common = dict(backend=run.backend, settings=run.settings, pos_eps_m=pe, theta_eps_rad=te,
-                  slip_fraction=slip_fraction)
+    common = dict(backend=run.backend, settings=run.settings, criterion=criterion)
     n = draws.n
     none = np.full(n, -1, np.int64)
     if kind == "push":
@@ -445,8 +432,8 @@ def _physics_rows(plan, kind, draws, sampler, pe, te, slip_fraction, merge_facto
     return out, jnp.dtype(jnp.float32 if r["backend"] == "mjx" else jnp.float64)
 
 
-def _compare_with_kinematics(data, plan, kind, draws, chunk, task, sampler, merge_factor, pe, te,
-                             slip_fraction) -> None:
+def _compare_with_kinematics(data, plan, kind, draws, criterion, chunk, task, sampler,
+                             merge_factor) -> None:
     """Physics rows get the kinematic models' answers on the same draws beside them
     (float64, into the columns ``data``): ``dpos_vs_<model>_m`` (m) and
     ``dtheta_vs_<model>_rad`` (rad, wrapped), the physics final pose minus the
@@ -455,10 +442,10 @@ def _compare_with_kinematics(data, plan, kind, draws, chunk, task, sampler, merg
     f64 = jnp.dtype(jnp.float64)
     for ref in ("quasistatic", "exact") if kind == "push" else ("exact",):
         if kind == "push":
-            rr = _push_rows(plan, draws, ref, f64, chunk, task)
+            rr = _push_rows(plan, draws, criterion, ref, f64, chunk, task)
         else:
-            rr = _tumble_rows(plan, draws, f64, chunk, sampler, merge_factor)
-        other = _columns(rr, {}, plan, kind, ref, f64, task, pe, te, slip_fraction)
+            rr = _tumble_rows(plan, draws, criterion, f64, chunk, sampler, merge_factor)
+        other = _columns(rr, {}, plan, kind, ref, f64, task)
         data[f"dpos_vs_{ref}_m"] = np.hypot(data["final_x_m"] - other["final_x_m"],
                                             data["final_y_m"] - other["final_y_m"])
         data[f"dtheta_vs_{ref}_rad"] = wrap_angle_np(data["final_theta_rad"]
@@ -476,37 +463,16 @@ def goal_errors(x, y, theta, goal) -> tuple:
     return th, ex, ey, np.hypot(ex, ey), wrap_angle_np(th - g[2])
 
 
-def kinematic_success(model_valid, err_pos_m, err_theta_rad, pos_eps_m: float,
-                      theta_eps_rad: float) -> np.ndarray:
-    """A kinematic model's success: the sample inside the model's assumptions
-    and its final pose within ``pos_eps_m`` (m) and ``theta_eps_rad`` (rad) of
-    the goal (the one rule of :func:`evaluate` and of robust synthesis)."""
-    return (np.asarray(model_valid, bool) & (np.asarray(err_pos_m) <= pos_eps_m)
-            & (np.abs(np.asarray(err_theta_rad)) <= theta_eps_rad))
-
-
-def _columns(rows: SampleOutcomes, cols: dict, plan, kind, model, dtype, task, pe, te,
-             slip_fraction) -> dict:
+def _columns(rows: SampleOutcomes, cols: dict, plan, kind, model, dtype, task) -> dict:
     """The per-sample columns (``samples``, ``{name: (n,) array}``; ``task``,
-    ``kind``, ``model``, ``dtype`` as scalars) from a model's outcomes: errors to
-    the goal, success and the failure mode (the first that applies, see the
-    module docstring) unless the model classified the samples itself."""
+    ``kind``, ``model``, ``dtype`` as scalars) from a model's classified
+    outcomes and the errors to the goal."""
     n = len(rows.x)
     x = np.asarray(rows.x, np.float64)
     y = np.asarray(rows.y, np.float64)
     th, ex, ey, ep, et = goal_errors(x, y, rows.theta, plan.goal)
     slip = rows.slip
-    if rows.success is not None:
-        success, mode = rows.success, rows.failure_mode
-    else:
-        structural = rows.structural
-        success = kinematic_success(rows.model_valid, ep, et, pe, te) & (structural != "wrong_face")
-        # a success whose intermediate push was incomplete or landed another edge stays a
-        # success (the final pose is within eps); its flags stay visible in its columns
-        mode = np.where(success, "none",
-                        np.where(structural != "", structural,
-                                 np.where(slip >= slip_fraction * pe, "slip",
-                                          np.where(ep > pe, "position", "orientation"))))
+    success, mode = rows.success, rows.failure_mode
     data = {"task": task, "kind": kind, "model": model, "dtype": dtype.name,
             "sample_id": np.arange(n, dtype=np.int64), **{k: np.asarray(v) for k, v in cols.items()},
             "final_x_m": x, "final_y_m": y, "final_theta_rad": th}

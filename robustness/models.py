@@ -24,6 +24,20 @@ MODELS = ("quasistatic", "limit_surface", "exact", "mujoco")
 PUSH_KINEMATIC = ("quasistatic", "limit_surface", "exact")
 
 
+def plan_kind(plan) -> str:
+    """A plan's kind: ``"push"`` (a :class:`~planning.PushPlan`, it has ``pushes``)
+    or ``"tumble"`` (a :class:`~planning.TumblePlan`, it has ``tumbles``).
+
+    Raises:
+      TypeError: neither.
+    """
+    if hasattr(plan, "pushes"):
+        return "push"
+    if hasattr(plan, "tumbles"):
+        return "tumble"
+    raise TypeError(f"plan: expected a PushPlan or a TumblePlan, got {type(plan).__name__}")
+
+
 def model_for(model: str, kind: str) -> str:
     """The model a plan of ``kind`` (``"push"`` / ``"tumble"``) is evaluated under
     when ``model`` is asked for: tumbles have no quasi-static model, so anything but
@@ -106,6 +120,6 @@ def peak_bytes(model: str, block: int) -> float:
     return MEMORY_BASE + int(block) * SAMPLE_BYTES.get(model, SAMPLE_BYTES["*"])
 
 
-__all__ = ["BLOCK_MAX", "BLOCK_MIN", "BLOCK_SECONDS", "MEMORY_BASE", "MODELS", "PUSH_KINEMATIC",
+__all__ = ["plan_kind", "BLOCK_MAX", "BLOCK_MIN", "BLOCK_SECONDS", "MEMORY_BASE", "MODELS", "PUSH_KINEMATIC",
            "SAMPLE_BYTES", "THROUGHPUT", "block_samples", "model_for", "peak_bytes",
            "samples_per_second"]

@@ -377,7 +377,7 @@ def _family_c(key, body, n: int, family: str, dtype):
     from kernels import support as ks, limit_surface_ratio
 
     h = body.shape[0]
-    mixed = family not in ("rigid", "uniform", "ring")
+    mixed = family not in ks.FAMILIES   # any: a component per sample
     u = _draw(key, n, 2 + h, dict(comp=(0, 1, mixed), tri=(1, 2, mixed),
                                   lift=(2, 2 + h, mixed or family == "rigid")), dtype)
     lift = u["lift"]
@@ -390,18 +390,23 @@ def _family_c(key, body, n: int, family: str, dtype):
         w = jax.vmap(ks.corner_weights, in_axes=(None, 0))(body, lift)
         return jax.vmap(limit_surface_ratio, in_axes=(None, 0))(body, w).astype(dtype)
 
+    def tripod():   # under any: c uniform in [TRIPOD_MIN_FRACTION, 1] x tripod_fit
+        fit = ks.tripod_fit(body)
+        return (fit * (ks.TRIPOD_MIN_FRACTION + (1.0 - ks.TRIPOD_MIN_FRACTION)
+                       * u["tri"][:, 0])).astype(dtype)
+
     zeros = jnp.zeros((h,), dtype)
     if family == "rigid":
         return rigid(), 0, jnp.int32(ks.CODES["rigid"]), None, lift, 0
-    if family in ("uniform", "ring"):
+    row = ks.FAMILY.get(family)   # None: the any mixture
+    if row is not None and not row.varies and not row.c_given:   # the pad, the rim: the part's c
         return fixed(family), None, jnp.int32(ks.CODES[family]), None, zeros, None
-    # any: rigid, uniform, ring, tripod in equal parts
+    # any: the components of kernels.support.ANY_COMPONENTS in equal parts
     comp = jnp.minimum((u["comp"][:, 0] * len(ks.ANY_COMPONENTS)).astype(jnp.int32),
                        len(ks.ANY_COMPONENTS) - 1)
-    fit = ks.tripod_fit(body)
-    c_tri = fit * (ks.TRIPOD_MIN_FRACTION + (1.0 - ks.TRIPOD_MIN_FRACTION) * u["tri"][:, 0])
-    cs = jnp.stack([rigid(), jnp.broadcast_to(fixed("uniform"), (n,)),
-                    jnp.broadcast_to(fixed("ring"), (n,)), c_tri.astype(dtype)], axis=1)
+    per_sample = {"rigid": rigid, "tripod": tripod}
+    cs = jnp.stack([per_sample[f]() if f in per_sample else jnp.broadcast_to(fixed(f), (n,))
+                    for f in ks.ANY_COMPONENTS], axis=1)
     c = jnp.take_along_axis(cs, comp[:, None], axis=1)[:, 0]
     codes = jnp.asarray([ks.CODES[f] for f in ks.ANY_COMPONENTS], jnp.int32)[comp]
     return c, 0, codes, 0, lift, 0

@@ -30,6 +30,14 @@ import math
 import numpy as np
 from scipy import stats as _st
 
+#: The confidence of a probability claim when none is stated: every default of a
+#: ``confidence`` (the bounds here, :func:`robustness.evaluate`, :func:`robustness.certify`,
+#: robust synthesis, a config's ``required.confidence``) is this one value.
+CONFIDENCE = 0.95
+#: The required success probability when none is stated (:func:`robustness.certify`,
+#: a config's ``required.probability``).
+REQUIRED_PROBABILITY = 0.9
+
 QUANTILES = (0.5, 0.9, 0.99)
 QUANTILE_NAMES = ("q50", "q90", "q99")
 
@@ -48,7 +56,7 @@ def _check_p(p_required: float) -> None:
         raise ValueError(f"p_required: expected a number in (0, 1), got {p_required!r}")
 
 
-def clopper_pearson(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+def clopper_pearson(k: int, n: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
     """Two-sided Clopper-Pearson interval ``(lower, upper)`` for a binomial
     proportion (``k`` successes of ``n``); ``(0, 1)`` when ``n = 0``."""
     _check(k, n, confidence)
@@ -60,7 +68,7 @@ def clopper_pearson(k: int, n: int, confidence: float = 0.95) -> tuple[float, fl
     return lo, hi
 
 
-def one_sided_lower(k: int, n: int, confidence: float = 0.95) -> float:
+def one_sided_lower(k: int, n: int, confidence: float = CONFIDENCE) -> float:
     """One-sided Clopper-Pearson lower bound: with probability ``confidence``
     the true success probability is at least this (0 when ``k = 0``)."""
     _check(k, n, confidence)
@@ -69,7 +77,7 @@ def one_sided_lower(k: int, n: int, confidence: float = 0.95) -> float:
     return float(_st.beta.ppf(1.0 - confidence, k, n - k + 1))
 
 
-def one_sided_upper(k: int, n: int, confidence: float = 0.95) -> float:
+def one_sided_upper(k: int, n: int, confidence: float = CONFIDENCE) -> float:
     """One-sided Clopper-Pearson upper bound: with probability ``confidence``
     the true success probability is at most this (1 when ``k = n``)."""
     _check(k, n, confidence)

@@ -16,7 +16,9 @@ import pandas as pd
 
 from kernels import float64
 from robustness import stats
+from robustness.stats import CONFIDENCE
 from robustness.tables import FAILURE_MODES
+from robustness.tolerances import SuccessCriterion
 
 BOUND_RTOL = 1e-9
 
@@ -34,8 +36,7 @@ class BoundViolation(UserWarning):
 
 @float64
 def summarise(samples: pd.DataFrame, plan, sampler, *, kind: str, model: str, dtype: str,
-              pos_eps_m: float, theta_eps_rad: float, confidence: float = 0.95,
-              task: str = "task", bound: bool = True, warn_stacklevel: int = 3) -> dict:
+              criterion: SuccessCriterion, confidence: float = CONFIDENCE, task: str = "task", bound: bool = True, warn_stacklevel: int = 3) -> dict:
     """The ``summary`` row of a plan's samples.
 
     Args:
@@ -45,8 +46,10 @@ def summarise(samples: pd.DataFrame, plan, sampler, *, kind: str, model: str, dt
         concatenated.
       plan: the :class:`~planning.PushPlan` or :class:`~planning.TumblePlan`.
       sampler: the :class:`~robustness.Sampler` the samples were drawn from.
-      kind, model, dtype: as in the samples; pos_eps_m (m), theta_eps_rad (rad):
-        the success tolerances; confidence: of the Clopper-Pearson bounds.
+      kind, model, dtype: as in the samples; criterion: the
+        :class:`~robustness.SuccessCriterion` the samples were judged by (its
+        tolerances are recorded and scale the worst sample); confidence: of the
+        Clopper-Pearson bounds.
       task: the task's name; bound: compute the analytic bounds.
 
     Returns:
@@ -62,8 +65,8 @@ def summarise(samples: pd.DataFrame, plan, sampler, *, kind: str, model: str, dt
              + max(float(np.hypot(*plan.start[:2])), float(np.hypot(*plan.goal[:2]))))
     steps = len(plan.pushes) if kind == "push" else plan.n_tumbles
     eps = 1e3 * float(jnp.finfo(jnp.dtype(dtype)).eps) * math.sqrt(steps + 1)
-    s = summary_row(df, kind, model, dtype, pos_eps_m, theta_eps_rad, confidence, b, task,
-                    (dev_p, dev_t), atol=(eps * scale, eps), stacklevel=warn_stacklevel + 1)
+    s = summary_row(df, kind, model, dtype, criterion, confidence, b, task, (dev_p, dev_t),
+                    atol=(eps * scale, eps), stacklevel=warn_stacklevel + 1)
     paper_bound_check(s, df, plan, sampler, kind, bound and len(df) > 0, task, (dev_p, dev_t),
                       atol=(eps * scale, eps), stacklevel=warn_stacklevel + 1)
     return s
@@ -103,8 +106,8 @@ def analytic_bound(plan, sampler, kind: str):
     return tumble_plan_bound(plan, sampler.geometry, sampler.execution)
 
 
-def empty_summary(task: str, kind: str, model: str, dtype: str, pos_eps_m: float,
-                  theta_eps_rad: float, confidence: float, reason: str = "no_plan") -> dict:
+def empty_summary(task: str, kind: str, model: str, dtype: str, criterion: SuccessCriterion,
+                  confidence: float, reason: str = "no_plan") -> dict:
     """The summary row of a task with no samples (no plan): every field of the
     ``summary`` table, as :func:`summary_row` gives it for zero samples (``n = 0``,
     every count 0, ``worst_sample_id`` -1, NaN statistics, null bound findings),
@@ -115,8 +118,7 @@ def empty_summary(task: str, kind: str, model: str, dtype: str, pos_eps_m: float
     df["success"] = df["in_bound_model"] = np.zeros(0, bool)
     df["failure_mode"] = np.zeros(0, object)
     none = np.zeros(0, np.float64)
-    s = summary_row(df, kind, model, dtype, pos_eps_m, theta_eps_rad, confidence, None, task,
-                    (none, none))
+    s = summary_row(df, kind, model, dtype, criterion, confidence, None, task, (none, none))
     s["paper_bound_position_m"] = s["paper_bound_theta_rad"] = math.nan
     s["paper_bound_violated"] = None
     s["dominant_failure_mode"] = reason
@@ -167,14 +169,15 @@ def paper_bound_check(s: dict, df, plan, sampler, kind: str, bound: bool, task, 
                       stacklevel=stacklevel)
 
 
-def summary_row(df, kind, model, dtype_name, pe, te, confidence, b, task, dev,
-                atol=(0.0, 0.0), stacklevel: int = 4) -> dict:
+def summary_row(df, kind, model, dtype_name, criterion: SuccessCriterion, confidence, b, task,
+                dev, atol=(0.0, 0.0), stacklevel: int = 4) -> dict:
     """The summary fields of a per-sample frame: success with its Clopper-Pearson
     bounds, error quantiles, the worst sample, failure counts, and the analytic
     bound ``b`` beside the largest deviation ``dev`` (from the plan's nominal
     final pose) of the samples inside the bound's model (``in_bound_model``);
     an excess beyond rounding (``atol``: m, rad) is a finding, warned as
     :class:`BoundViolation` and stored as ``bound_violated``."""
+    pe, te = criterion.pos_eps_m, criterion.theta_eps_rad
     n = len(df)
     k = int(df["success"].sum())
     lo, hi = stats.clopper_pearson(k, n, confidence) if n else (math.nan, math.nan)

@@ -51,10 +51,11 @@ import numpy as np
 from kernels import float64
 from planning import STRATEGIES, PlanningError, PushOptions, plan_alternatives, plan_pose
 from robustness import stats
-from robustness.evaluation import goal_errors, kinematic_success
-from robustness.models import PUSH_KINEMATIC
+from robustness.evaluation import goal_errors
+from robustness.models import PUSH_KINEMATIC, plan_kind
 from robustness.replay import run_push_many
 from robustness.samplers import Sampler
+from robustness.stats import CONFIDENCE
 from robustness.tolerances import SuccessCriterion
 
 OBJECTIVES = ("max_lower_bound", "shortest_certifying")
@@ -264,11 +265,11 @@ def _signature(plan) -> tuple:
 
 
 @float64
-def score_candidates(plans: Sequence, sampler: Sampler, n: int, key, *,
+def score_candidates(plans: Sequence, sampler: Sampler, n: int, key,
+                     criterion: Optional[SuccessCriterion] = None, *,
                      model: str = "quasistatic", dtype=jnp.float64,
-                     pos_eps_m: Optional[float] = None, theta_eps_rad: Optional[float] = None,
-                     confidence: float = 0.95, chunk: int = 4096, merge_factor: float = 8.0,
-                     bounds: bool = True) -> Scores:
+                     confidence: float = CONFIDENCE, chunk: int = 4096,
+                     merge_factor: float = 8.0, bounds: bool = True) -> Scores:
     """Replay the plans of one task (push plans, or tumble plans) on the same
     ``n`` draws of ``sampler`` (drawn with ``key`` for the longest plan's push
     or tumble count) and score them, with the success rule of
@@ -277,9 +278,9 @@ def score_candidates(plans: Sequence, sampler: Sampler, n: int, key, *,
     the nominal part).
 
     Args:
+      criterion: the :class:`~robustness.SuccessCriterion` (default: the
+        first plan's kind's, :meth:`~robustness.SuccessCriterion.for_plan`).
       model: push plans: ``quasistatic`` or ``exact`` (tumbles are exact).
-      pos_eps_m, theta_eps_rad: the success tolerances (defaults: 1 mm / 1
-        degree for pushes, the plan's eps for tumbles).
       merge_factor: tumbles: the combinatorics check's face-merging factor.
       bounds: compute each candidate's first-order bound.
 
@@ -289,18 +290,16 @@ def score_candidates(plans: Sequence, sampler: Sampler, n: int, key, *,
     plans = list(plans)
     if not plans:
         raise ValueError("plans: expected at least one candidate plan")
-    tumble = hasattr(plans[0], "tumbles")
+    tumble = plan_kind(plans[0]) == "tumble"
+    criterion = SuccessCriterion.for_plan(plans[0]) if criterion is None else criterion
     if tumble:
-        success = _tumble_success(plans, sampler, int(n), key, dtype, pos_eps_m, theta_eps_rad,
-                                  chunk, merge_factor)
+        success = _tumble_success(plans, sampler, int(n), key, dtype, criterion, chunk,
+                                  merge_factor)
     else:
         if model not in PUSH_KINEMATIC:
             raise ValueError(f"model: robust synthesis scores push candidates under the "
                              f"quasistatic, limit_surface or exact kinematics, got {model!r}")
-        success = _push_success(plans, sampler, int(n), key, model, dtype,
-                                SuccessCriterion.pos_eps_m if pos_eps_m is None else pos_eps_m,
-                                SuccessCriterion.theta_eps_rad if theta_eps_rad is None
-                                else theta_eps_rad, chunk)
+        success = _push_success(plans, sampler, int(n), key, model, dtype, criterion, chunk)
     k = success.sum(axis=1)
     low = np.array([stats.one_sided_lower(int(x), int(n), confidence) for x in k])
     K = len(plans)
@@ -320,7 +319,7 @@ def score_candidates(plans: Sequence, sampler: Sampler, n: int, key, *,
                   confidence=float(confidence), bound_position_m=bp, bound_theta_rad=bt)
 
 
-def _push_success(plans, sampler, n, key, model, dtype, pe, te, chunk) -> np.ndarray:
+def _push_success(plans, sampler, n, key, model, dtype, criterion, chunk) -> np.ndarray:
     from kernels import polygon as pg
 
     with warnings.catch_warnings():
@@ -332,15 +331,13 @@ def _push_success(plans, sampler, n, key, model, dtype, pe, te, chunk) -> np.nda
     r = run_push_many(plans, draws.astype(jnp.dtype(dtype)), model, jnp.dtype(dtype), chunk)
     _, _, _, ep, et = goal_errors(r.x, r.y, r.theta, plans[0].goal)
     valid = ~np.asarray(r.changed, bool) & ~np.asarray(r.truncated, bool)
-    return kinematic_success(valid, ep, et, pe, te)
+    return criterion.success(ep, et, valid)
 
 
-def _tumble_success(plans, sampler, n, key, dtype, pe, te, chunk, merge_factor) -> np.ndarray:
+def _tumble_success(plans, sampler, n, key, dtype, criterion, chunk, merge_factor) -> np.ndarray:
     from robustness.hulls import face_merge_tol
     from robustness.replay import run_tumble_many, tumble_nominal
 
-    pe = float(plans[0].eps) if pe is None else float(pe)
-    te = float(plans[0].eps) if te is None else float(te)
     L = max(p.n_tumbles for p in plans)
     draws = sampler.sample(key, n, dtype=jnp.float64, n_vertices=len(plans[0].vertices), dim=3,
                            n_tumbles=L)
@@ -353,7 +350,7 @@ def _tumble_success(plans, sampler, n, key, dtype, pe, te, chunk, merge_factor) 
                         slip_theta=sampler.execution.tumble_slip_theta)
     _, _, _, ep, et = goal_errors(r.x, r.y, r.theta, plans[0].goal)
     on_face = np.asarray(r.ok, bool) & (np.asarray(r.face) == int(plans[0].goal[3]))
-    return kinematic_success(~np.asarray(r.changed, bool), ep, et, pe, te) & on_face
+    return criterion.success(ep, et, ~np.asarray(r.changed, bool) & on_face)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -463,15 +460,16 @@ def select(scores: Scores, objective: str = "max_lower_bound",
                "within one success of it, the shortest of them)")
 
 
-def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key, *, physics=None,
-                     top: int = 4, pos_eps_m: Optional[float] = None,
-                     theta_eps_rad: Optional[float] = None) -> Synthesis:
+def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key,
+                     criterion: Optional[SuccessCriterion] = None, *, physics=None,
+                     top: int = 4) -> Synthesis:
     """Break the selection's tie in physics: the candidates within one success
     of the chosen one on the selection draws (the kinematic model cannot tell
     them apart; at most ``top`` of them, the lowest cost first, the chosen one
     always among them) are rolled out in MuJoCo (:func:`robustness.evaluate`,
     ``model="mujoco"``, ``physics`` a :class:`~robustness.physics.PhysicsRun`)
-    on ``n`` draws of ``key`` (the same part and friction draws for all), and
+    on ``n`` draws of ``key`` (the same part and friction draws for all), judged
+    by ``criterion`` (default: the plan kind's), and
     the one with the most successes is chosen (ties: the lower cost).  A check
     on tens of samples, not a certificate: the verdict is still taken on fresh
     draws.  Returns the :class:`Synthesis` with ``chosen`` and ``physics`` set."""
@@ -487,9 +485,8 @@ def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key, *, physics=N
     for i in tied:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            ev = evaluate(syn.candidates[i].plan, sampler, int(n), key, model="mujoco",
-                          physics=physics, pos_eps_m=pos_eps_m, theta_eps_rad=theta_eps_rad,
-                          summary=False)
+            ev = evaluate(syn.candidates[i].plan, sampler, int(n), key, criterion, "mujoco",
+                          physics=physics, summary=False)
         got.append(int(np.sum(ev.columns["success"])))
     best = max(range(len(tied)), key=lambda j: (got[j], -s.cost[tied[j]], -s.steps[tied[j]],
                                                  -tied[j]))
@@ -500,16 +497,17 @@ def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key, *, physics=N
 
 @float64
 def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key,
+               criterion: Optional[SuccessCriterion] = None,
                options: Optional[PushOptions] = None, objective: str = "max_lower_bound",
                required_probability: Optional[float] = None, model: str = "quasistatic",
-               dtype=jnp.float64, pos_eps_m: Optional[float] = None,
-               theta_eps_rad: Optional[float] = None, confidence: float = 0.95,
-               **grid) -> Synthesis:
+               dtype=jnp.float64, confidence: float = CONFIDENCE, **grid) -> Synthesis:
     """Candidates of a push task (2-d ``vertices``: :func:`push_candidates`) or a
     tumble task (3-d: :func:`tumble_candidates`; ``grid`` the keywords of
     either), scored on ``n`` draws with ``key`` (:func:`score_candidates`; pass
     :func:`selection_key` of the certification's key), chosen by ``objective``
-    (:func:`select`).  Certify the chosen plan on other draws.  ``model``:
+    (:func:`select`), each sample judged by ``criterion`` (default: the plan
+    kind's, :meth:`~robustness.SuccessCriterion.for_plan` of the first
+    candidate).  Certify the chosen plan on other draws.  ``model``:
     push candidates are scored under the quasi-static or exact kinematics
     (``mujoco``: the quasi-static model chooses, physics certifies)."""
     tumble = np.asarray(vertices).shape[-1] == 3
@@ -521,9 +519,8 @@ def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key
         cands, skipped = tumble_candidates(vertices, start, goal, com, **grid)
     else:
         cands, skipped = push_candidates(vertices, start, goal, com, options=options, **grid)
-    scores = score_candidates([c.plan for c in cands], sampler, n, key, model=model, dtype=dtype,
-                              pos_eps_m=pos_eps_m, theta_eps_rad=theta_eps_rad,
-                              confidence=confidence)
+    scores = score_candidates([c.plan for c in cands], sampler, n, key, criterion, model=model,
+                              dtype=dtype, confidence=confidence)
     i, why = select(scores, objective, required_probability)
     return Synthesis(cands, scores, i, objective, why, skipped, model)
 

@@ -226,14 +226,15 @@ def perfect(sampler: Sampler, axis: str) -> Sampler:
 
 class Judge:
     """Counts successes of a plan on the same draws for any sampler (common
-    random numbers: one ``key``, one ``n``) and says whether they certify."""
+    random numbers: one ``key``, one ``n``) and says whether they certify; each
+    sample judged by ``criterion`` (a :class:`~robustness.SuccessCriterion`;
+    default: the plan kind's)."""
 
     def __init__(self, plan, n: int, key, *, p: float, confidence: float,
-                 model: str = "quasistatic", dtype=jnp.float64, pos_eps_m=None,
-                 theta_eps_rad=None, physics=None):
+                 model: str = "quasistatic", dtype=jnp.float64, criterion=None, physics=None):
         self.plan, self.n, self.key, self.p, self.confidence = plan, int(n), key, float(p), float(confidence)
-        self.kw = dict(model=model, dtype=dtype, pos_eps_m=pos_eps_m,
-                       theta_eps_rad=theta_eps_rad, physics=physics, summary=False, bound=False)
+        self.kw = dict(criterion=criterion, model=model, dtype=dtype, physics=physics,
+                       summary=False, bound=False)
         self.calls = 0
 
     def successes(self, sampler: Sampler, key=None) -> int:

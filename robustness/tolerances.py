@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Literal, Optional
+from typing import Literal, Optional, Sequence
+
+import numpy as np
 
 from kernels import SUPPORT_FAMILIES
 
@@ -179,13 +181,94 @@ class ExecutionTolerance:
 
 @dataclasses.dataclass(frozen=True)
 class SuccessCriterion:
-    """When a sample succeeds: its final pose within ``pos_eps_m`` (m) and
-    ``theta_eps_rad`` (rad) of the goal; a push sample whose fence slip reaches
-    ``slip_fraction`` of ``pos_eps_m`` is classed ``slip`` when it fails.  The
-    defaults' one home (:func:`robustness.evaluate`, the MuJoCo rollouts and a
-    study's ``eps:`` read them from here)."""
+    """When a sample succeeds, and how a failed one failed: the one rule of every
+    model's rows (the kinematic push and tumble replays, the MuJoCo rollouts,
+    robust synthesis' scores).
+
+    A sample succeeds when it may (``valid``: inside its model, nothing that
+    rules it out) and its final pose is within ``pos_eps_m`` (m, Euclidean) and
+    ``theta_eps_rad`` (rad, |wrapped difference|) of the goal (:meth:`success`).
+    A failed sample gets the first that applies of its named faults (the
+    model's, in the model's order: ``hull_changed``, ``wrong_edge``...), then
+    ``slip`` (slip at least ``slip_fraction`` x ``pos_eps_m``), ``position``
+    (position error above ``pos_eps_m``, or not a number), ``orientation``
+    (:meth:`classify`).
+
+    Attributes:
+      pos_eps_m: position tolerance (m), finite and > 0.
+      theta_eps_rad: orientation tolerance (rad), finite and > 0.
+      slip_fraction: a failed sample whose slip reaches this fraction of
+        ``pos_eps_m`` fails by ``slip`` (finite, >= 0).
+
+    The defaults are a push plan's; a tumble plan's are its own accuracy
+    (:meth:`for_plan`).  A study's or certification's ``eps:`` section validates
+    into this value (:class:`sweeps.config.Evaluation`).
+    """
 
     pos_eps_m: float = 1e-3
     theta_eps_rad: float = math.radians(1.0)
     slip_fraction: float = 0.25
 
+    def __post_init__(self):
+        for name in ("pos_eps_m", "theta_eps_rad"):
+            v = getattr(self, name)
+            ok = (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                  and v > 0)
+            if not ok:
+                raise ValueError(f"{name}: expected a finite number > 0, got {v!r}")
+            object.__setattr__(self, name, float(v))
+        check_nonneg(self, "slip_fraction", " (a fraction of pos_eps_m)")
+        object.__setattr__(self, "slip_fraction", float(self.slip_fraction))
+
+    @classmethod
+    def for_plan(cls, plan) -> "SuccessCriterion":
+        """The default criterion of a plan's kind: a tumble plan's own accuracy
+        ``plan.eps`` (m and rad) for both tolerances; the class defaults (1 mm,
+        1 degree) for a push plan.  The one home of the per-kind defaults."""
+        from robustness.models import plan_kind
+
+        if plan_kind(plan) == "tumble":
+            return cls(float(plan.eps), float(plan.eps))
+        return cls()
+
+    def within(self, err_pos_m, err_theta_rad) -> np.ndarray:
+        """Whether final-pose errors (position m, orientation rad, any sign) are
+        within the tolerances (NaN: not within)."""
+        return ((np.asarray(err_pos_m) <= self.pos_eps_m)
+                & (np.abs(np.asarray(err_theta_rad)) <= self.theta_eps_rad))
+
+    def success(self, err_pos_m, err_theta_rad, valid=True) -> np.ndarray:
+        """A sample's success: ``valid`` (bool, broadcast) and :meth:`within`."""
+        return np.asarray(valid, bool) & self.within(err_pos_m, err_theta_rad)
+
+    def classify(self, err_pos_m, err_theta_rad, slip_m, *, valid=True,
+                 faults: Sequence = ()) -> tuple[np.ndarray, np.ndarray]:
+        """Success and failure mode of each sample.
+
+        Args:
+          err_pos_m: position error to the goal (m), shape (n,).
+          err_theta_rad: orientation error to the goal (rad, wrapped), (n,).
+          slip_m: the sample's slip (m), (n,).
+          valid: whether each sample may succeed (bool, broadcast): its model
+            valid and nothing that rules a success out (a wrong final face, a
+            part that left the workspace).  Every reason for ``False`` should be
+            named in ``faults``.
+          faults: the model's named faults, in the order they are assigned:
+            ``(mode, (n,) bool)`` pairs (a fault that does not rule a success
+            out, such as an intermediate push on another edge, leaves a success
+            a success).
+
+        Returns:
+          ``(success, failure_mode)``: (n,) bool and (n,) strings, ``"none"`` for
+          a success, else the first named fault that applies, ``"slip"``,
+          ``"position"`` or ``"orientation"``.
+        """
+        ep = np.asarray(err_pos_m)
+        ok = self.success(ep, err_theta_rad, valid)
+        names = [str(m) for m, _ in faults] + ["slip", "position"]
+        conds = ([np.asarray(c, bool) for _, c in faults]
+                 + [np.asarray(slip_m) >= self.slip_fraction * self.pos_eps_m,
+                    ~(ep <= self.pos_eps_m)])
+        conds = [np.broadcast_to(c, ok.shape) for c in conds]
+        mode = np.select(conds, names, default="orientation")
+        return ok, np.where(ok, "none", mode)

@@ -24,7 +24,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from robustness import STAT_COLUMNS, evaluate, model_for, summarise, tables
+from robustness import STAT_COLUMNS, evaluate, model_for, plan_kind, summarise, tables
 
 
 @dataclasses.dataclass(frozen=True)
@@ -75,8 +75,7 @@ def sample_block(plan, cfg, physics, task: str, n: int, key, *, lo: int, run_id:
     Returns:
       :class:`Block`.
     """
-    ev = evaluate(plan, cfg.sampler(), n, key, model=model or cfg.model, dtype=_dtype(cfg),
-                  pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+    ev = evaluate(plan, cfg.sampler(), n, key, cfg.eps, model or cfg.model, _dtype(cfg),
                   confidence=cfg.required.confidence, physics=physics, task=task,
                   summary=False)
     data = {"run_id": run_id, **dict(columns), **tables.samples_columns(ev, lo)}
@@ -97,9 +96,8 @@ def summarise_blocks(stats: Sequence[dict], plan, cfg, task: str, *, model: Opti
     the concatenated samples."""
     import pandas as pd
 
-    kind = "push" if hasattr(plan, "pushes") else "tumble"
+    kind = plan_kind(plan)
     df = pd.DataFrame({c: np.concatenate([s[c] for s in stats]) for c in STAT_COLUMNS})
     return summarise(df, plan, cfg.sampler(), kind=kind, model=model_for(model or cfg.model, kind),
-                     dtype=cfg.dtype, pos_eps_m=cfg.eps.pos_eps_m,
-                     theta_eps_rad=cfg.eps.theta_eps_rad, confidence=cfg.required.confidence,
+                     dtype=cfg.dtype, criterion=cfg.eps, confidence=cfg.required.confidence,
                      task=task, bound=bound)

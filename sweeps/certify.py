@@ -71,6 +71,7 @@ from typing import Literal, Optional, Union
 import numpy as np
 from pydantic import Field, StrictBool, field_validator
 
+from kernels import ANY_COMPONENTS
 from robustness import GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, model_for
 from sweeps.errors import Exit, UserError
 from sweeps.config import (ConfigError, Design, Evaluation, PartInline, Strict, Synthesize,
@@ -386,8 +387,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         _log(quiet, f"[{name}] no plan: {reason}")
         from robustness import empty_summary
 
-        s = empty_summary(name, kind, model, cfg.dtype, cfg.eps.pos_eps_m, cfg.eps.theta_eps_rad,
-                          conf)
+        s = empty_summary(name, kind, model, cfg.dtype, cfg.eps, conf)
         _write_summary(store, ti, s)
         return {**row, **no_plan(reason, p, conf, model, schedule).to_row()}
     size = min(schedule.counts[0], block_samples(kind, model, cfg.friction.support))
@@ -398,8 +398,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     summary = blocks.summary()
     _write_summary(store, ti, summary)
     cert = decide(summary, p, conf, kind=kind, model=model,
-                  perturbed=perturbed_sources(cfg.sampler(), kind, model),
-                  pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+                  perturbed=perturbed_sources(cfg.sampler(), kind, model), criterion=cfg.eps,
                   schedule=schedule)
     row.update(cert.to_row())
     if syn is not None:
@@ -585,9 +584,8 @@ def margin_search(part, start, goal, cfg, key, model):
             return False
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, model=model,
-                          dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                          pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+            ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, cfg.eps, model,
+                          jnp.float64 if cfg.dtype == "float64" else jnp.float32,
                           confidence=cfg.required.confidence, physics=cfg.physics_run(), bound=False)
         s = ev.summary
         return one_sided_lower(int(s["n_success"]), int(s["n"]),
@@ -639,8 +637,8 @@ def next_steps(cert: dict, support: str = "any", synthesized: bool = False,
     if kind == "push" and not synthesized:
         steps.append("--synthesize (a plan chosen for these draws)")
     if kind == "push" and support == "any":
-        steps.append("a measured support (friction.support: rigid, uniform, ring or tripod) in "
-                     "place of any, which draws every family")
+        steps.append(f"a measured support (friction.support: {', '.join(ANY_COMPONENTS[:-1])} or "
+                     f"{ANY_COMPONENTS[-1]}) in place of any, which draws every family")
     if not designed:
         steps.append("--design (which tolerance drives the failures)")
     head = ("more samples cannot certify this plan; try" if reason == "below_requirement"

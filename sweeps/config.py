@@ -3,7 +3,8 @@ configs and parameter studies, and the error messages a user reads.
 
 The config layer only validates and converts: tolerances are the robustness
 layer's own types (:class:`~robustness.GeometryTolerance`,
-:class:`~robustness.FrictionRange`, :class:`~robustness.ExecutionTolerance`,
+:class:`~robustness.FrictionRange`, :class:`~robustness.ExecutionTolerance`, and
+the success criterion ``eps:`` :class:`~robustness.SuccessCriterion`,
 stdlib dataclasses that pydantic validates field by field and whose
 ``__post_init__`` checks the values), so a tolerance is defined once.
 
@@ -21,10 +22,12 @@ from typing import Any, Literal, Optional, Union
 from pydantic import (BaseModel, ConfigDict, Field, StrictInt, ValidationError, create_model,
                       field_validator, model_validator)
 
+from kernels import (FAMILY, PLAN_SUPPORTS, PLANNED_FAMILIES, REALISABLE_SUPPORTS,
+                     SUPPORT_FAMILIES)
 from robustness.physics import PhysicsSettings
 from planning import PushOptions
 from robustness import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES, ExecutionTolerance,
-                        FrictionRange, GeometryTolerance, SuccessCriterion)
+                        FrictionRange, GeometryTolerance, SuccessCriterion, CONFIDENCE, REQUIRED_PROBABILITY)
 from sweeps.errors import UserError
 from sweeps.partfile import part_fields
 from sweeps.plausible import wrap
@@ -148,7 +151,7 @@ class Planner(Strict):
     objective: Literal["distance", "pushes"] = PUSH_DEFAULTS.objective
     strategy: Literal["search", "paper"] = PUSH_DEFAULTS.strategy
     support_c: Optional[tuple[float, float]] = None
-    support: Literal["any", "rigid", "uniform", "ring"] = "any"
+    support: Literal[PLAN_SUPPORTS] = "any"
     min_fence_mu: Optional[float] = Field(None, ge=0)
     workspace: Optional[tuple[float, float, float, float]] = None
     max_reorients: StrictInt = Field(PUSH_DEFAULTS.max_reorients,
@@ -208,8 +211,7 @@ class Synthesize(Strict):
         support family drawn (a named family other than ``any``); slip-aware
         variants at the range's lowest fence friction."""
         fam = friction.support
-        supports = [None] + ([fam] if self.model_distances and fam in ("rigid", "uniform", "ring")
-                             else [])
+        supports = [None] + ([fam] if self.model_distances and fam in PLANNED_FAMILIES else [])
         return dict(margins_deg=tuple(self.margins_deg), safety_factors=tuple(self.safety_factors),
                     strategies=tuple(self.strategies), supports=tuple(supports),
                     min_fence_mu=float(friction.mu_f[0]) if self.slip_aware else None,
@@ -227,18 +229,12 @@ class Design(Strict):
                                 "fence_friction", "tumble_slip"]]] = None
 
 
-class Eps(Strict):
-    """Success tolerances: position (m) and orientation (rad)."""
-
-    pos_eps_m: float = Field(SuccessCriterion.pos_eps_m, gt=0)
-    theta_eps_rad: float = Field(SuccessCriterion.theta_eps_rad, gt=0)
-
-
 class Required(Strict):
-    """Required success probability and the confidence of its claim."""
+    """Required success probability and the confidence of its claim (defaults:
+    :data:`robustness.REQUIRED_PROBABILITY`, :data:`robustness.CONFIDENCE`)."""
 
-    probability: float = Field(0.9, gt=0, lt=1)
-    confidence: float = Field(0.95, gt=0, lt=1)
+    probability: float = Field(REQUIRED_PROBABILITY, gt=0, lt=1)
+    confidence: float = Field(CONFIDENCE, gt=0, lt=1)
 
 
 class Task(Strict):
@@ -326,7 +322,7 @@ class Evaluation(Strict):
     friction: FrictionRange = Field(default_factory=FrictionRange)
     execution: ExecutionTolerance = Field(default_factory=ExecutionTolerance)
     planner: Planner = Field(default_factory=Planner)
-    eps: Eps = Field(default_factory=Eps)
+    eps: SuccessCriterion = Field(default_factory=SuccessCriterion)
     required: Required = Field(default_factory=Required)
     seed: int = Field(0, ge=0)
     model: Literal["quasistatic", "limit_surface", "exact", "mujoco"] = "quasistatic"
@@ -341,7 +337,7 @@ class Evaluation(Strict):
 
     @model_validator(mode="after")
     def _support_in_physics(self):
-        if self.model == "mujoco" and self.friction.support == "points":
+        if self.model == "mujoco" and self.friction.support not in REALISABLE_SUPPORTS:
             from robustness.physics import POINTS_NOT_REALISABLE
 
             raise ValueError(f"friction.{POINTS_NOT_REALISABLE}")
@@ -366,6 +362,7 @@ HINTS = {
     "tumble_slip_theta": "the rotational slip half-width after each tumble in radians (0 for none)",
     "pos_eps_m": "the position accuracy in metres, > 0",
     "theta_eps_rad": "the orientation accuracy in radians, > 0",
+    "slip_fraction": "the fraction of pos_eps_m a failed sample's slip must reach to fail by slip, >= 0",
     "probability": "the required success probability, strictly between 0 and 1 (e.g. 0.95)",
     "confidence": "the confidence level, strictly between 0 and 1 (e.g. 0.95)",
     "n_samples": "a positive number of Monte-Carlo samples",
@@ -382,11 +379,13 @@ HINTS = {
     "c": "a range [low, high] of limit-surface ratios in metres, > 0",
     "support_points": "an integer number of support points >= 1",
     "weight_concentration": "an integer Dirichlet concentration in 1..64",
-    "support": "one of any, rigid, uniform, ring, tripod (with c: [lo, hi]), points",
+    "support": "one of " + ", ".join(
+        n + (" (with c: [lo, hi])" if n in FAMILY and FAMILY[n].c_given else "")
+        for n in SUPPORT_FAMILIES),
     # the planner's support is a family its distances hold for, fewer than the sampler's
-    "planner.support": "one of any, rigid, uniform, ring (the family the plan's push distances "
-                       "hold for; tripod and points are families of friction.support, the "
-                       "sampler's)",
+    "planner.support": (f"one of {', '.join(PLAN_SUPPORTS)} (the family the plan's push distances "
+                        f"hold for; {' and '.join(n for n in FAMILY if n not in PLAN_SUPPORTS)} "
+                        "are families of friction.support, the sampler's)"),
     "seed": "an integer >= 0",
 }
 
@@ -476,7 +475,9 @@ def _one(e: dict, model) -> str:
         # a dataclass's own check names its field first ('tau_v: must be ...'): join the paths
         head, sep, rest = msg.partition(": ")
         if sep and head in _fields(_model_at(model, loc)):
-            return f"{_loc(loc + (head,))}: {rest}"
+            path = _loc(loc + (head,))
+            hint = HINTS.get(path, HINTS.get(head))
+            return f"{path}: {rest}" + (f"; give {hint}" if hint else "")
         return msg if field == "(top level)" else f"{field}: {msg}"
     return f"{field}: {msg}, got {got!r}{tail}"
 

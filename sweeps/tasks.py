@@ -2,7 +2,7 @@
 
 Shared by ``nudge certify`` and the study runner: the part (a
 :class:`~sweeps.partfile.PartFile`), a start and a goal, and the config's
-:class:`~sweeps.config.Planner` and :class:`~sweeps.config.Eps` give either a
+:class:`~sweeps.config.Planner` and :class:`~robustness.SuccessCriterion` give either a
 verified plan or the planner's reason for none.
 """
 from __future__ import annotations
@@ -12,8 +12,9 @@ import math
 import warnings
 from typing import Optional
 
+from robustness import SuccessCriterion
 from sweeps.errors import UserError
-from sweeps.config import Eps, Planner
+from sweeps.config import Planner
 
 
 class PlanInputError(UserError):
@@ -37,21 +38,24 @@ def _config_field(message: str) -> str:
     return f"{CONFIG_FIELDS[head]}:{rest}" if sep and head in CONFIG_FIELDS else message
 
 
-def tumble_eps(planner: Planner, eps: Eps) -> float:
+def tumble_eps(planner: Planner, criterion: SuccessCriterion) -> float:
     """The tumble planner's accuracy: ``planner.tumble_eps``, default half the
-    tighter success tolerance (so that the plan leaves room for the errors)."""
+    tighter success tolerance of ``criterion`` (so that the plan leaves room for
+    the errors)."""
     if planner.tumble_eps is not None:
         return planner.tumble_eps
-    return 0.5 * min(eps.pos_eps_m, eps.theta_eps_rad)
+    return 0.5 * min(criterion.pos_eps_m, criterion.theta_eps_rad)
 
 
-def plan_task(part, start, goal, planner: Planner, eps: Eps, caught: Optional[list] = None):
+def plan_task(part, start, goal, planner: Planner, criterion: SuccessCriterion,
+              caught: Optional[list] = None):
     """Plan one task.
 
     Args:
       part: the part file; start, goal: poses ``(x, y, theta)`` (polygon) or
         configurations ``(x, y, theta, face)`` (polyhedron), m and rad.
-      planner, eps: the config's settings.
+      planner, criterion: the config's settings (``planner``, ``eps``; a tumble
+        plan's accuracy defaults from the criterion, :func:`tumble_eps`).
       caught: a list that receives the warnings the planner raised (e.g. a
         non-convex part replaced by its hull), for the caller to show.
 
@@ -77,7 +81,8 @@ def plan_task(part, start, goal, planner: Planner, eps: Eps, caught: Optional[li
                 # planned for the nominal part (tau_v = planner.tumble_tau_v, default 0): its
                 # robustness to the config's tolerances is what the Monte Carlo measures
                 plan = plan_tumble(part.vertices, goal, start=start, com=part.com,
-                                   eps=tumble_eps(planner, eps), tau_v=planner.tumble_tau_v,
+                                   eps=tumble_eps(planner, criterion),
+                                   tau_v=planner.tumble_tau_v,
                                    tau_g=planner.tau_g)
         except PlanningError as exc:
             return None, " ".join(str(exc).split())
@@ -110,10 +115,9 @@ def synthesize_for(cfg, part, start, goal, key):
             else sy.tumble_grid(tumble_eps(cfg.planner, cfg.eps), cfg.planner.tumble_tau_v,
                                 cfg.planner.tau_g))
     syn = synthesize(part.vertices, start, goal, part.com, sampler=cfg.sampler(),
-                     n=sy.n_samples, key=selection_key(key), objective=sy.objective,
-                     required_probability=cfg.required.probability, model=model,
-                     dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                     pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
+                     n=sy.n_samples, key=selection_key(key), criterion=cfg.eps,
+                     objective=sy.objective, required_probability=cfg.required.probability,
+                     model=model, dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
                      confidence=cfg.required.confidence, **grid)
     if push and sy.physics_samples:   # the kinematic model's tie broken in MuJoCo
         import jax
@@ -121,10 +125,9 @@ def synthesize_for(cfg, part, start, goal, key):
         from robustness import physics_tiebreak
 
         syn = physics_tiebreak(syn, cfg.sampler(), sy.physics_samples,
-                               jax.random.fold_in(selection_key(key), 1),
+                               jax.random.fold_in(selection_key(key), 1), cfg.eps,
                                physics=cfg.physics.run(part, cfg.friction),
-                               top=sy.physics_candidates, pos_eps_m=cfg.eps.pos_eps_m,
-                               theta_eps_rad=cfg.eps.theta_eps_rad)
+                               top=sy.physics_candidates)
     return syn
 
 
@@ -155,7 +158,7 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
         warnings.simplefilter("ignore")
         judge = td.Judge(plan, d.n_samples, dkey, p=p, confidence=conf, model=model,
                          dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                         pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad)
+                         criterion=cfg.eps)
         designs = [td.loosest(judge, sampler, a, rel_tol=d.rel_tol) for a in axes]
         sens = {s.axis: s for s in td.sensitivity(judge, sampler, axes)}
         base = 1.0 - judge.successes(td.all_perfect(sampler, axes)) / judge.n

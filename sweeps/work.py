@@ -124,7 +124,7 @@ class Loaded:
         if key is None:
             key = self._plan_keys[config_id, task_index] = json.dumps(
                 [part.vertices.tolist(), None if part.com is None else part.com.tolist(), start,
-                 goal, cfg.planner.model_dump(), cfg.eps.model_dump()], sort_keys=True)
+                 goal, cfg.planner.model_dump(), cfg.eps.__dict__], sort_keys=True)
         try:
             out = _plan_cached(key, part, start, goal, cfg.planner, cfg.eps)
             if out[0] is not None and cfg.synthesize is not None and cfg.synthesize.enabled:
@@ -499,8 +499,7 @@ def _summarise(L: Loaded, unit: Unit, stats) -> dict:
         if plan is None:
             kind = cfg.kind
             summaries.append(empty_summary(name, kind, model_for(cfg.model, kind), cfg.dtype,
-                                           cfg.eps.pos_eps_m, cfg.eps.theta_eps_rad,
-                                           cfg.required.confidence))
+                                           cfg.eps, cfg.required.confidence))
         else:
             summaries.append(summarise_blocks([b for b in stats if b is not None], plan, cfg,
                                               name, bound=cfg.bounds))

@@ -11,7 +11,7 @@ from kernels.tumble import make_config, replay
 from kernels.tumble_geometry import tumble_geometry
 from planning.pushing.planner import plan_pose
 from robustness.bounds import push_final_pose_fn, push_plan_bound, tumble_first_order_bound
-from robustness.tolerances import ExecutionTolerance, GeometryTolerance
+from robustness.tolerances import ExecutionTolerance, GeometryTolerance, SuccessCriterion
 
 pytestmark = pytest.mark.float64  # calls kernels on float64 arrays directly
 
@@ -137,8 +137,8 @@ def test_paper_bounds_confronted_with_monte_carlo():
         pb = tumble_plan_paper_bounds(plan, tau)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            ev = evaluate(plan, sampler, 256, jax.random.PRNGKey(0), model="exact",
-                          pos_eps_m=1e-2, theta_eps_rad=1e-2)
+            ev = evaluate(plan, sampler, 256, jax.random.PRNGKey(0), SuccessCriterion(1e-2, 1e-2),
+                          model="exact")
         s = ev.summary
         assert s["paper_bound_position_m"] == pytest.approx(pb["Delta_C_f"])
         assert s["bound_violated"] is False          # first order holds

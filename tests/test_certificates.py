@@ -6,7 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler, stats
+from robustness import (ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler,
+                        SuccessCriterion, stats)
 from robustness.certificates import (BOUND_MODEL, Schedule, auto_sample_counts, auto_schedule,
                                      decide, decided, grow, no_plan, perturbed_sources)
 
@@ -20,7 +21,7 @@ def _summary(n, k, mode="none", bound=(math.nan, math.nan), violated=None):
 
 def _decide(n, k, p=0.95, conf=0.95, perturbed=SOURCES, **kw):
     return decide(_summary(n, k, **kw), p, conf, kind="push", model="quasistatic",
-                  perturbed=perturbed, pos_eps_m=0.002, theta_eps_rad=0.03)
+                  perturbed=perturbed, criterion=SuccessCriterion(0.002, 0.03))
 
 
 def test_certified_states_the_one_sided_bound_model_and_samples():

@@ -16,6 +16,7 @@ from robustness import Bound, replay as batches
 from robustness import summary
 from robustness.evaluation import BoundViolation, evaluate
 from robustness.samplers import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler
+from robustness.tolerances import SuccessCriterion
 from robustness.tables import FAILURE_MODES
 
 TRI = [[0.0, 0.0], [0.03, 0.0], [0.005, 0.02]]
@@ -30,6 +31,7 @@ STICKY = FrictionRange(mu_f=(50.0, 50.0), c=(0.002, 0.004))
 TOL = Sampler(GeometryTolerance(tau_v=2e-5, tau_com=5e-5), STICKY,
               ExecutionTolerance(start_xy=2e-4, start_theta=5e-3, fence_angle=1e-3,
                                  distance_abs=5e-5, distance_rel=2e-3))
+TIGHT = SuccessCriterion(pos_eps_m=4e-4, theta_eps_rad=2e-3)
 
 
 @pytest.fixture(scope="module")
@@ -78,8 +80,7 @@ def test_zero_tolerances_reproduce_the_plan(plan):
 
 @pytest.mark.slow
 def test_tolerances_success_rate_and_interval(plan):
-    ev = evaluate(plan, TOL, N, jax.random.key(1), model="exact", pos_eps_m=4e-4,
-                  theta_eps_rad=2e-3)
+    ev = evaluate(plan, TOL, N, jax.random.key(1), TIGHT, model="exact")
     s, df = ev.summary, ev.samples
     assert 0.0 <= s["success_rate"] <= 1.0
     assert s["ci_low"] <= s["success_rate"] <= s["ci_high"]
@@ -105,8 +106,8 @@ def test_without_summary_the_samples_are_the_same(plan):
     """``summary=False`` (a caller that summarises blocks together) changes nothing
     but the summary; the list draws are the flat columns, in vertex / push order."""
     key = jax.random.key(1)
-    ev = evaluate(plan, TOL, N, key, model="exact", pos_eps_m=4e-4, theta_eps_rad=2e-3)
-    bare = evaluate(plan, TOL, N, key, model="exact", pos_eps_m=4e-4, theta_eps_rad=2e-3,
+    ev = evaluate(plan, TOL, N, key, TIGHT, model="exact")
+    bare = evaluate(plan, TOL, N, key, TIGHT, model="exact",
                     summary=False)
     assert bare.summary is None
     pd.testing.assert_frame_equal(bare.samples, ev.samples, check_exact=True)
@@ -423,8 +424,8 @@ def test_summary_one_sided_lower_bound(plan):
     confidence (what a probability claim uses) beside the two-sided interval."""
     from robustness import stats
 
-    ev = evaluate(plan, TOL, N, jax.random.key(1), model="exact", pos_eps_m=4e-4,
-                  theta_eps_rad=2e-3, confidence=0.9, bound=False)
+    ev = evaluate(plan, TOL, N, jax.random.key(1), TIGHT, model="exact", confidence=0.9,
+                  bound=False)
     s = ev.summary
     assert s["ci_low_one_sided"] == stats.one_sided_lower(s["n_success"], s["n"], 0.9)
     assert s["ci_low"] <= s["ci_low_one_sided"] <= s["success_rate"]

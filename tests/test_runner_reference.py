@@ -69,9 +69,8 @@ def _reference_samples(design, cid, ti, lo, n, block):
     name, start, goal = design.tasks(cid)[ti]
     plan, _ = plan_task(part, start, goal, cfg.planner, cfg.eps)
     key = jax.random.fold_in(jax.random.fold_in(jax.random.key(cfg.seed), ti), block)
-    ev = evaluate(plan, cfg.sampler(), n, key, model=cfg.model,
+    ev = evaluate(plan, cfg.sampler(), n, key, cfg.eps, model=cfg.model,
                   dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                  pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
                   confidence=cfg.required.confidence, physics=cfg.physics_run(part), task=name,
                   bound=False)
     df = tables.pack_samples(ev.samples, ev.param_columns)
@@ -118,8 +117,7 @@ def _compare(tmp_path, text):
                 pd.testing.assert_frame_equal(got, want, check_exact=True)
             s = summarise(pd.concat(frames, ignore_index=True), plan, cfg.sampler(), kind=cfg.kind,
                           model=model_for(cfg.model, cfg.kind), dtype=cfg.dtype,
-                          pos_eps_m=cfg.eps.pos_eps_m,
-                          theta_eps_rad=cfg.eps.theta_eps_rad, confidence=cfg.required.confidence,
+                          criterion=cfg.eps, confidence=cfg.required.confidence,
                           task=name, bound=cfg.bounds)
             rows = pd.read_parquet(out / "summary" / f"config_id={cid:05d}" / "part-tasks.parquet")
             assert rows["task"].tolist() == [t[0] for t in design.tasks(cid)]   # in task order

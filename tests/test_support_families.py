@@ -138,7 +138,7 @@ def test_rigid_rectangle_rests_on_a_diagonal():
 def test_sampler_draws_each_family_in_its_range(name):
     _, body = _body(name)
     n = 400
-    for fam in ("rigid", "uniform", "ring", "any"):
+    for fam in ks.PLAN_SUPPORTS:   # the families whose c range the part determines, and any
         lo, hi = ks.family_c_range(fam, body)
         s = Sampler(friction=FrictionRange(support=fam))
         draws = s.sample(jax.random.key(3), n, n_vertices=len(body), dim=2, body=body)
@@ -153,6 +153,77 @@ def test_sampler_draws_each_family_in_its_range(name):
             assert tri.min() >= ks.TRIPOD_MIN_FRACTION * fit - 1e-12 and tri.max() <= fit + 1e-12
         else:
             assert names == {fam}
+
+
+def _accepted(model, docs) -> set:
+    from sweeps.config import ConfigError, validate
+
+    out = set()
+    for name, doc in docs.items():
+        try:
+            validate(model, doc)
+            out.add(name)
+        except ConfigError:
+            pass
+    return out
+
+
+def _friction(name) -> dict:
+    given = name in ks.FAMILY and ks.FAMILY[name].c_given
+    return {"support": name, **({"c": [0.004, 0.008]} if given else {})}
+
+
+def test_every_list_of_supports_reads_the_one_table():
+    """kernels.support.TABLE is the one declaration: the names a config accepts,
+    those the sampler draws, those the MuJoCo scene stands, those a plan's
+    distances can assume (config, planner, command line) are the table's; a
+    family added to the table but missed by the sampler or the scene fails here."""
+    from planning.pushing.part import check_support
+    from robustness.physics.geometry import support_of
+    from sweeps.config import Evaluation, Planner
+    from sweeps.plan_push import build_parser
+
+    names = ks.SUPPORT_FAMILIES + ("foam",)
+    assert ks.FAMILIES == tuple(f.name for f in ks.TABLE) and len(set(ks.FAMILIES)) == len(ks.TABLE)
+    assert [ks.CODES[n] for n in ks.FAMILIES] == list(range(len(ks.TABLE)))
+    # the config's friction.support, and under model: mujoco only what the scene stands
+    assert _accepted(Evaluation, {n: {"friction": _friction(n)} for n in names}) \
+        == set(ks.SUPPORT_FAMILIES)
+    assert _accepted(Evaluation, {n: {"friction": _friction(n), "model": "mujoco"}
+                                  for n in names}) == set(ks.REALISABLE_SUPPORTS)
+    # what a plan's distances may assume: the config, planning and the command line
+    assert _accepted(Planner, {n: {"support": n} for n in names}) == set(ks.PLAN_SUPPORTS)
+    planned = set()
+    for n in names:
+        try:
+            check_support(n)
+            planned.add(n)
+        except ValueError:
+            pass
+    assert planned == set(ks.PLAN_SUPPORTS)
+    (cli,) = [a for a in build_parser()._actions if "--support" in a.option_strings]
+    assert tuple(cli.choices) == ks.PLAN_SUPPORTS   # a copy: the parser imports no JAX
+    _, body = _body("rectangle")
+    for n in ks.PLANNED_FAMILIES:
+        lo, hi = ks.family_c_range(n, body)
+        assert 0 < lo <= hi, n
+    # the sampler draws every name, the any mixture's components
+    for n in ks.SUPPORT_FAMILIES:
+        fr = FrictionRange(**{k: tuple(v) if k == "c" else v for k, v in _friction(n).items()})
+        draws = Sampler(friction=fr).sample(jax.random.key(3), 64, n_vertices=len(body), dim=2,
+                                            body=body)
+        cols = parameter_columns(draws, n_vertices=len(body), dim=2)
+        assert set(cols["support"]) == (set(ks.ANY_COMPONENTS) if n == "any" else {n}), n
+        assert np.all(np.isfinite(cols["c_m"]) & (cols["c_m"] > 0)), n
+    # the scene stands exactly the families with feet
+    lift = np.arange(len(body), dtype=np.float64)
+    for n in ks.FAMILIES:
+        if ks.FAMILY[n].feet:
+            feet, w = support_of(ks.CODES[n], body, 0.004, lift)
+            assert np.isclose(np.sum(w), 1.0) and np.all(np.asarray(w) >= -1e-12), n
+        else:
+            with pytest.raises(ValueError, match="cannot be realised"):
+                support_of(ks.CODES[n], body, 0.004, lift)
 
 
 def test_family_validation_names_the_field():

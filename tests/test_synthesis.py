@@ -12,9 +12,9 @@ import pandas as pd
 import pytest
 
 from planning import plan_alternatives, plan_pose
-from robustness import (ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler, evaluate,
-                        stats)
-from robustness.evaluation import goal_errors, kinematic_success
+from robustness import (ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler,
+                        SuccessCriterion, evaluate, stats)
+from robustness.evaluation import goal_errors
 from robustness.replay import run_push
 from robustness.synthesis import (Scores, push_candidates, score_candidates, select,
                                   selection_key, synthesize)
@@ -28,7 +28,7 @@ SAMPLER = Sampler(GeometryTolerance(tau_v=2e-5, tau_com=1e-4),
                   FrictionRange(mu_f=(0.3, 0.8), mu_s=(0.2, 0.5), support="any"),
                   ExecutionTolerance(start_xy=5e-4, start_theta=0.01, fence_angle=0.002,
                                      distance_abs=1e-4, distance_rel=0.005))
-EPS = dict(pos_eps_m=0.003, theta_eps_rad=0.05)
+EPS = dict(criterion=SuccessCriterion(pos_eps_m=0.003, theta_eps_rad=0.05))
 START, TURN = (0.0, 0.0, 0.0), (0.10, 0.05, np.pi / 3)
 SMALL = dict(margins_deg=(3.0, 7.0, 20.0), safety_factors=(1.15, 2.0), strategies=("search",),
              per_setting=2)
@@ -86,8 +86,7 @@ def test_batched_scores_are_evaluates_on_the_same_draws():
                                                                        execution=cut))
             _, _, r = run_push(plans[k], dk, "quasistatic", jnp.float64, 4096)
             _, _, _, ep, et = goal_errors(r.x, r.y, r.theta, plans[k].goal)
-            ok = kinematic_success(~r.changed.astype(bool) & ~r.truncated.astype(bool), ep, et,
-                                   EPS["pos_eps_m"], EPS["theta_eps_rad"])
+            ok = EPS["criterion"].success(ep, et, ~r.changed.astype(bool) & ~r.truncated.astype(bool))
             assert np.array_equal(ok, s.success[k]), k
     assert np.allclose(s.ci_low, [stats.one_sided_lower(int(x), n, 0.95) for x in s.n_success])
 
@@ -235,7 +234,7 @@ def test_tumble_candidates_are_scored_like_evaluate_and_ties_go_to_the_smaller_b
     sampler = Sampler(GeometryTolerance(tau_v=5e-5),
                       execution=ExecutionTolerance(tumble_slip_xy=2e-5, tumble_slip_theta=2e-4))
     goal = (0.2, 0.0, 0.0, 0)
-    eps = dict(pos_eps_m=0.0025, theta_eps_rad=0.012)
+    eps = dict(criterion=SuccessCriterion(pos_eps_m=0.0025, theta_eps_rad=0.012))
     syn = synthesize(part.vertices, (0, 0, 0, 0), goal, part.com, sampler=sampler, n=300,
                      key=jax.random.key(0), eps=1e-3, **eps)
     cands, s = syn.candidates, syn.scores
@@ -261,7 +260,7 @@ def test_tumble_candidates_are_scored_like_evaluate_and_ties_go_to_the_smaller_b
             _, r = run_tumble(c.plan, draws, jnp.float64, 4096, merge_tol=tol,
                               slip_theta=2e-4)
             _, _, _, ep, et = goal_errors(r.x, r.y, r.theta, c.plan.goal)
-            ok = kinematic_success(~r.changed, ep, et, **eps) & (r.face == goal[3])
+            ok = eps["criterion"].success(ep, et, ~r.changed) & (r.face == goal[3])
             assert np.array_equal(ok, s.success[i]), i
     assert np.all(np.isfinite(s.bound_position_m)) and np.array_equal(s.cost, s.bound_position_m)
     k = s.n_success

@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from robustness import tables
+from robustness import SuccessCriterion, tables
 from robustness.tables import (CERTIFICATES_SCHEMA, PLANS_SCHEMA, SAMPLES_SCHEMA, SUMMARY_SCHEMA,
                                pack_samples, with_design)
 from sweeps import parquet
@@ -185,7 +185,8 @@ def test_integer_columns_never_read_back_as_float(tmp_path):
     # back with the dtypes of the schema, like any other task's
     from robustness.summary import empty_summary
 
-    row = {"run_id": "r1", **empty_summary("a", "tumble", "exact", "float64", 1e-3, 1e-2, 0.95)}
+    row = {"run_id": "r1", **empty_summary("a", "tumble", "exact", "float64",
+                                                 SuccessCriterion(1e-3, 1e-2), 0.95)}
     assert set(row) == set(SUMMARY_SCHEMA.names)
     assert row["n_none"] == row["n_in_bound_model"] == 0 and row["worst_sample_id"] == -1
     path = write_table(tables.frame([row], SUMMARY_SCHEMA), tmp_path / "s.parquet",

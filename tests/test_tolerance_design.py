@@ -9,13 +9,13 @@ import pandas as pd
 import pytest
 
 from planning import plan_pose
-from robustness import ExecutionTolerance, GeometryTolerance, Sampler, stats
+from robustness import ExecutionTolerance, GeometryTolerance, Sampler, SuccessCriterion, stats
 from robustness import tolerance_design as td
 from tests.commandline import nudge_here
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 TRIANGLE = np.array([[0.0, 0.0], [0.1, 0.0], [0.03, 0.06]])
-EPS = dict(pos_eps_m=0.003, theta_eps_rad=0.05)
+EPS = dict(criterion=SuccessCriterion(pos_eps_m=0.003, theta_eps_rad=0.05))
 
 
 def _plan():

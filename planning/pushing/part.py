@@ -31,7 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg, reorient as ro, float64
+from kernels import PLAN_SUPPORTS, PLANNED_FAMILIES, polygon as pg, reorient as ro, float64
 from planning.pushing.options import DEFAULTS
 
 POS_TOL = 1e-9   # x part size: a plan must reach the goal position this closely (replayed)
@@ -214,14 +214,11 @@ def check_pose(pose, field: str) -> np.ndarray:
     return arr
 
 
-#: support families the planner plans distances for (:mod:`kernels.support`)
-SUPPORT_FAMILIES = ("any", "rigid", "uniform", "ring")
-
-
 def check_support(support):
     """Validate ``support``: ``None`` or ``"any"`` (Peshkin's distances, valid
-    for every support), a family name ``"rigid"``, ``"uniform"``, ``"ring"``
-    (distances valid for every ``c`` that family gives the part), or
+    for every support), a family name of :data:`kernels.PLANNED_FAMILIES`
+    (``"rigid"``, ``"uniform"``, ``"ring"``: distances valid for every ``c``
+    that family gives the part, :func:`kernels.family_c_range`), or
     ``{"c": [lo, hi]}`` / ``(lo, hi)``: the range (m) of the limit-surface ratio
     ``c = m_max / f_max`` of the support
     (:func:`kernels.quasistatic.limit_surface_ratio`).
@@ -231,8 +228,8 @@ def check_support(support):
     if support is None:
         return "any", None
     if isinstance(support, str):
-        if support not in SUPPORT_FAMILIES:
-            raise ValueError(f"support: expected one of {', '.join(SUPPORT_FAMILIES)} or "
+        if support not in PLAN_SUPPORTS:
+            raise ValueError(f"support: expected one of {', '.join(PLAN_SUPPORTS)} or "
                              f"{{'c': [lo, hi]}} (m), got {support!r}")
         return support, None
     rng = support.get("c") if isinstance(support, dict) else support
@@ -289,14 +286,15 @@ def _prepare_cached(vkey: bytes, vshape, ckey, margin_deg: float, safety_factor:
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always", pg.PartWarning)
         poly = pg.make_polygon(vertices, com)
-    if family in ("rigid", "uniform", "ring"):   # every c the family gives this part
+    if family in PLANNED_FAMILIES:   # every c the family gives this part
         from kernels import family_c_range
 
         support_c = family_c_range(family, np.asarray(poly.body))
     if min_mu is not None and support_c is None:
         raise ValueError("min_fence_mu: slip-aware plans need the support's limit-surface ratio "
-                         "range: give support={'c': [lo, hi]} (m) or a family (rigid, uniform, "
-                         "ring) too (whether the fence contact sticks depends on it)")
+                         f"range: give support={{'c': [lo, hi]}} (m) or a family "
+                         f"({', '.join(PLANNED_FAMILIES)}) too (whether the fence contact sticks "
+                         "depends on it)")
     margin = math.radians(margin_deg)
     geom, cls = _part_geometry(jnp.asarray(poly.body))
     mx, step, pivot, beta2, gain, stick, rate_c = _tables(geom, poly.body, margin, safety_factor,

@@ -28,12 +28,13 @@ from __future__ import annotations
 
 import numpy as np
 
-
+from kernels import REALISABLE_SUPPORTS
 
 #: why a ``points`` support cannot be stood in MuJoCo (one line, naming the field)
 POINTS_NOT_REALISABLE = ("support: the 'points' family's sampled loads cannot be realised by "
-                         "feet in MuJoCo (statics sets the loads); use any, rigid, uniform, ring "
-                         "or tripod with model: mujoco")
+                         f"feet in MuJoCo (statics sets the loads); use "
+                         f"{', '.join(REALISABLE_SUPPORTS[:-1])} or {REALISABLE_SUPPORTS[-1]} "
+                         "with model: mujoco")
 
 
 def support_of(code: int, body: np.ndarray, c: float, lift: np.ndarray):
@@ -60,7 +61,7 @@ def support_of(code: int, body: np.ndarray, c: float, lift: np.ndarray):
         b = jnp.asarray(body, jnp.float64)
         if family == "rigid":
             return np.zeros((0, 2)), np.asarray(ks.corner_weights(b, jnp.asarray(lift)))
-        if family == "points":
+        if not ks.FAMILY[family].feet:
             raise ValueError(POINTS_NOT_REALISABLE)
         pts = ks.family_points(family, b, c)
         return np.asarray(pts), np.asarray(ks.equilibrium_weights(pts))

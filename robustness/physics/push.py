@@ -118,9 +118,7 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace, stroke):
 
 def rollout_push_plan(plan, draws, *, backend: str = "auto",
                       settings: Optional[PhysicsSettings] = None, workspace=None,
-                      pos_eps_m: float = SuccessCriterion.pos_eps_m,
-                      theta_eps_rad: float = SuccessCriterion.theta_eps_rad,
-                      slip_fraction: float = SuccessCriterion.slip_fraction,
+                      criterion: Optional[SuccessCriterion] = None,
                       stroke: str = "planned") -> dict:
     """Roll a push plan out in MuJoCo on sampled parts and executions.
 
@@ -134,9 +132,9 @@ def rollout_push_plan(plan, draws, *, backend: str = "auto",
       workspace: ``(xmin, xmax, ymin, ymax)`` (m, world): leaving it fails
         the sample; default: the plan's poses and strokes grown by 5 cm and
         the part's size.
-      pos_eps_m, theta_eps_rad: success tolerances (m; rad).
-      slip_fraction: a failed sample that slipped at least this times
-        ``pos_eps_m`` fails by ``slip`` (as in the evaluation).
+      criterion: the :class:`~robustness.SuccessCriterion` that classifies the
+        samples (default: a push plan's, 1 mm and 1 degree), as in the
+        evaluation.
       stroke: ``"planned"`` (open loop: every stroke from the planned pose,
         as a cell without sensing runs the plan) or ``"contact"`` (each
         stroke from where the part is before the push: the fence's
@@ -194,13 +192,15 @@ def rollout_push_plan(plan, draws, *, backend: str = "auto",
         res["x"][grp], res["y"][grp], res["theta"][grp] = pose[:, 0], pose[:, 1], pose[:, 2]
         for k, v in out.items():
             res[k][grp] = v
-    _classify(res, plan, planned, parts, pos_eps_m, theta_eps_rad, slip_fraction, s)
+    _classify(res, plan, planned, parts, criterion or SuccessCriterion.for_plan(plan), s)
     res.update(backend=backend, steps=int(steps), seconds=time.perf_counter() - t0)
     return res
 
 
-def _classify(res, plan, planned, parts, pe, te, slip_fraction, s) -> None:
-    """Flags, errors, success and failure mode (in ``PUSH_FAILURE_MODES`` order)."""
+def _classify(res, plan, planned, parts, criterion, s) -> None:
+    """Flags, errors, success and failure mode (``criterion``'s classification, the
+    faults in ``PUSH_FAILURE_MODES`` order; a fence strike, an incomplete push or
+    one on another edge leaves a success a success)."""
     sim = parts.valid.copy()
     planned = np.asarray(planned, np.int64)
     res["planned_edges"] = planned
@@ -217,14 +217,13 @@ def _classify(res, plan, planned, parts, pe, te, slip_fraction, s) -> None:
     res["err_x"], res["err_y"] = res["x"] - goal[0], res["y"] - goal[1]
     res["err_pos"] = np.hypot(res["err_x"], res["err_y"])
     res["err_theta"] = wrap_angle_np(res["theta"] - goal[2])
-    within = (res["err_pos"] <= pe) & (np.abs(res["err_theta"]) <= te)
     incomplete = (~res["complete"]).any(axis=1)
     wrong = (res["complete"] & (res["edges"] != planned[None, :])).any(axis=1)
-    res["success"] = sim & within & ~res["left_workspace"] & ~res["toppled"]
-    conds = [~sim, res["left_workspace"], res["toppled"], res["fence_strike"], incomplete, wrong,
-             res["slip"] >= slip_fraction * pe, res["err_pos"] > pe]
-    mode = np.select(conds, list(PUSH_FAILURE_MODES[1:9]), default="orientation")
-    res["failure_mode"] = np.where(res["success"], "none", mode)
+    faults = (~sim, res["left_workspace"], res["toppled"], res["fence_strike"], incomplete, wrong)
+    res["success"], res["failure_mode"] = criterion.classify(
+        res["err_pos"], res["err_theta"], res["slip"],
+        valid=sim & ~res["left_workspace"] & ~res["toppled"],
+        faults=tuple(zip(PUSH_FAILURE_MODES[1:7], faults)))
 
 
 __all__ = ["rollout_push_plan", "PUSH_FAILURE_MODES", "STROKES"]

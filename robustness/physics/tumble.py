@@ -108,8 +108,7 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace):
 
 def rollout_tumble_plan(plan, draws, *, backend: str = "auto",
                         settings: Optional[PhysicsSettings] = None, workspace=None,
-                        pos_eps_m: Optional[float] = None, theta_eps_rad: Optional[float] = None,
-                        slip_fraction: float = SuccessCriterion.slip_fraction,
+                        criterion: Optional[SuccessCriterion] = None,
                         merge_factor: float = 8.0,
                         tau_v: Optional[float] = None) -> dict:
     """Roll a tumble plan out in MuJoCo on sampled parts and executions.
@@ -124,9 +123,10 @@ def rollout_tumble_plan(plan, draws, *, backend: str = "auto",
       settings: :class:`PhysicsSettings`.
       workspace: ``(xmin, xmax, ymin, ymax)`` (m); default the planned
         configurations grown by twice the part's diameter and 5 cm.
-      pos_eps_m, theta_eps_rad: success tolerances (default the plan's eps).
-      slip_fraction: a failed sample whose pivots slipped at least this times
-        ``pos_eps_m`` in all fails by ``slip``.
+      criterion: the :class:`~robustness.SuccessCriterion` that classifies the
+        samples (default: the plan's eps for both tolerances); a failed sample
+        whose pivots slipped at least its ``slip_fraction`` times ``pos_eps_m``
+        in all fails by ``slip``.
       merge_factor, tau_v: the combinatorics check's face-merging tolerance
         (``robustness.hulls.face_merge_tol(tau_v, diameter, merge_factor)``,
         as in the evaluation; ``tau_v`` defaults to the largest sampled
@@ -175,14 +175,15 @@ def rollout_tumble_plan(plan, draws, *, backend: str = "auto",
         res["faces"][grp] = out["faces"]
         res["slip_per_tumble"][grp] = out["slip_per_tumble"]
         res["left_workspace"][grp] = out["left_workspace"]
-    pe = float(plan.eps) if pos_eps_m is None else float(pos_eps_m)
-    te = float(plan.eps) if theta_eps_rad is None else float(theta_eps_rad)
-    _classify(res, plan, parts, pe, te, slip_fraction)
+    _classify(res, plan, parts, criterion or SuccessCriterion.for_plan(plan))
     res.update(backend=backend, steps=int(steps), seconds=time.perf_counter() - t0, grip_n=grip)
     return res
 
 
-def _classify(res, plan, parts, pe, te, slip_fraction) -> None:
+def _classify(res, plan, parts, criterion) -> None:
+    """Flags, errors, success and failure mode (``criterion``'s classification, the
+    faults in ``TUMBLE_FAILURE_MODES`` order; a success lands on the goal face,
+    whatever faces it passed)."""
     sim = parts.valid.copy()
     planned = np.asarray(plan.faces, np.int64)
     goal = np.asarray(plan.goal, np.float64)
@@ -197,12 +198,11 @@ def _classify(res, plan, parts, pe, te, slip_fraction) -> None:
     res["err_pos"] = np.hypot(res["err_x"], res["err_y"])
     res["err_theta"] = wrap_angle_np(res["theta"] - goal[2])
     on_goal = res["face"] == int(goal[3])
-    within = (res["err_pos"] <= pe) & (np.abs(res["err_theta"]) <= te)
-    res["success"] = sim & on_goal & within & ~res["left_workspace"]
-    conds = [~sim, res["left_workspace"], ~on_goal | wrong.any(axis=1),
-             res["slip"] >= slip_fraction * pe, res["err_pos"] > pe]
-    mode = np.select(conds, list(TUMBLE_FAILURE_MODES[1:6]), default="orientation")
-    res["failure_mode"] = np.where(res["success"], "none", mode)
+    faults = (~sim, res["left_workspace"], ~on_goal | wrong.any(axis=1))
+    res["success"], res["failure_mode"] = criterion.classify(
+        res["err_pos"], res["err_theta"], res["slip"],
+        valid=sim & on_goal & ~res["left_workspace"],
+        faults=tuple(zip(TUMBLE_FAILURE_MODES[1:4], faults)))
 
 
 __all__ = ["rollout_tumble_plan", "TUMBLE_FAILURE_MODES"]
