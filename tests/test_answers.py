@@ -218,3 +218,36 @@ def test_config_lengths_on_a_part_in_millimetres_are_caught_before_work(tmp_path
     r = nudge_here("plan-push", ROOT / "examples" / "plate.yaml", "--start", "0,0,0",
                    "--goal", "12,3,0")
     assert "warning: --goal: the part travels 12.4 m" in r.stderr
+
+
+@pytest.mark.parametrize("part, flags, words", [
+    ("plate.dxf", ("--units", "m"), "--units: plate.dxf read in m is a part 102 m across"),
+    ("bracket.stl", ("--units", "m"), "--units: bracket.stl read in m is a part 72.1 m across"),
+    ("bracket.stl", ("--units", "um"), "--units: bracket.stl read in um is a part 7.21e-05 m"),
+])
+def test_a_stated_unit_that_makes_the_part_implausible_names_the_unit_that_fits(part, flags,
+                                                                                 words):
+    """``--units m`` on a mesh or DXF in millimetres got the kernels' "divide them
+    by 1000" and planned with exit 0: the fix is ``--units mm``."""
+    r = nudge_here("plan-push", ROOT / "examples" / part, *flags, "--start", "0,0,0",
+                   "--goal", "0.05,0,0")
+    errors = [ln for ln in r.stderr.splitlines() if ln.startswith("error: ")]
+    assert r.returncode == 2 and len(errors) == 1, r.stderr
+    assert errors[0].startswith(f"error: {words}"), errors[0]
+    assert errors[0].endswith("its numbers look like mm: give --units mm"), errors[0]
+    assert "divide them by 1000" not in r.stderr and "translate" not in r.stdout
+
+
+def test_a_part_files_units_that_make_the_part_implausible_is_refused_before_work(tmp_path):
+    part = tmp_path / "bracket_m.yaml"
+    part.write_text(f"name: b\nmesh: {ROOT / 'examples' / 'bracket.stl'}\nunits: m\n")
+    study = tmp_path / "s.yaml"
+    study.write_text(f"study: s\nkind: tumble\npart: {part}\n"
+                     "tasks:\n  - {name: a, start: [0, 0, 0, 0], goal: [0, 0, 0, 2]}\n"
+                     "samples: 4\n")
+    r = nudge_here("sweep", study, "--dry-run")
+    line = r.stderr.strip()
+    assert r.returncode == 2 and "\n" not in line, r.stderr
+    assert line.startswith(f"error: {study}: units: bracket.stl read in m (the part file) is a "
+                           "part 85 m across"), line
+    assert line.endswith("its numbers look like mm: write units: mm in bracket_m.yaml"), line
