@@ -251,3 +251,65 @@ def test_a_part_files_units_that_make_the_part_implausible_is_refused_before_wor
     assert line.startswith(f"error: {study}: units: bracket.stl read in m (the part file) is a "
                            "part 85 m across"), line
     assert line.endswith("its numbers look like mm: write units: mm in bracket_m.yaml"), line
+
+
+def _box_obj(nan_at=None):
+    """A 50 x 40 x 10 (mm) box as OBJ text; vertex ``nan_at`` (from 1) gets a NaN x."""
+    v = [(x, y, z) for x in (0, 50) for y in (0, 40) for z in (0, 10)]
+    quads = [(1, 2, 4, 3), (5, 7, 8, 6), (1, 5, 6, 2), (3, 4, 8, 7), (1, 3, 7, 5), (2, 6, 8, 4)]
+    rows = [f"v {'nan' if i == nan_at else x} {y} {z}" for i, (x, y, z) in enumerate(v, 1)]
+    rows += [f"f {a} {b} {c}\nf {a} {c} {d}" for a, b, c, d in quads]
+    return "\n".join(rows) + "\n"
+
+
+def _dxf(path, points):
+    import ezdxf
+
+    doc = ezdxf.new("R2010")
+    doc.units = ezdxf.units.MM
+    doc.modelspace().add_lwpolyline(points, close=True)
+    doc.saveas(path)
+
+
+@pytest.mark.parametrize("name, make, words", [
+    ("tri.obj", lambda p: p.write_text("v 0 0 0\nv 50 0 0\nv 0 40 0\nf 1 2 3\n"),
+     "tri.obj holds 1 triangle on 3 vertices: a solid needs a closed surface of at least 4 "
+     "triangles"),                                                        # "holds no triangles"
+    ("nan.obj", lambda p: p.write_text(_box_obj(nan_at=4)),
+     "nan.obj: vertex 4 is not a finite number (nan, 40, 10)"),         # planned, "open edges"
+    ("bowtie.dxf", lambda p: _dxf(p, [(0, 0), (60, 30), (60, 0), (0, 30)]),
+     "bowtie.dxf: the loop LWPOLYLINE #2F (layer 0) crosses itself at (30, 15) mm"),  # no loop
+    ("cross.dxf", lambda p: _dxf(p, [(0, 0), (60, 40), (60, 0), (0, 20)]),
+     "cross.dxf: the loop LWPOLYLINE #2F (layer 0) crosses itself at (20, 13.33) mm"),  # com
+])
+def test_cad_messages_name_the_files_own_fault(tmp_path, name, make, words):
+    """A one-triangle mesh "held no triangles", a self-intersecting DXF outline
+    "had no closed loop" (or a centre of mass outside it), and an OBJ with a NaN
+    vertex was planned with an "open edges" warning."""
+    p = tmp_path / name
+    make(p)
+    if name.endswith(".dxf"):
+        r = nudge_here("plan-push", p, "--start", "0,0,0", "--goal", "0.05,0,0")
+    else:
+        r = nudge_here("plan-tumble", p, "--units", "mm", "--goal", "0.1,0,0,1", "--eps", "0.002")
+    errors = [ln for ln in r.stderr.splitlines() if ln.startswith("error: ")]
+    assert r.returncode == 2 and len(errors) == 1 and "warning" not in r.stderr, r.stderr
+    assert words in errors[0], errors[0]
+    assert r.stdout == "" or "tumble plan" not in r.stdout
+
+
+def test_a_mesh_whose_hull_is_too_fine_is_refused_in_seconds(tmp_path):
+    """A 200k-triangle sphere hung over 240 s in kernels/facets.py with no word:
+    a hull of more than 2,000 vertices is refused right after the hull (a 4,418-
+    vertex sphere here; the hull's faces took 3 s and the planner minutes)."""
+    import trimesh
+
+    p = tmp_path / "ball.stl"
+    trimesh.creation.uv_sphere(radius=25.0, count=[48, 48]).export(p)
+    r = nudge("plan-tumble", p, "--units", "mm", "--goal", "0.1,0,0,1", "--eps", "0.002",
+              timeout=60)
+    line = r.stderr.strip()
+    assert r.returncode == 2 and "\n" not in line, r.stderr
+    assert ("ball.stl: its convex hull has 4,418 vertices (8,832 triangles in the mesh: a curved "
+            "surface finely tessellated); nudge takes hulls of at most 2,000 vertices - decimate "
+            "the mesh") in line, line
