@@ -596,25 +596,6 @@ def margin_search(part, start, goal, cfg, key, model):
     return first_certifying(grid, ok)
 
 
-#: what to change, by the dominant failure of a plan that did not certify
-_REMEDIES = {
-    "slip": "a fence that grips better (friction.mu_f: the paper's experiments used a "
-            "sandpaper-coated fence) or a plan that allows for slip (planner.min_fence_mu)",
-    "wrong_edge": "a wider stability margin (planner.margin_deg) or longer reorient pushes "
-                  "(planner.safety_factor)",
-    "incomplete_reorientation": "longer reorient pushes (planner.safety_factor) or a wider "
-                                "stability margin (planner.margin_deg)",
-    "position": "tighter execution errors (execution:)",
-    "orientation": "tighter execution errors (execution:)",
-    "hull_changed": "a tighter vertex tolerance (tolerances.tau_v)",
-    "combinatorics_changed": "a tighter vertex tolerance (tolerances.tau_v)",
-    "wrong_face": "a smaller tumble accuracy (planner.tumble_eps) or a tighter vertex tolerance",
-    "toppled": "the cell settings (physics:): a lower push height or a slower fence",
-    "left_workspace": "a larger workspace (physics:) or shorter plans",
-    "fence_strike": "the fence's clearance (physics:)",
-}
-
-
 def next_steps(cert: dict, support: str = "any", synthesized: bool = False,
                designed: bool = False) -> str:
     """What an engineer can change when a task did not certify (one line, empty
@@ -632,17 +613,9 @@ def next_steps(cert: dict, support: str = "any", synthesized: bool = False,
         return "next: give the tolerances to certify against (tolerances:, friction:, execution:)"
     if reason not in ("failures", "below_requirement"):
         return ""
-    steps = []
-    remedy = _REMEDIES.get(str(cert.get("dominant_failure_mode")))
-    if remedy:
-        steps.append(remedy)
-    if kind == "push" and not synthesized:
-        steps.append("--synthesize (a plan chosen for these draws)")
-    if kind == "push" and support == "any":
-        steps.append("a measured support (friction.support: rigid, uniform, ring or tripod) in "
-                     "place of any, which draws every family")
-    if not designed:
-        steps.append("--design (which tolerance drives the failures)")
+    from sweeps.remedies import remedies
+
+    steps = remedies(kind, cert.get("dominant_failure_mode"), support, synthesized, designed)
     head = ("more samples cannot certify this plan; try" if reason == "below_requirement"
             else "to certify it, try")
     return f"next: {head} " + "; ".join(steps) if steps else ""

@@ -243,6 +243,25 @@ def travel(field: str, d: float, s: float, units: str = "m", xy=None) -> list[Fi
     return _warning(head + hint)
 
 
+def design_draws(design, required) -> list[Finding]:
+    """A tolerance design (``design:``, enabled) on too few draws to certify any
+    design, even one with no failure (:func:`robustness.tolerance_design.design_samples_needed`):
+    it would end in a design of zeros, after all its work."""
+    if design is None or not design.enabled:
+        return []
+    from robustness import tolerance_design
+
+    p, conf = required.probability, required.confidence
+    need = tolerance_design.design_samples_needed(p, conf)
+    if design.n_samples >= need:
+        return []
+    strict = 1.0 - tolerance_design.HEADROOM * (1.0 - conf)
+    return _error(f"design.n_samples: {design.n_samples} design draws cannot show P(success) >= "
+                  f"{p:g} at the design's {strict * 100:.4g}% confidence (a tenth of the stated "
+                  f"error rate: headroom for its verification on fresh draws) even with no "
+                  f"failure; give at least {need} (default 1000)")
+
+
 def angle_tolerance(field: str, v: Optional[float]) -> list[Finding]:
     """An angle tolerance or accuracy ``v`` (rad, a half-width)."""
     if v is None or not v > 0:
@@ -345,6 +364,7 @@ def config_findings(cfg, part, s: Optional[float] = None) -> list[Finding]:
     out += relative("execution.distance_rel", x.distance_rel)
     out += friction("friction.mu_f", f.mu_f) + friction("friction.mu_s", f.mu_s)
     out += friction("planner.min_fence_mu", p.min_fence_mu)
+    out += design_draws(getattr(cfg, "design", None), cfg.required)
     tasks = cfg.tasks
     units = getattr(part, "units", "m") or "m"
     if isinstance(tasks, list):

@@ -1,5 +1,6 @@
 """Answers an engineer can act on (issue 42): what the commands say about
 mistakes that earlier passed, each through the command a user types."""
+import dataclasses
 import re
 from importlib import metadata
 
@@ -313,3 +314,76 @@ def test_a_mesh_whose_hull_is_too_fine_is_refused_in_seconds(tmp_path):
     assert ("ball.stl: its convex hull has 4,418 vertices (8,832 triangles in the mesh: a curved "
             "surface finely tessellated); nudge takes hulls of at most 2,000 vertices - decimate "
             "the mesh") in line, line
+
+
+TURN = f"""part: {ROOT / 'examples' / 'biplus_stable.yaml'}
+tolerances: {{tau_v: 2.0e-5, tau_com: 1.0e-4}}
+friction: {{mu_f: [0.3, 0.8], support: any}}
+execution: {{start_xy: 5.0e-4, start_theta: 0.01, fence_angle: 0.002, distance_abs: 1.0e-4,
+             distance_rel: 0.005}}
+planner: {{margin_deg: 7, safety_factor: 1.15}}
+eps: {{pos_eps_m: 0.003, theta_eps_rad: 0.05}}
+n_samples: 40
+model: quasistatic
+design: {{n_samples: DRAWS}}
+tasks:
+  - {{name: turn, start: [0, 0, 0], goal: [0.10, 0.05, 60deg]}}
+"""
+
+
+def test_a_design_on_too_few_draws_is_refused_before_work(tmp_path):
+    """40 design draws can never show P >= 0.9 at the design's 99.5%: the design
+    ended in "+-0 mm ... NOT certified", or, verified at 95% on fresh draws, in a
+    green "certified" box of zeros."""
+    cfg = tmp_path / "turn.yaml"
+    cfg.write_text(TURN.replace("DRAWS", "40"))
+    r = nudge_here("certify", cfg, "--design", "--synthesize", "--out", tmp_path / "out")
+    line = r.stderr.strip()
+    assert r.returncode == 2 and "\n" not in line, r.stderr
+    assert line == (f"error: {cfg}: design.n_samples: 40 design draws cannot show P(success) >= "
+                    "0.9 at the design's 99.5% confidence (a tenth of the stated error rate: "
+                    "headroom for its verification on fresh draws) even with no failure; give at "
+                    "least 51 (default 1000)")
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_drawing_line_never_states_a_design_of_zeros():
+    from robustness import tolerance_design as td
+
+    designs = [td.AxisDesign("tau_v", ("tolerances.tau_v",), (2e-5,), (0.0,), 0.0, False, 0.0,
+                             "none_certifies", 3)]
+    joint = td.JointDesign(0.0, {"tau_v": (0.0,)}, 0.1, 0, 0, 0.0, False, "perfect",
+                           none_certifies=True, failure_rate_perfect=0.7)
+    line = td.drawing_line(designs, joint, 0.9, 0.95, "quasistatic")
+    assert line.startswith("no tolerance certifies this plan: with every tolerance perfect, 70% "
+                           "of the design draws still fail (quasistatic model), more than the 10%")
+    assert "+-0 mm" not in line and "certified P" not in line
+    joint = dataclasses.replace(joint, failure_rate_perfect=0.02)
+    assert td.drawing_line(designs, joint, 0.9, 0.95, "quasistatic").startswith(
+        "no design certifies on these design draws: with every tolerance perfect, 2.0% of them fail")
+
+
+@pytest.mark.slow
+def test_a_design_no_tolerance_certifies_says_so_and_what_would(tmp_path):
+    """With every tolerance perfect 75% of the draws fail (the unknown support):
+    the design said "vertices within +-0 mm, centre of mass within 0 mm, ...: NOT
+    certified", with no way out."""
+    import pandas as pd
+
+    cfg = tmp_path / "turn.yaml"
+    cfg.write_text(TURN.replace("DRAWS", "60"))
+    r = nudge_here("certify", cfg, "--design", "--out", tmp_path / "out")
+    assert r.returncode == 1, r.stderr
+    line = next(ln for ln in r.stderr.splitlines() if ln.startswith("[turn] tolerance design: "))
+    assert line.startswith("[turn] tolerance design: no tolerance certifies this plan: with every "
+                           "tolerance perfect, "), line
+    assert "of the design draws still fail (quasistatic model), more than the 10%" in line
+    for way in ("what would: a measured support (friction.support:", "more fence friction",
+                "--synthesize"):
+        assert way in line, (way, line)
+    assert "+-0 mm" not in r.stdout + r.stderr
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert '<p class="drawing no">no tolerance certifies this plan' in html
+    assert "No joint design is stated" in html
+    design = pd.read_parquet(tmp_path / "out" / "design")
+    assert not design.joint_certified.any() and (design.joint_n_fresh == 0).all()
