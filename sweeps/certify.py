@@ -197,6 +197,23 @@ def estimate_peak(cfg: CertifyConfig, part) -> float:
                                                                    cfg.friction.support)))
 
 
+def _check_sample_cap(cfg: CertifyConfig, field: str) -> None:
+    """``n_samples: auto`` under a cap (``field``) below the fewest samples that
+    can certify even when every one succeeds: refused before any work (it ran
+    the cap's samples, then said how many more were needed)."""
+    from robustness import samples_needed
+
+    if cfg.n_samples != "auto":
+        return
+    p, conf = cfg.required.probability, cfg.required.confidence
+    need = samples_needed(p, conf)
+    if cfg.max_samples < need:
+        raise ConfigError(f"{field}: {cfg.max_samples} samples cannot certify P(success) >= {p:g} "
+                          f"at {conf * 100:.4g}% confidence even if every one succeeds: with p and "
+                          f"confidence as given, at least {need} samples are needed; raise {field} "
+                          f"to {need} or more (--n-samples auto)")
+
+
 def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = False,
          design: bool = False):
     """Read a certify config and apply command-line overrides (``synthesize``,
@@ -237,6 +254,7 @@ def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = F
             doc[name] = {**(sec if isinstance(sec, dict) else {}), "enabled": True}
     try:
         cfg = validate(CertifyConfig, doc)
+        _check_sample_cap(cfg, "--max-samples" if max_samples is not None else "max_samples")
         part = load_part_ref(cfg.part, path.parent)
         tasks = explicit_tasks(cfg.tasks, part.kind)
         if cfg.model == "mujoco":

@@ -387,3 +387,26 @@ def test_a_design_no_tolerance_certifies_says_so_and_what_would(tmp_path):
     assert "No joint design is stated" in html
     design = pd.read_parquet(tmp_path / "out" / "design")
     assert not design.joint_certified.any() and (design.joint_n_fresh == 0).all()
+
+
+def test_an_auto_sample_cap_that_cannot_certify_is_refused_before_work(tmp_path):
+    """``--n-samples auto --max-samples 5`` ran 5 samples, then said more were needed."""
+    cfg = ROOT / "examples" / "certify_triangle.yaml"
+    r = nudge_here("certify", cfg, "--n-samples", "auto", "--max-samples", "5",
+                   "--out", tmp_path / "a")
+    line = r.stderr.strip()
+    assert r.returncode == 2 and "\n" not in line, r.stderr
+    assert line == (f"error: {cfg}: --max-samples: 5 samples cannot certify P(success) >= 0.9 at "
+                    "95% confidence even if every one succeeds: with p and confidence as given, "
+                    "at least 29 samples are needed; raise --max-samples to 29 or more "
+                    "(--n-samples auto)")
+    assert not (tmp_path / "a").exists()
+    # in the config file, with a stricter requirement
+    own = tmp_path / "c.yaml"
+    own.write_text(cfg.read_text().replace("part: biplus_stable.yaml",
+                                           f"part: {ROOT / 'examples' / 'biplus_stable.yaml'}")
+                   .replace("n_samples: 300", "n_samples: auto\nmax_samples: 100")
+                   .replace("probability: 0.9", "probability: 0.99"))
+    r = nudge_here("certify", own, "--out", tmp_path / "b")
+    assert r.returncode == 2 and ("max_samples: 100 samples cannot certify P(success) >= 0.99 at "
+                                  "95% confidence") in r.stderr and "at least 299 samples" in r.stderr
