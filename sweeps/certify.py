@@ -68,59 +68,13 @@ import sys
 import warnings
 from typing import Literal, Optional, Union
 
-import numpy as np
-from pydantic import Field, StrictBool, field_validator
-
-from robustness import GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, model_for
+from sweeps.budget import MAX_SAMPLES
 from sweeps.errors import Exit, UserError
-from sweeps.config import (ConfigError, Design, Evaluation, PartInline, Strict, Synthesize,
-                           Task, explicit_tasks, validate)
 from sweeps.terminal import Parser, fail, report_part, report_warnings, run_main
 
-MAX_SAMPLES = 100_000
-
-
-class MarginSearch(Strict):
-    """Grid for the margin recommendation (push tasks)."""
-
-    margins_deg: list[float] = Field(default_factory=lambda: list(GRID_MARGINS_DEG))
-    safety_factors: list[float] = Field(default_factory=lambda: list(GRID_SAFETY_FACTORS))
-    n_samples: int = Field(200, ge=1, le=10_000_000)
-    enabled: StrictBool = True
-
-    @field_validator("margins_deg")
-    @classmethod
-    def _m(cls, v):
-        if not v or any(not (0 < x < 90) for x in v):
-            raise ValueError("give margin angles in degrees, 0 < margin < 90")
-        return sorted(v)
-
-    @field_validator("safety_factors")
-    @classmethod
-    def _s(cls, v):
-        if not v or any(x < 1 for x in v):
-            raise ValueError("give safety factors >= 1")
-        return sorted(v)
-
-
-class CertifyConfig(Evaluation):
-    """A certification config."""
-
-    part: Union[str, PartInline]
-    n_samples: Union[int, Literal["auto"]] = 400
-    max_samples: int = Field(MAX_SAMPLES, ge=1, le=100_000_000)
-    tasks: list[Task] = Field(min_length=1)
-    margin_search: Optional[MarginSearch] = None
-    synthesize: Optional[Synthesize] = None
-    design: Optional[Design] = None
-
-    @field_validator("n_samples")
-    @classmethod
-    def _n(cls, v):
-        if isinstance(v, int) and v < 1:
-            raise ValueError(f"must be >= 1 or auto, got {v}")
-        return v
-
+# The config's schema (sweeps.config.CertifyConfig) and the layers below (JAX, MuJoCo,
+# pandas) are imported where a command runs, not here: `nudge certify --help` reads
+# only the parser.
 
 def build_parser(prog: str = "nudge certify") -> Parser:
     p = Parser(prog=prog, description="Certify push / tumble plans against part tolerances, "
@@ -202,6 +156,7 @@ def _check_sample_cap(cfg: CertifyConfig, field: str) -> None:
     can certify even when every one succeeds: refused before any work (it ran
     the cap's samples, then said how many more were needed)."""
     from robustness import samples_needed
+    from sweeps.config import ConfigError
 
     if cfg.n_samples != "auto":
         return
@@ -227,6 +182,7 @@ def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = F
       UserError: one line per mistake (``lines``), each naming the file.
     """
     from robustness.physics import check_pad_friction
+    from sweeps.config import CertifyConfig, ConfigError, explicit_tasks, validate
     from sweeps.plausible import screen_config
     from sweeps.study import load_part_ref, part_polyhedron
     from sweeps.yamlio import dump_yaml, read_yaml
@@ -274,9 +230,10 @@ def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = F
 
 def main(argv=None, prog: str = "nudge certify") -> int:
     """Run the command line; returns the exit status."""
+    args = build_parser(prog).parse_args(sys.argv[1:] if argv is None else argv)
+    from sweeps.config import ConfigError
     from sweeps.store import RunError
 
-    args = build_parser(prog).parse_args(sys.argv[1:] if argv is None else argv)
     path = pathlib.Path(args.config)
     try:
         cfg, doc, text, part, tasks = load(path, args.n_samples, args.max_samples, args.seed,
@@ -376,7 +333,8 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     import jax
 
     from robustness import (tables, Schedule, auto_schedule, block_samples, decide, grow,
-                            no_plan, perturbed_sources)
+                            model_for, no_plan, perturbed_sources)
+    from sweeps.config import ConfigError
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
     kind = _plan_kind(part)
@@ -469,6 +427,7 @@ class Blocks:
 
     def extend(self, total: int) -> tuple[int, int]:
         import jax
+        import numpy as np
 
         from robustness import tables
         from sweeps.blocks import block_stats, block_stem, sample_block
@@ -559,6 +518,8 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
 
 
 def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
+    from robustness import model_for
+
     push = part.kind == "polygon"
     sel = dict(selection="default plan", n_candidates=0, selection_n_samples=0,
                selection_ci_low=math.nan, default_selection_ci_low=math.nan)
