@@ -30,7 +30,7 @@ TEMPLATE = jinja2.Template("""<!doctype html>
 <html lang="en"><head><meta charset="utf-8">
 <title>nudge study {{ name }} ({{ run_id }})</title>
 <style>
-{{ style | safe }}.figs { display: flex; flex-wrap: wrap; gap: 12px; } .figs img { max-width: 540px; }
+{{ style | safe }}.figs figure { margin: 0.8em 0; } .figs img { width: 100%; height: auto; }
 </style></head><body>
 <h1>nudge study <code>{{ name }}</code></h1>
 <p>run <code>{{ run_id }}</code> &middot; {{ kind }} study &middot; part <code>{{ part }}</code>
