@@ -145,8 +145,8 @@ class JointDesign:
       none_certifies: no design on the way certifies, not even every axis at
         a ten-thousandth of its limit: the failures come from what no
         tolerance covers (the support, the fence friction's range, the plan);
-        then ``t`` is 0, nothing is verified (``n_fresh`` 0) and nothing
-        certified.
+        then ``t`` is 0, ``values`` NaN, nothing is verified (``n_fresh`` 0,
+        ``ci_low_fresh`` NaN) and nothing certified.
       failure_rate_perfect: the failure rate on the design draws with every
         axis perfect (:func:`all_perfect`).
     """
@@ -420,10 +420,9 @@ def joint_design(judge: Judge, sampler: Sampler, designs: Sequence[AxisDesign], 
     else:                         # halve t until it certifies, then bisect
         _, _, good_at = _walk(at, 1.0, False, low1, 0.5, 1e-4)
         if good_at is None:   # not even every axis nearly perfect: no tolerance certifies it
-            values = {d.axis: configured(_joint_sampler(sampler, designs, 0.0, basis), d.axis)
-                      for d in designs}
-            return JointDesign(0.0, values, low1, 0, 0, 0.0, False, basis, none_certifies=True,
-                               failure_rate_perfect=perfect_rate)
+            values = {d.axis: (math.nan,) * len(d.loosest) for d in designs}
+            return JointDesign(0.0, values, low1, 0, 0, math.nan, False, basis,
+                               none_certifies=True, failure_rate_perfect=perfect_rate)
         else:
             t, low = _boundary(at, good_at[0], min(1.0, 2.0 * good_at[0]), good_at[1], rel_tol)
     s = _joint_sampler(sampler, designs, t, basis)

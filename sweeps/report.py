@@ -308,7 +308,7 @@ perfect: {{ t.base }} (what no axis covers, e.g. the support).</p>
 
 
 def _values(v) -> str:
-    return ", ".join(f"{x:.4g}" for x in v)
+    return ", ".join("-" if x != x else f"{x:.4g}" for x in v)
 
 
 def write_certify_report(store, part, config_text: str) -> pathlib.Path:

@@ -4,6 +4,7 @@ import dataclasses
 import re
 from importlib import metadata
 
+import numpy as np
 import pytest
 
 from tests.commandline import ROOT, nudge, nudge_here
@@ -387,6 +388,7 @@ def test_a_design_no_tolerance_certifies_says_so_and_what_would(tmp_path):
     assert "No joint design is stated" in html
     design = pd.read_parquet(tmp_path / "out" / "design")
     assert not design.joint_certified.any() and (design.joint_n_fresh == 0).all()
+    assert design.joint_ci_low_fresh.isna().all() and all(np.isnan(v).all() for v in design.joint)
 
 
 def test_an_auto_sample_cap_that_cannot_certify_is_refused_before_work(tmp_path):
