@@ -343,7 +343,8 @@ def make_polyhedron(vertices, com=None, *, tol: float = DEFAULT_MERGE_TOL,
 
     hull_vertices = tuple(sorted({i for c in cycles for i in c}))
     warn_implausible_size(extent(v[list(hull_vertices)]))
-    dropped = tuple(i for i in range(m) if i not in set(hull_vertices))
+    on_hull = set(hull_vertices)
+    dropped = tuple(i for i in range(m) if i not in on_hull)
     if dropped:
         warnings.warn(
             f"vertices: points {list(dropped)} are not vertices of the convex hull "

@@ -34,7 +34,7 @@ from robustness.bounds import (Bound, SourceBound, push_plan_bound, tumble_first
 from robustness.evaluation import MODELS, BoundViolation, Evaluation, evaluate
 from robustness.samplers import Draws, PerturbationParams, Sampler
 from robustness.stats import (CONFIDENCE, REQUIRED_PROBABILITY, clopper_pearson, one_sided_lower,
-                              one_sided_upper)
+                              one_sided_upper, samples_needed)
 from robustness.summary import summarise
 from robustness.synthesis import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES,
                                   Candidate, Scores, Synthesis, physics_tiebreak, push_candidates,
@@ -60,7 +60,7 @@ __all__ = [
     "Draws", "PerturbationParams",
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "Bound", "SourceBound", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
-    "one_sided_upper", "certify", "Certificate", "summarise",
+    "one_sided_upper", "samples_needed", "certify", "Certificate", "summarise",
     "tables", "tolerance_design", "failure_modes", "FAILURE_MODES", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
     "first_certifying", "grow", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "release_executables", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow",
 ]

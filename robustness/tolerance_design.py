@@ -142,6 +142,13 @@ class JointDesign:
       ci_low_design: the bound on the design draws (optimistic).
       n_fresh, k_fresh, ci_low_fresh: the verification on fresh draws.
       certified: ``ci_low_fresh >= p``.
+      none_certifies: no design on the way certifies, not even every axis at
+        a ten-thousandth of its limit: the failures come from what no
+        tolerance covers (the support, the fence friction's range, the plan);
+        then ``t`` is 0, ``values`` NaN, nothing is verified (``n_fresh`` 0,
+        ``ci_low_fresh`` NaN) and nothing certified.
+      failure_rate_perfect: the failure rate on the design draws with every
+        axis perfect (:func:`all_perfect`).
     """
 
     t: float
@@ -152,6 +159,8 @@ class JointDesign:
     ci_low_fresh: float
     certified: bool
     basis: str = "configured"
+    none_certifies: bool = False
+    failure_rate_perfect: float = math.nan
 
 
 def axes_for(plan) -> tuple:
@@ -373,6 +382,13 @@ def _joint_sampler(sampler: Sampler, designs: Sequence[AxisDesign], t: float,
 HEADROOM = 0.1
 
 
+def design_samples_needed(p: float, confidence: float) -> int:
+    """The fewest design draws that can show ``P(success) >= p`` at the joint
+    design's stricter confidence (:data:`HEADROOM`), even with no failure:
+    fewer can never certify a design, whatever the tolerances."""
+    return stats.samples_needed(p, 1.0 - HEADROOM * (1.0 - confidence))
+
+
 def joint_design(judge: Judge, sampler: Sampler, designs: Sequence[AxisDesign], fresh_key,
                  n_fresh: Optional[int] = None, *, rel_tol: float = 0.02) -> JointDesign:
     """The joint design: every axis ``t`` of the way to its one-axis limit, the
@@ -384,8 +400,11 @@ def joint_design(judge: Judge, sampler: Sampler, designs: Sequence[AxisDesign], 
 
     The way starts at the configured tolerances when they certify (no axis is
     then tighter than configured: ``basis = "configured"``), else at perfect
-    (``"perfect"``: all axes the same fraction of their limits)."""
+    (``"perfect"``: all axes the same fraction of their limits).  When no
+    fraction certifies (down to 1e-4 of the way from perfect), the design is
+    ``none_certifies``: nothing is verified or claimed."""
     strict = 1.0 - HEADROOM * (1.0 - judge.confidence)
+    perfect_rate = 1.0 - judge.successes(all_perfect(sampler, [d.axis for d in designs])) / judge.n
 
     def ok(t, basis):
         low = stats.one_sided_lower(
@@ -401,8 +420,10 @@ def joint_design(judge: Judge, sampler: Sampler, designs: Sequence[AxisDesign], 
         t, low = _boundary(at, 0.0, 1.0, ok(0.0, basis)[1], rel_tol, geometric=False)
     else:                         # halve t until it certifies, then bisect
         _, _, good_at = _walk(at, 1.0, False, low1, 0.5, 1e-4)
-        if good_at is None:
-            t, low = 0.0, 0.0
+        if good_at is None:   # not even every axis nearly perfect: no tolerance certifies it
+            values = {d.axis: (math.nan,) * len(d.loosest) for d in designs}
+            return JointDesign(0.0, values, low1, 0, 0, math.nan, False, basis,
+                               none_certifies=True, failure_rate_perfect=perfect_rate)
         else:
             t, low = _boundary(at, good_at[0], min(1.0, 2.0 * good_at[0]), good_at[1], rel_tol)
     s = _joint_sampler(sampler, designs, t, basis)
@@ -412,7 +433,8 @@ def joint_design(judge: Judge, sampler: Sampler, designs: Sequence[AxisDesign], 
     k = fresh.successes(s)
     lowf = stats.one_sided_lower(k, n, judge.confidence)
     values = {d.axis: (configured(s, d.axis)) for d in designs}
-    return JointDesign(t, values, low, n, k, lowf, lowf >= judge.p, basis)
+    return JointDesign(t, values, low, n, k, lowf, lowf >= judge.p, basis,
+                       failure_rate_perfect=perfect_rate)
 
 
 def design_key(key):
@@ -438,7 +460,20 @@ _WORDS = {
 def drawing_line(designs: Sequence[AxisDesign], joint: JointDesign, p: float,
                  confidence: float, model: str) -> str:
     """The joint design in words an engineer can copy onto a drawing, with what
-    was shown (model, confidence, fresh samples)."""
+    was shown (model, confidence, fresh samples); when no tolerance certifies
+    the plan (:attr:`JointDesign.none_certifies`), that, and the failure rate
+    that is left with every tolerance perfect - never a design of zeros."""
+    if joint.none_certifies:
+        rate, allowed = joint.failure_rate_perfect, 1.0 - p
+        if rate < allowed:   # few failures, too few draws to show it
+            return (f"no design certifies on these design draws: with every tolerance perfect, "
+                    f"{rate:.1%} of them fail ({model} model), within the {allowed:.0%} that "
+                    f"P(success) >= {p:g} allows but too close to show it at the design's "
+                    f"confidence")
+        return (f"no tolerance certifies this plan: with every tolerance perfect, "
+                f"{rate:.0%} of the design draws still fail ({model} model), more than the "
+                f"{allowed:.0%} that P(success) >= {p:g} allows; they fail from what no "
+                f"tolerance covers: the support, the fence friction's range, the plan itself")
     parts = [_WORDS[d.axis](joint.values[d.axis]) for d in designs]
     head = ", ".join(parts)
     pct = f"{confidence * 100:.4g}%"
@@ -452,4 +487,4 @@ def drawing_line(designs: Sequence[AxisDesign], joint: JointDesign, p: float,
 
 __all__ = ["AxisDesign", "Sensitivity", "JointDesign", "Judge", "PUSH_AXES", "TUMBLE_AXES",
            "axes_for", "configured", "fields", "loosest", "sensitivity", "joint_design",
-           "design_key", "drawing_line", "with_values", "perfect", "all_perfect", "unit_values"]
+           "design_key", "drawing_line", "design_samples_needed", "with_values", "perfect", "all_perfect", "unit_values"]

@@ -14,6 +14,10 @@ from typing import Optional
 #: a run estimated above this many seconds needs ``--yes``
 BUDGET_S = 3600.0
 
+#: the most samples a task of ``nudge certify --n-samples auto`` draws, unless
+#: ``--max-samples`` / ``max_samples:`` says otherwise
+MAX_SAMPLES = 100_000
+
 
 def fmt_time(s: float) -> str:
     """Seconds as a person reads them (s, min or h)."""

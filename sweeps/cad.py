@@ -230,15 +230,39 @@ def _load_mesh(path: pathlib.Path, field: str):
         raise ValueError(f"{field}: no such file {str(path)!r}")
     if path.suffix.lower() == ".stl":
         _check_stl(path, field)
-    try:
-        mesh = trimesh.load(str(path), force="mesh", process=True)
+    try:   # unprocessed first: processing drops non-finite vertices without a word
+        mesh = trimesh.load(str(path), force="mesh", process=False)
     except Exception as exc:   # noqa: BLE001 - trimesh raises many types for a bad file
         raise ValueError(f"{field}: {path.name} cannot be read as a mesh "
                          f"({type(exc).__name__}: {' '.join(str(exc).split())[:160]})") from None
     faces = getattr(mesh, "faces", None)
-    if faces is None or len(faces) == 0 or len(getattr(mesh, "vertices", ())) < 4:
+    n_tri = 0 if faces is None else len(faces)
+    if n_tri == 0:
         raise ValueError(f"{field}: {path.name} holds no triangles (an empty or unreadable mesh)")
+    _check_finite(np.asarray(mesh.vertices), path, field)
+    mesh.process()
+    if n_tri < 4 or len(mesh.vertices) < 4:
+        raise ValueError(f"{field}: {path.name} holds {n_tri} triangle{'s' if n_tri != 1 else ''} "
+                         f"on {len(mesh.vertices)} vertices: a solid needs a closed surface of at "
+                         "least 4 triangles (a tetrahedron); export the whole part as a solid")
     return mesh
+
+
+def _check_finite(vertices: np.ndarray, path: pathlib.Path, field: str) -> None:
+    """Refuse a mesh with a vertex that is not a finite number (NaN, inf): a
+    mesh library drops it and the faces that use it, and the part is planned
+    with holes.  An STL's vertices are numbered by triangle; other formats'
+    as the file lists them (from 1, as OBJ numbers them)."""
+    bad = np.flatnonzero(~np.all(np.isfinite(vertices), axis=1))
+    if not bad.size:
+        return
+    i = int(bad[0])
+    xyz = ", ".join(f"{x:g}" for x in vertices[i])
+    where = (f"triangle {i // 3 + 1}'s vertex {i % 3 + 1}" if path.suffix.lower() == ".stl"
+             else f"vertex {i + 1}")
+    more = f" (and {bad.size - 1} more)" if bad.size > 1 else ""
+    raise ValueError(f"{field}: {path.name}: {where} is not a finite number ({xyz}){more}; fix "
+                     "the coordinates or export the mesh again")
 
 
 def _mesh_units(mesh) -> Optional[str]:
@@ -304,6 +328,9 @@ def _read_mesh(path, units, field: str, units_field: str):
     unit, units_from, warns = _resolve_units(units, _mesh_units(mesh), path, units_field)
     pts = np.asarray(mesh.vertices, np.float64)
     _check_size(pts, unit, units_from, path, units_field)
+    k = UNITS[unit]
+    hull = _hull(pts * k, "mesh", path)
+    _check_hull_size(hull, len(mesh.faces), path, field)
     com, volume, desc, more = _solid(mesh, path, field)
     warns += more
     bodies = int(mesh.body_count)
@@ -311,8 +338,6 @@ def _read_mesh(path, units, field: str, units_field: str):
         warns.append(f"{field}: {path.name} holds {bodies} separate bodies (unconnected pieces): "
                      f"nudge plans one rigid part, the hull of all of them with their joint "
                      f"centre of mass; keep one part per file")
-    k = UNITS[unit]
-    hull = _hull(pts * k, "mesh", path)
     verts = np.ascontiguousarray(hull.points[hull.vertices])
     com = None if com is None else com * k
     poly = _polyhedron(verts, com)
@@ -323,6 +348,27 @@ def _read_mesh(path, units, field: str, units_field: str):
                       description=f"{desc}; convex hull of {len(verts)} vertices",
                       warnings=tuple(warns))
     return geo, poly
+
+
+#: The most convex-hull vertices a mesh may have: the hull's faces are a tumble's
+#: resting faces, merged and checked one by one (kernels.make_polyhedron: about 1 s
+#: at 2,000 vertices, minutes at 100,000: a finely tessellated sphere of 200,000
+#: triangles)
+MAX_HULL_VERTICES = 2000
+
+
+def _check_hull_size(hull, n_tri: int, path: pathlib.Path, field: str) -> None:
+    """Refuse a mesh whose convex hull has more than :data:`MAX_HULL_VERTICES`
+    vertices (a curved surface finely tessellated), before the hull's faces
+    are worked out."""
+    n = len(hull.vertices)
+    if n <= MAX_HULL_VERTICES:
+        return
+    raise ValueError(f"{field}: {path.name}: its convex hull has {n:,} vertices ({n_tri:,} "
+                     f"triangles in the mesh: a curved surface finely tessellated); nudge takes "
+                     f"hulls of at most {MAX_HULL_VERTICES:,} vertices - decimate the mesh (e.g. "
+                     f"trimesh's simplify_quadric_decimation, MeshLab's Quadric Edge Collapse) or "
+                     f"export it with a coarser chord tolerance")
 
 
 def _polyhedron(verts: np.ndarray, com, raise_errors: bool = False):
@@ -502,6 +548,47 @@ def _dedupe(pts: np.ndarray, tol: float) -> np.ndarray:
     return np.asarray(keep)
 
 
+def _crossing(loop: np.ndarray) -> Optional[np.ndarray]:
+    """Where a closed polygon ``loop`` ((k, 2), last point != first) crosses
+    itself: the point where two of its sides that share no corner cross
+    properly, or None.  A sweep over the sides sorted by their left end: a side
+    is tested only against the sides that overlap it in x (all at once)."""
+    a = loop
+    b = np.roll(loop, -1, axis=0)
+    n = len(a)
+    if n < 4:
+        return None
+    lo, hi = np.minimum(a[:, 0], b[:, 0]), np.maximum(a[:, 0], b[:, 0])
+    order = np.argsort(lo, kind="stable")
+    stop = np.searchsorted(lo[order], hi[order], side="right")   # sides starting before i ends
+    count = np.maximum(stop - np.arange(n) - 1, 0)
+    scale = float(np.ptp(loop, axis=0).max())
+
+    def cross(o, p, q):
+        return (p[:, 0] - o[:, 0]) * (q[:, 1] - o[:, 1]) - (p[:, 1] - o[:, 1]) * (q[:, 0] - o[:, 0])
+
+    for first in range(0, n, 4096):   # blocks of sides: bounded memory
+        c = count[first:first + 4096]
+        if not c.sum():
+            continue
+        rows = np.repeat(np.arange(first, first + len(c)), c)
+        offs = np.arange(len(rows)) - np.repeat(np.cumsum(c) - c, c)
+        i, j = order[rows], order[rows + 1 + offs]
+        near = (np.abs(i - j) == 1) | (np.abs(i - j) == n - 1)        # neighbours share a corner
+        i, j = i[~near], j[~near]
+        d1, d2 = cross(a[i], b[i], a[j]), cross(a[i], b[i], b[j])
+        d3, d4 = cross(a[j], b[j], a[i]), cross(a[j], b[j], b[i])
+        eps = 1e-12 * scale * scale
+        hit = np.flatnonzero((d1 * d2 < 0) & (d3 * d4 < 0) & (np.abs(d1 - d2) > eps)
+                             & (np.minimum(np.abs(d1), np.abs(d2)) > eps)
+                             & (np.minimum(np.abs(d3), np.abs(d4)) > eps))
+        if hit.size:
+            h = hit[0]
+            t = d3[h] / (d3[h] - d4[h])
+            return a[i[h]] + t * (b[i[h]] - a[i[h]])
+    return None
+
+
 def _chain(pieces: list, tol: float) -> tuple[list, list]:
     """Closed loops from open pieces joined end to end (``tol``: gap, file units).
 
@@ -649,6 +736,16 @@ def read_outline(path: Union[str, pathlib.Path], units: Optional[str] = None,
     loops, leftovers = _chain(pieces, gap) if pieces else ([], [])
     loops = closed + loops
     loops = [(_dedupe(pts, gap), ents) for pts, ents in loops]
+    for pts, ents in loops:
+        if layer is not None and ents[0].dxf.get("layer", "0") != layer:
+            continue
+        at = _crossing(pts)
+        if at is not None:
+            names = ", ".join(_entity_name(e) for e in ents[:4]) + (" ..." if len(ents) > 4 else "")
+            raise ValueError(f"{field}: {path.name}: the loop {names} crosses itself at "
+                             f"({at[0]:.4g}, {at[1]:.4g}) {unit} (a figure of eight or a bow tie: "
+                             f"its inside is not defined); redraw it as one loop that does not "
+                             f"cross itself")
     loops = [(pts, ents) for pts, ents in loops if len(pts) >= 3 and abs(_shoelace(pts)[0]) > 0]
     on_layer = [lp for lp in loops if layer is None or lp[1][0].dxf.get("layer", "0") == layer]
     if not on_layer:

@@ -68,60 +68,13 @@ import sys
 import warnings
 from typing import Literal, Optional, Union
 
-import numpy as np
-from pydantic import Field, StrictBool, field_validator
-
-from kernels import ANY_COMPONENTS
-from robustness import GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, model_for
+from sweeps.budget import MAX_SAMPLES
 from sweeps.errors import Exit, UserError
-from sweeps.config import (ConfigError, Design, Evaluation, PartInline, Strict, Synthesize,
-                           Task, explicit_tasks, validate)
 from sweeps.terminal import Parser, fail, report_part, report_warnings, run_main
 
-MAX_SAMPLES = 100_000
-
-
-class MarginSearch(Strict):
-    """Grid for the margin recommendation (push tasks)."""
-
-    margins_deg: list[float] = Field(default_factory=lambda: list(GRID_MARGINS_DEG))
-    safety_factors: list[float] = Field(default_factory=lambda: list(GRID_SAFETY_FACTORS))
-    n_samples: int = Field(200, ge=1, le=10_000_000)
-    enabled: StrictBool = True
-
-    @field_validator("margins_deg")
-    @classmethod
-    def _m(cls, v):
-        if not v or any(not (0 < x < 90) for x in v):
-            raise ValueError("give margin angles in degrees, 0 < margin < 90")
-        return sorted(v)
-
-    @field_validator("safety_factors")
-    @classmethod
-    def _s(cls, v):
-        if not v or any(x < 1 for x in v):
-            raise ValueError("give safety factors >= 1")
-        return sorted(v)
-
-
-class CertifyConfig(Evaluation):
-    """A certification config."""
-
-    part: Union[str, PartInline]
-    n_samples: Union[int, Literal["auto"]] = 400
-    max_samples: int = Field(MAX_SAMPLES, ge=1, le=100_000_000)
-    tasks: list[Task] = Field(min_length=1)
-    margin_search: Optional[MarginSearch] = None
-    synthesize: Optional[Synthesize] = None
-    design: Optional[Design] = None
-
-    @field_validator("n_samples")
-    @classmethod
-    def _n(cls, v):
-        if isinstance(v, int) and v < 1:
-            raise ValueError(f"must be >= 1 or auto, got {v}")
-        return v
-
+# The config's schema (sweeps.config.CertifyConfig) and the layers below (JAX, MuJoCo,
+# pandas) are imported where a command runs, not here: `nudge certify --help` reads
+# only the parser.
 
 def build_parser(prog: str = "nudge certify") -> Parser:
     p = Parser(prog=prog, description="Certify push / tumble plans against part tolerances, "
@@ -198,6 +151,24 @@ def estimate_peak(cfg: CertifyConfig, part) -> float:
                                                                    cfg.friction.support)))
 
 
+def _check_sample_cap(cfg: CertifyConfig, field: str) -> None:
+    """``n_samples: auto`` under a cap (``field``) below the fewest samples that
+    can certify even when every one succeeds: refused before any work (it ran
+    the cap's samples, then said how many more were needed)."""
+    from robustness import samples_needed
+    from sweeps.config import ConfigError
+
+    if cfg.n_samples != "auto":
+        return
+    p, conf = cfg.required.probability, cfg.required.confidence
+    need = samples_needed(p, conf)
+    if cfg.max_samples < need:
+        raise ConfigError(f"{field}: {cfg.max_samples} samples cannot certify P(success) >= {p:g} "
+                          f"at {conf * 100:.4g}% confidence even if every one succeeds: with p and "
+                          f"confidence as given, at least {need} samples are needed; raise {field} "
+                          f"to {need} or more (--n-samples auto)")
+
+
 def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = False,
          design: bool = False):
     """Read a certify config and apply command-line overrides (``synthesize``,
@@ -211,6 +182,7 @@ def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = F
       UserError: one line per mistake (``lines``), each naming the file.
     """
     from robustness.physics import check_pad_friction
+    from sweeps.config import CertifyConfig, ConfigError, explicit_tasks, validate
     from sweeps.plausible import screen_config
     from sweeps.study import load_part_ref, part_polyhedron
     from sweeps.yamlio import dump_yaml, read_yaml
@@ -238,6 +210,7 @@ def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = F
             doc[name] = {**(sec if isinstance(sec, dict) else {}), "enabled": True}
     try:
         cfg = validate(CertifyConfig, doc)
+        _check_sample_cap(cfg, "--max-samples" if max_samples is not None else "max_samples")
         part = load_part_ref(cfg.part, path.parent)
         tasks = explicit_tasks(cfg.tasks, part.kind)
         if cfg.model == "mujoco":
@@ -257,9 +230,10 @@ def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = F
 
 def main(argv=None, prog: str = "nudge certify") -> int:
     """Run the command line; returns the exit status."""
+    args = build_parser(prog).parse_args(sys.argv[1:] if argv is None else argv)
+    from sweeps.config import ConfigError
     from sweeps.store import RunError
 
-    args = build_parser(prog).parse_args(sys.argv[1:] if argv is None else argv)
     path = pathlib.Path(args.config)
     try:
         cfg, doc, text, part, tasks = load(path, args.n_samples, args.max_samples, args.seed,
@@ -359,7 +333,8 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     import jax
 
     from robustness import (tables, Schedule, auto_schedule, block_samples, decide, grow,
-                            no_plan, perturbed_sources)
+                            model_for, no_plan, perturbed_sources)
+    from sweeps.config import ConfigError
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
     kind = _plan_kind(part)
@@ -450,6 +425,7 @@ class Blocks:
 
     def extend(self, total: int) -> tuple[int, int]:
         import jax
+        import numpy as np
 
         from robustness import tables
         from sweeps.blocks import block_stats, block_stem, sample_block
@@ -540,6 +516,8 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
 
 
 def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
+    from robustness import model_for
+
     push = part.kind == "polygon"
     sel = dict(selection="default plan", n_candidates=0, selection_n_samples=0,
                selection_ci_low=math.nan, default_selection_ci_low=math.nan)
@@ -594,25 +572,6 @@ def margin_search(part, start, goal, cfg, key, model):
     return first_certifying(grid, ok)
 
 
-#: what to change, by the dominant failure of a plan that did not certify
-_REMEDIES = {
-    "slip": "a fence that grips better (friction.mu_f: the paper's experiments used a "
-            "sandpaper-coated fence) or a plan that allows for slip (planner.min_fence_mu)",
-    "wrong_edge": "a wider stability margin (planner.margin_deg) or longer reorient pushes "
-                  "(planner.safety_factor)",
-    "incomplete_reorientation": "longer reorient pushes (planner.safety_factor) or a wider "
-                                "stability margin (planner.margin_deg)",
-    "position": "tighter execution errors (execution:)",
-    "orientation": "tighter execution errors (execution:)",
-    "hull_changed": "a tighter vertex tolerance (tolerances.tau_v)",
-    "combinatorics_changed": "a tighter vertex tolerance (tolerances.tau_v)",
-    "wrong_face": "a smaller tumble accuracy (planner.tumble_eps) or a tighter vertex tolerance",
-    "toppled": "the cell settings (physics:): a lower push height or a slower fence",
-    "left_workspace": "a larger workspace (physics:) or shorter plans",
-    "fence_strike": "the fence's clearance (physics:)",
-}
-
-
 def next_steps(cert: dict, support: str = "any", synthesized: bool = False,
                designed: bool = False) -> str:
     """What an engineer can change when a task did not certify (one line, empty
@@ -630,17 +589,9 @@ def next_steps(cert: dict, support: str = "any", synthesized: bool = False,
         return "next: give the tolerances to certify against (tolerances:, friction:, execution:)"
     if reason not in ("failures", "below_requirement"):
         return ""
-    steps = []
-    remedy = _REMEDIES.get(str(cert.get("dominant_failure_mode")))
-    if remedy:
-        steps.append(remedy)
-    if kind == "push" and not synthesized:
-        steps.append("--synthesize (a plan chosen for these draws)")
-    if kind == "push" and support == "any":
-        steps.append(f"a measured support (friction.support: {', '.join(ANY_COMPONENTS[:-1])} or "
-                     f"{ANY_COMPONENTS[-1]}) in place of any, which draws every family")
-    if not designed:
-        steps.append("--design (which tolerance drives the failures)")
+    from sweeps.remedies import remedies
+
+    steps = remedies(kind, cert.get("dominant_failure_mode"), support, synthesized, designed)
     head = ("more samples cannot certify this plan; try" if reason == "below_requirement"
             else "to certify it, try")
     return f"next: {head} " + "; ".join(steps) if steps else ""

@@ -19,8 +19,8 @@ import math
 import typing
 from typing import Any, Literal, Optional, Union
 
-from pydantic import (BaseModel, ConfigDict, Field, StrictInt, ValidationError, create_model,
-                      field_validator, model_validator)
+from pydantic import (BaseModel, ConfigDict, Field, StrictBool, StrictInt, ValidationError,
+                      create_model, field_validator, model_validator)
 
 from kernels import (FAMILY, PLAN_SUPPORTS, PLANNED_FAMILIES, REALISABLE_SUPPORTS,
                      SUPPORT_FAMILIES)
@@ -28,6 +28,7 @@ from robustness.physics import PhysicsSettings
 from planning import PushOptions
 from robustness import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES, ExecutionTolerance,
                         FrictionRange, GeometryTolerance, SuccessCriterion, CONFIDENCE, REQUIRED_PROBABILITY)
+from sweeps.budget import MAX_SAMPLES
 from sweeps.errors import UserError
 from sweeps.partfile import part_fields
 from sweeps.plausible import wrap
@@ -587,3 +588,47 @@ def explicit_tasks(tasks: list, kind: str) -> list[tuple[str, tuple, tuple]]:
         out.append((t.name, start, goal))
     return out
 
+
+# --------------------------------------------------------------------------
+# nudge certify's config
+# --------------------------------------------------------------------------
+class MarginSearch(Strict):
+    """Grid for the margin recommendation (push tasks)."""
+
+    margins_deg: list[float] = Field(default_factory=lambda: list(GRID_MARGINS_DEG))
+    safety_factors: list[float] = Field(default_factory=lambda: list(GRID_SAFETY_FACTORS))
+    n_samples: int = Field(200, ge=1, le=10_000_000)
+    enabled: StrictBool = True
+
+    @field_validator("margins_deg")
+    @classmethod
+    def _m(cls, v):
+        if not v or any(not (0 < x < 90) for x in v):
+            raise ValueError("give margin angles in degrees, 0 < margin < 90")
+        return sorted(v)
+
+    @field_validator("safety_factors")
+    @classmethod
+    def _s(cls, v):
+        if not v or any(x < 1 for x in v):
+            raise ValueError("give safety factors >= 1")
+        return sorted(v)
+
+
+class CertifyConfig(Evaluation):
+    """A certification config."""
+
+    part: Union[str, PartInline]
+    n_samples: Union[int, Literal["auto"]] = 400
+    max_samples: int = Field(MAX_SAMPLES, ge=1, le=100_000_000)
+    tasks: list[Task] = Field(min_length=1)
+    margin_search: Optional[MarginSearch] = None
+    synthesize: Optional[Synthesize] = None
+    design: Optional[Design] = None
+
+    @field_validator("n_samples")
+    @classmethod
+    def _n(cls, v):
+        if isinstance(v, int) and v < 1:
+            raise ValueError(f"must be >= 1 or auto, got {v}")
+        return v

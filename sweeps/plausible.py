@@ -30,7 +30,10 @@ tasks.sample.heading                                                     an end 
 a friction coefficient (mu_f, mu_s,           > 3                        (< 0: the schema's error)
 min_fence_mu, ``--min-fence-mu``)
 execution.distance_rel (a fraction)           > 0.2                      >= 1
-the part's size                               outside 0.1 mm .. 5 m
+the part's size                               outside 0.1 mm .. 5 m      outside, in a unit stated
+                                                                         (``units:``, ``--units``, a
+                                                                         CAD header) where another
+                                                                         unit fits: naming that unit
 a task's travel (start to goal; a sampled    > 100 ``S``                >= 1000 ``S`` (a part in
 task's annulus or box; ``--goal``)                                       mm with config lengths
                                                                          read as metres)
@@ -126,18 +129,61 @@ def part_size(vertices) -> float:
     return extent(np.asarray(vertices, dtype=np.float64))
 
 
-def size(s: float) -> list[Finding]:
+def size(s: float, part=None) -> list[Finding]:
     """A part ``s`` metres across outside the sizes nudge expects: the kernels'
     own warning (:func:`kernels.errors.warn_implausible_size`), word for word
-    (nothing for a part of no size, which the kernels refuse)."""
+    (nothing for a part of no size, which the kernels refuse).
+
+    When the unit was stated (``part``'s ``units_from``: a part file's
+    ``units:``, ``--units``, a CAD file's header) and another unit puts the
+    same numbers inside the sizes nudge expects, it is an error naming that
+    unit: ``--units m`` on a mesh in millimetres is a part 60 m across, whose
+    fix is ``--units mm``, not dividing the file's numbers by 1000."""
     from kernels import warn_implausible_size
 
     if not s > 0:
         return []
+    stated = _stated_unit(s, part)
+    if stated:
+        return _error(stated)
     with warnings.catch_warnings(record=True) as got:
         warnings.simplefilter("always")
         warn_implausible_size(s)
     return [Finding("warning", " ".join(str(w.message).split())) for w in got]
+
+
+#: Units tried, in this order, for a part's numbers that are implausible in their stated unit
+_UNIT_GUESSES = ("mm", "m", "cm", "in", "um")
+
+
+def _stated_unit(s: float, part) -> Optional[str]:
+    """The line for a part ``s`` m across read in a unit the user or the file
+    stated, when that size is implausible and another unit is not; else None."""
+    from sweeps.cad import PLAUSIBLE_SIZE_M
+    from sweeps.units import UNITS
+
+    unit, where = getattr(part, "units", None), getattr(part, "units_from", "") or ""
+    lo, hi = PLAUSIBLE_SIZE_M
+    if unit not in UNITS or lo <= s <= hi or where.startswith(("the default", "no unit")):
+        return None
+    numbers = s / UNITS[unit]
+    fits = [u for u in _UNIT_GUESSES if u != unit and lo <= numbers * UNITS[u] <= hi]
+    if not fits:
+        return None
+    u = fits[0]
+    name = part.source.name
+    if where.startswith("--"):                      # a flag: --units
+        field, fix = where, f"give {where} {u}"
+    elif where.startswith("the file"):              # the CAD file's own header
+        field = "units"
+        fix = (f"its numbers are not in the unit its header says: give units: {u} in the part "
+               f"file (--units {u} for a file given on the command line)")
+    else:
+        field, fix = "units", f"write units: {u} in {part.path.name}"
+    said = "" if where.startswith("--") else f" ({where})"
+    return (f"{field}: {name} read in {unit}{said} is a part {s:.3g} m across, outside the "
+            f"sizes nudge expects ({lo * 1e3:g} mm to {hi:g} m); in {u} it is "
+            f"{numbers * UNITS[u] * 1e3:.3g} mm across - its numbers look like {u}: {fix}")
 
 
 def length(field: str, v: Optional[float], s: float) -> list[Finding]:
@@ -195,6 +241,25 @@ def travel(field: str, d: float, s: float, units: str = "m", xy=None) -> list[Fi
     if d >= TRAVEL_ERROR * s:
         return _error(head + hint)
     return _warning(head + hint)
+
+
+def design_draws(design, required) -> list[Finding]:
+    """A tolerance design (``design:``, enabled) on too few draws to certify any
+    design, even one with no failure (:func:`robustness.tolerance_design.design_samples_needed`):
+    it would end in a design of zeros, after all its work."""
+    if design is None or not design.enabled:
+        return []
+    from robustness import tolerance_design
+
+    p, conf = required.probability, required.confidence
+    need = tolerance_design.design_samples_needed(p, conf)
+    if design.n_samples >= need:
+        return []
+    strict = 1.0 - tolerance_design.HEADROOM * (1.0 - conf)
+    return _error(f"design.n_samples: {design.n_samples} design draws cannot show P(success) >= "
+                  f"{p:g} at the design's {strict * 100:.4g}% confidence (a tenth of the stated "
+                  f"error rate: headroom for its verification on fresh draws) even with no "
+                  f"failure; give at least {need} (default 1000)")
 
 
 def angle_tolerance(field: str, v: Optional[float]) -> list[Finding]:
@@ -282,7 +347,7 @@ def config_findings(cfg, part, s: Optional[float] = None) -> list[Finding]:
     size, m, when known)."""
     s = part_size(part.vertices) if s is None else s
     t, x, e, p, f = cfg.tolerances, cfg.execution, cfg.eps, cfg.planner, cfg.friction
-    out = size(s)
+    out = size(s, part)
     for field, v in (("tolerances.tau_v", t.tau_v), ("tolerances.tau_com", t.tau_com),
                      ("tolerances.sigma_v", t.sigma_v), ("execution.start_xy", x.start_xy),
                      ("execution.distance_abs", x.distance_abs),
@@ -299,6 +364,7 @@ def config_findings(cfg, part, s: Optional[float] = None) -> list[Finding]:
     out += relative("execution.distance_rel", x.distance_rel)
     out += friction("friction.mu_f", f.mu_f) + friction("friction.mu_s", f.mu_s)
     out += friction("planner.min_fence_mu", p.min_fence_mu)
+    out += design_draws(getattr(cfg, "design", None), cfg.required)
     tasks = cfg.tasks
     units = getattr(part, "units", "m") or "m"
     if isinstance(tasks, list):
@@ -407,7 +473,7 @@ def cli_findings(part, poses: Optional[dict] = None, lengths: Optional[dict] = N
     ``{flag: metres}``, ``frictions`` ``{flag: coefficient}`` and
     ``limit_surface`` ``{flag: (lo, hi)}`` (None where not given)."""
     s = part_size(part.vertices)
-    out = size(s)
+    out = size(s, part)
     xy = {}
     for flag, text in (poses or {}).items():
         words = str(text).split(",") if text is not None else []

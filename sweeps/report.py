@@ -30,7 +30,7 @@ TEMPLATE = jinja2.Template("""<!doctype html>
 <html lang="en"><head><meta charset="utf-8">
 <title>nudge study {{ name }} ({{ run_id }})</title>
 <style>
-{{ style | safe }}.figs { display: flex; flex-wrap: wrap; gap: 12px; } .figs img { max-width: 540px; }
+{{ style | safe }}.figs figure { margin: 0.8em 0; } .figs img { width: 100%; height: auto; }
 </style></head><body>
 <h1>nudge study <code>{{ name }}</code></h1>
 <p>run <code>{{ run_id }}</code> &middot; {{ kind }} study &middot; part <code>{{ part }}</code>
@@ -290,9 +290,10 @@ the ten with the highest lower bound, and the default plan. Bounds here are on t
 <p class="drawing{% if not t.certified %} no{% endif %}">{{ t.drawing }}</p>
 <p class="note">One axis at a time, the others as configured: the loosest value whose one-sided
 Clopper-Pearson lower bound of success at {{ t.confidence }} confidence still reaches {{ t.p }}
-(bisection on the same {{ t.n }} design draws, {{ t.model }} model). The line above is all axes
+(bisection on the same {{ t.n }} design draws, {{ t.model }} model). {% if t.n_fresh %}The line above is all axes
 together, {{ t.t }} of the way from {{ t.basis }} to those limits, verified on {{ t.n_fresh }} fresh
-draws. Values in metres, radians, fractions (relative push distance) and friction coefficients. Failures with every axis
+draws.{% else %}No joint design is stated: none certifies on the design draws, not even every axis
+nearly perfect.{% endif %} Values in metres, radians, fractions (relative push distance) and friction coefficients. Failures with every axis
 perfect: {{ t.base }} (what no axis covers, e.g. the support).</p>
 <table><tr><th>rank</th><th class="l">axis</th><th class="l">fields</th><th class="l">configured</th>
 <th class="l">loosest alone</th><th>certified as configured</th><th>failure rate</th>
@@ -307,7 +308,7 @@ perfect: {{ t.base }} (what no axis covers, e.g. the support).</p>
 
 
 def _values(v) -> str:
-    return ", ".join(f"{x:.4g}" for x in v)
+    return ", ".join("-" if x != x else f"{x:.4g}" for x in v)
 
 
 def write_certify_report(store, part, config_text: str) -> pathlib.Path:

@@ -161,9 +161,16 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
                          criterion=cfg.eps)
         designs = [td.loosest(judge, sampler, a, rel_tol=d.rel_tol) for a in axes]
         sens = {s.axis: s for s in td.sensitivity(judge, sampler, axes)}
-        base = 1.0 - judge.successes(td.all_perfect(sampler, axes)) / judge.n
         joint = td.joint_design(judge, sampler, designs, jax.random.fold_in(dkey, 1))
+    base = joint.failure_rate_perfect
     line = td.drawing_line(designs, joint, p, conf, model)
+    if joint.none_certifies:
+        from sweeps.remedies import beyond_tolerances
+
+        syn = getattr(cfg, "synthesize", None)
+        line += "; " + beyond_tolerances(kind, cfg.friction.support,
+                                         syn is not None and bool(syn.enabled),
+                                         more_draws=base < 1.0 - p)
     scale = {dz.axis: dz.scale if math.isfinite(dz.scale) else math.inf for dz in designs}
     # most failures removed first; then the axis closest to its limit (smallest headroom)
     order = sorted(axes, key=lambda a: (-sens[a].failures_removed, scale[a]))

@@ -80,3 +80,114 @@ def test_every_failure_mode_has_one_home_that_the_figure_and_the_models_read(mon
     fig = figs.failure_modes(summary, ["a", "b"])
     labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
     assert labels == ["success", *FAILURE_MODES[1:]]
+
+
+# ---------------------------------------------------------------- readable figures (issue 42)
+def _texts(fig):
+    """Every piece of text a figure shows (titles, labels, ticks, legends)."""
+    import matplotlib.text
+
+    fig.canvas.draw()   # the tick labels exist once drawn
+    return [t for t in fig.findobj(matplotlib.text.Text) if t.get_visible() and t.get_text()]
+
+
+def _joined(ax):
+    """The plotted series whose markers a line joins (axhline's reference lines aside)."""
+    return [ln for ln in ax.get_lines() if ln.get_linestyle() not in ("None", "", " ")
+            and len(set(np.asarray(ln.get_xdata(), float).tolist())) > 1
+            and ln.get_transform() == ax.transData]
+
+
+def readable(fig, categorical: bool):
+    """What issue 42 asked of a report figure: text of 10 pt or more, no line
+    between categories, a non-negative quantity's axis from zero or on a log
+    scale (no "0" or "-10^-1" ticks)."""
+    small = sorted({(t.get_text(), t.get_fontsize()) for t in _texts(fig)
+                    if t.get_fontsize() < figs.MIN_FONT_PT})
+    assert not small, f"text under {figs.MIN_FONT_PT} pt: {small[:5]}"
+    for ax in fig.axes:
+        if categorical:
+            assert not _joined(ax), [ln.get_label() for ln in _joined(ax)]
+        assert ax.get_yscale() in ("linear", "log"), ax.get_yscale()
+    assert fig.get_figwidth() * figs.DPI >= 1000      # drawn for the page's full width
+
+
+def _samples():
+    rng = np.random.default_rng(0)
+    return pd.DataFrame(dict(config_id=np.repeat([0, 1], 200),
+                             strategy=np.repeat(["paper", "search"], 200),
+                             margin=np.repeat([3.0, 7.0], 200),
+                             err_pos_m=rng.lognormal(np.log(2e-3), 1.0, 400)))
+
+
+@pytest.mark.parametrize("column, categorical", [("strategy", True), ("margin", False),
+                                                 (None, True)])
+def test_the_error_figure_has_no_negative_ticks_and_readable_text(monkeypatch, column,
+                                                                  categorical):
+    """A symmetric-log axis showed "0" and "-10^-1" ticks for a positive error,
+    lines joined the categories "paper" and "search", and the text was 7-8 pt."""
+    monkeypatch.setattr(figs, "_png", lambda fig: fig)
+    fig = figs.error_quantiles(_samples(), column, column or "", 3e-3)
+    readable(fig, categorical)
+    ax = fig.axes[0]
+    assert ax.get_yscale() == "log" and ax.get_ylim()[0] > 0
+    fig.canvas.draw()
+    assert all(t.get_position()[1] > 0 for t in ax.get_yticklabels() if t.get_text())
+    # a zero error: a linear axis from zero
+    zero = _samples().assign(err_pos_m=lambda d: np.where(d.index % 3 != 0, 0.0, d.err_pos_m))
+    ax = figs.error_quantiles(zero, column, column or "", 3e-3).axes[0]
+    assert ax.get_yscale() == "linear" and ax.get_ylim()[0] == 0.0
+
+
+def test_every_study_figure_is_readable_and_marks_categories(monkeypatch):
+    monkeypatch.setattr(figs, "_png", lambda fig: fig)
+    s = _summary()
+    for col, cat in (("c", True), ("b", False)):
+        readable(figs.success_vs_param(s, col, col, 0.95, "a", "friction.a"), cat)
+    plans = pd.DataFrame([dict(config_id=0 if st == "paper" else 1, strategy=st, task=t,
+                               planned=True, n_steps=5 + t, total_distance_m=0.2 + 0.01 * t)
+                          for st in ("paper", "search") for t in range(3)])
+    readable(figs.plan_shape(plans, "strategy", "planner.strategy", "push"), True)
+    readable(figs.solvable_fraction(plans, "strategy", "planner.strategy", 0.95), True)
+    fm = s.assign(config_id=np.arange(len(s)) % 3, n_none=s.n_success,
+                  **{f"n_{m}": 0 for m in figs.FAILURE_MODES[1:]})
+    readable(figs.failure_modes(fm, ["a", "b", "c"]), True)
+
+
+@pytest.mark.slow
+def test_the_report_shows_readable_figures_at_full_width(tmp_path, monkeypatch):
+    """Through ``nudge sweep``: every figure of report.html is readable (as above)
+    and shown at the page's full width (figures were at 40% of it)."""
+    from tests.commandline import ROOT, nudge_here
+
+    drawn = []
+    original = figs._png
+
+    def keep(fig):
+        drawn.append((fig, not all(_numeric_x(ax) for ax in fig.axes)))
+        return original(fig)
+
+    monkeypatch.setattr(figs, "_png", keep)
+    study = tmp_path / "s.yaml"
+    study.write_text((ROOT / "examples" / "studies" / "margins.yaml").read_text()
+                     .replace("planner.margin_deg: [3, 7, 12]", "planner.margin_deg: [3, 12]")
+                     .replace("execution.fence_angle: [0.002, 0.02, 0.04]",
+                              "execution.fence_angle: [0.002]")
+                     .replace("sample: {n: 4,", "sample: {n: 2,"))
+    r = nudge_here("sweep", study, "--set", "samples=8", "--out", tmp_path / "out")
+    assert r.returncode == 0, r.stderr
+    assert len(drawn) >= 5
+    for fig, categorical in drawn:
+        readable(fig, categorical)
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert ".figs img { width: 100%; height: auto; }" in html and "max-width: 540px" not in html
+
+
+def _numeric_x(ax):
+    """Whether an axis's x values are numbers (tick labels that read as numbers)."""
+    labels = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
+    try:
+        [float(x.replace("\N{MINUS SIGN}", "-")) for x in labels]
+    except ValueError:
+        return False
+    return True

@@ -111,10 +111,14 @@ def test_certify_design_end_to_end(tmp_path):
     assert set(d["axis"]) == set(td.PUSH_AXES)
     for task, g in d.groupby("task"):
         assert sorted(g["rank"]) == list(range(1, 7))
-        assert g["drawing"].nunique() == 1 and "fresh samples" in g["drawing"].iloc[0]
+        line = g["drawing"].iloc[0]
+        assert g["drawing"].nunique() == 1
+        # turn fails with every tolerance perfect (the unknown support): no design of zeros
+        assert ("fresh samples" in line if task == "translate"
+                else line.startswith("no tolerance certifies this plan")), line
         assert (g["n_samples"] == 150).all()
     html = (out / "report.html").read_text()
-    assert "Tolerance design: turn" in html and "fresh draws" in html
+    assert "Tolerance design: turn" in html and "No joint design is stated" in html
     certs = pd.read_parquet(out / "certificates")
     assert certs["note"].str.contains("tolerance design:").all()
 
