@@ -64,7 +64,7 @@ report: false
 #: (model, support, fewer samples, more samples) per task
 #: (both at least 8: a batch is padded to 8 or more, and two counts padded alike cost alike)
 ROWS = {"quasistatic:any": (200, 4200), "exact:any": (200, 20200),
-        "limit_surface:rigid": (8, 72), "limit_surface:any": (8, 40),
+        "limit_surface:rigid": (64, 2112), "limit_surface:any": (64, 576),
         "mujoco:rigid": (8, 24), "mujoco:any": (8, 24),
         "tumble-exact:any": (200, 20200), "tumble-mujoco:any": (8, 16)}
 

@@ -332,12 +332,24 @@ def _static_model(model: str, draws):
     return ("limit_surface", tuple(x for x in ks.FAMILIES if x in present))
 
 
+#: the fewest pushes a limit-surface replay is compiled for: a padded push costs
+#: it nothing (its phase loop takes no trip) while each compilation costs 8-20 s
+#: (the main job, margins.yaml under ``model: limit_surface``, compiled plans of
+#: 4, 8 and 16 pushes: 48 s of its 1 min 44 s cold)
+LIMIT_SURFACE_MIN_PUSHES = 16
+
+
+def _push_bucket(P: int, model: str) -> int:
+    """Pushes a replay of ``P`` pushes under ``model`` is padded to."""
+    return _bucket(P, LIMIT_SURFACE_MIN_PUSHES if model == "limit_surface" else 2)
+
+
 def run_push(plan, draws, model, dtype, chunk):
     """Replay a push plan on the samples ``draws`` (:class:`robustness.samplers.Draws`);
     returns ``(poly, planned, PushReplay)``."""
     poly, planned = push_nominal(plan)
     P, m = len(plan.pushes), len(plan.vertices)
-    Pp, mp = _bucket(P, 2), _bucket(m, 4)
+    Pp, mp = _push_bucket(P, model), _bucket(m, 4)
     nom = _push_nominal_of(plan, poly, planned, Pp, mp, dtype)
     rows = _push_samples_of(draws, Pp, mp, dtype)
     res = _run_chunks(_push_batch, nom, rows, draws.n, chunk, _static_model(model, draws))
@@ -381,7 +393,7 @@ def run_push_many(plans, draws, model, dtype, chunk: int = 4096) -> PushReplay:
     if width and width < P:
         raise ValueError(f"draws: carry {width} pushes, the longest plan has {P} (draw with "
                          f"n_pushes={P})")
-    Pp, mp = _bucket(max(P, width), 2), _bucket(len(ref.vertices), 4)
+    Pp, mp = _push_bucket(max(P, width), model), _bucket(len(ref.vertices), 4)
     K = len(plans)
     noms = [_push_nominal_of(pl, poly, [poly.caller_edge_to_hull(p.edge) for p in pl.pushes],
                              Pp, mp, dtype) for pl in plans]

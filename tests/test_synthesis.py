@@ -318,3 +318,31 @@ def test_physics_breaks_the_kinematic_tie():
     assert got[idx.index(out.chosen)] == max(got)
     assert "MuJoCo rollouts on 2 common draws" in out.describe()
     assert out.scores is syn.scores and out.candidates is syn.candidates
+
+
+@pytest.mark.slow
+def test_the_faithful_model_chooses_among_the_fast_models_shortlist(monkeypatch):
+    """model=limit_surface: the quasi-static model shortlists the default plan
+    and the best SHORTLIST - 1 candidates on the same draws, each of them is
+    scored under the exact limit surface (the scores are run_push's under that
+    model), and the selection says it chose from a shortlist."""
+    import robustness.synthesis as sy
+
+    monkeypatch.setattr(sy, "SHORTLIST", 3)
+    V, com = _part()
+    n, key = 64, jax.random.key(5)
+    sampler = dataclasses.replace(SAMPLER, friction=dataclasses.replace(SAMPLER.friction,
+                                                                        support="rigid"))
+    full, _ = push_candidates(V, START, TURN, com, **SMALL)
+    assert len(full) > 3
+    syn = synthesize(V, START, TURN, com, sampler=sampler, n=n, key=key, model="limit_surface",
+                     **EPS, **SMALL)
+    assert syn.screened == len(full) and len(syn.candidates) == 3 and syn.model == "limit_surface"
+    assert syn.candidates[0].plan.pushes == full[0].plan.pushes
+    pre = score_candidates([c.plan for c in full], sampler, n, key, **EPS)
+    best = sorted(range(1, len(full)), key=lambda j: (-int(pre.n_success[j]), float(pre.cost[j]), j))
+    assert [c.plan.pushes for c in syn.candidates[1:]] == [full[j].plan.pushes for j in best[:2]]
+    faithful = score_candidates([c.plan for c in syn.candidates], sampler, n, key, **EPS,
+                                model="limit_surface")
+    assert np.array_equal(faithful.success, syn.scores.success)
+    assert "the 3 of" in syn.describe() and "limit_surface model" in syn.describe()
