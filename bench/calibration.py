@@ -59,11 +59,23 @@ under ``limit_surface``:
     mujoco_success_certified=0.963 qs_certified=29 qs_calibration_failures=9
 
 * full (100 rollouts per limit-surface-certified plan, 40 per plan only the
-  quasistatic model certified; FULL_TIME)::
+  quasistatic model certified; 1,459 s: synthesis 522 s, certificates 101 s, MuJoCo 734 s)::
 
-    FULL_RESULT
+    RESULT certified=20 calibration_failures=3 calibration_failure_rate=0.150
+    mujoco_success_certified=0.960 qs_certified=29 qs_calibration_failures=9
 
-What it shows: FULL_FINDINGS
+What it shows: the faithful model misses the issue's goal (<= 5 %): 3 of 20
+certified plans fail, all on rigid support at 82/100 (CP upper 0.890):
+nice-stable at mu_f 0.8 (default and synthesized, nearly the same plan) and the
+uni-stable synthesized plan at 0.5.  On those draws the limit-surface model
+predicts 100/100 with zero fence slip; MuJoCo slips 3-19 mm along the fence on
+most draws (not explained by the drawn c or support friction), and the open-loop
+cell hides much of it (nice-stable 0.8 rigid, 30 draws: 26/30 planned strokes,
+13/30 contact strokes).  The quasistatic model is far worse: 9 of 29 fail, five
+of them 0/40 (biplus-stable default at 0.5/0.8 rigid: slip; uni-stable default
+at 0.8/1.5 rigid: fence strikes), plans the limit-surface model rightly refused.
+The limit-surface model is also pessimistic: the rectangle's default plan at
+0.5/0.8 rigid (LS 0/49, MuJoCo 40/40).
 """
 from __future__ import annotations
 
