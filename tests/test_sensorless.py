@@ -154,3 +154,48 @@ def test_random_parts_plan_and_replay():
                            n_headings=36, n_side=2)
     assert plan.checked[2] >= 36 * 4 - 4 * len(plan.excluded)
     assert EXCLUDED < 1e-3
+
+
+# --------------------------------------------------------------------------
+# nudge plan-push --start any
+# --------------------------------------------------------------------------
+@pytest.mark.parametrize("args,message", [
+    (["--start", "any", "--region", "0.1,0,0,0.1"], "--region: needs XMIN <= XMAX"),
+    (["--start", "0,0,0", "--region", "0,0.1,0,0.1"], "--region: only with --start any"),
+    (["--start", "0,0,0", "--start-heading", "0,1"], "--start-heading: only with --start any"),
+    (["--start", "any"], "--region: required with --start any"),
+    (["--start", "any", "--region", "0,0.1,0"], "--region: expected XMIN,XMAX,YMIN,YMAX"),
+    (["--start", "any", "--region", "0,0.1,0,nan"], "--region: YMAX must be a finite number"),
+    (["--start", "any", "--region", "0,0.1,0,0.1", "--start-heading", "1,0"],
+     "--start-heading: needs LO <= HI"),
+    (["--start", "any", "--region", "0,0.1,0,0.1", "--max-stroke", "-1"], "--max-stroke: must be > 0"),
+])
+def test_cli_refuses_bad_values_in_one_line_before_work(args, message):
+    from tests.commandline import nudge_here
+
+    r = nudge_here("plan-push", "rectangle", *args, "--goal", "0.3,0.2,0")
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: " + message), r.stderr
+    assert r.stdout == ""
+
+
+@pytest.mark.slow
+def test_cli_plans_from_any_start_with_phase_column(tmp_path):
+    from tests.commandline import nudge_here
+
+    fig = tmp_path / "funnel.png"
+    r = nudge_here("plan-push", "rectangle", "--start", "any", "--region", "0,0.1,0,0.1",
+                   "--goal", "0.3,0.2,30deg", "--psd", str(fig))
+    assert r.returncode == 0, r.stderr
+    assert " phase " in r.stdout and " orient " in r.stdout and " register " in r.stdout
+    assert "period 180 deg" in r.stdout and "3240 reached the goal" in r.stdout
+    assert fig.stat().st_size > 1000
+
+
+def test_cli_region_too_large_is_refused():
+    from tests.commandline import nudge_here
+
+    r = nudge_here("plan-push", "rectangle", "--start", "any", "--region", "0,5,0,5",
+                   "--max-stroke", "1", "--goal", "0.3,0.2,0")
+    assert r.returncode == 1 and "too large for the registration" in r.stderr

@@ -213,7 +213,7 @@ class Funnel:
         sym = (f"push function of period {math.degrees(pf.period):.4g} deg (symmetry {pf.symmetry})"
                if pf.symmetry > 1 else "no symmetry")
         head = ", ".join(f"{math.degrees(h):.4g}" for h in self.final_headings())
-        lines = [f"funnel: {self.length} pushes, {sym}; final heading(s) {head} deg"]
+        lines = [f"funnel: {self.length} push{'es' if self.length != 1 else ''}, {sym}; final heading(s) {head} deg"]
         if pf.symmetry > 1:
             lines.append("  headings one period apart cannot be told apart by pushing"
                          + (" (the part looks the same: same footprint)" if pf.part_symmetric
