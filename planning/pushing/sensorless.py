@@ -52,7 +52,8 @@ class FencePush:
       line: the fence's final line ``{q : direction . q = line}`` (m, world).
       travel: least fence travel after contact (m), over every start covered.
       stroke: the fence's run from behind every possible position to its line (m).
-      edges: hull indices of the stable edges the push may end flush on.
+      edges: the stable edges the push may end flush on, as caller vertex-index
+        pairs (CCW); more than one only where the part's symmetry hides which.
     """
 
     phase: str
@@ -60,11 +61,12 @@ class FencePush:
     line: float
     travel: float
     stroke: float
-    edges: tuple[int, ...]
+    edges: tuple[tuple[int, int], ...]
 
     def to_dict(self) -> dict:
         return {"phase": self.phase, "direction": list(self.direction), "line": self.line,
-                "travel": self.travel, "stroke": self.stroke, "edges": list(self.edges)}
+                "travel": self.travel, "stroke": self.stroke,
+                "edges": [list(e) for e in self.edges]}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -144,29 +146,29 @@ class SensorlessPlan:
         lines.append(f"  checked: exact replay from {self.checked[0]} headings x {self.checked[1]} "
                      f"positions, {self.checked[2]} reached the goal")
         lines.append(f"{'#':>3} {'phase':<9} {'dir_x':>9} {'dir_y':>9} {'line_m':>10} "
-                     f"{'travel_m':>10} {'stroke_m':>10} {'edges':>10}")
+                     f"{'travel_m':>10} {'stroke_m':>10}  edges")
         for i, p in enumerate(self.pushes):
             lines.append(f"{i + 1:>3} {p.phase:<9} {p.direction[0]:>9.4f} {p.direction[1]:>9.4f} "
-                         f"{p.line:>10.4g} {p.travel:>10.4g} {p.stroke:>10.4g} "
-                         f"{str(list(p.edges)):>10}")
+                         f"{p.line:>10.4g} {p.travel:>10.4g} {p.stroke:>10.4g}  "
+                         + " or ".join(str(list(e)) for e in p.edges))
         return "\n".join(lines)
 
 
 # --------------------------------------------------------------------------
 # Exact replay of fence-line pushes
 # --------------------------------------------------------------------------
-def _one(geom, pose, dirs, lines, rate_c):
+def _one(geom, pose, dirs, lines, valid, rate_c):
     def step(p, x):
-        d, c = x
+        d, c, v = x
         world = p[:2] + geom.body @ rot2(p[2]).T
         s = c - jnp.min(world @ d)
-        out = replay_push(geom, p, d, jnp.maximum(s, 0.0), rate_c)
-        return out.pose, (s, out.complete)
-    final, (s, ok) = jax.lax.scan(step, pose, (dirs, lines))
+        out = replay_push(geom, p, d, jnp.where(v, jnp.maximum(s, 0.0), 0.0), rate_c)
+        return jnp.where(v, out.pose, p), (jnp.where(v, s, jnp.inf), out.complete | ~v)
+    final, (s, ok) = jax.lax.scan(step, pose, (dirs, lines, valid))
     return final, jnp.min(s), jnp.all(ok)
 
 
-_replay_many = jax.jit(jax.vmap(_one, in_axes=(None, 0, None, None, None)))
+_replay_many = jax.jit(jax.vmap(_one, in_axes=(None, 0, None, None, None, None)))
 
 
 @float64
@@ -183,10 +185,17 @@ def replay_sensorless(part: PushPart, pushes, starts):
       fence travel after contact over the pushes (m; negative: a fence missed
       the part), (S,) every push ended with a stable edge flush.
     """
-    dirs = np.array([p.direction if isinstance(p, FencePush) else p[0] for p in pushes], float)
-    lines = np.array([p.line if isinstance(p, FencePush) else p[1] for p in pushes], float)
+    p = len(pushes)
+    pad = max(8, -(-p // 8) * 8)     # padded to a multiple of 8: fewer recompiles
+    dirs = np.zeros((pad, 2))
+    dirs[:, 0] = 1.0
+    lines = np.zeros(pad)
+    valid = np.arange(pad) < p
+    for i, q in enumerate(pushes):
+        dirs[i] = q.direction if isinstance(q, FencePush) else q[0]
+        lines[i] = q.line if isinstance(q, FencePush) else q[1]
     f, s, ok = _replay_many(part.geom, jnp.asarray(np.asarray(starts, float)), jnp.asarray(dirs),
-                            jnp.asarray(lines), replay_rate(part))
+                            jnp.asarray(lines), jnp.asarray(valid), replay_rate(part))
     return np.asarray(f), np.asarray(s), np.asarray(ok)
 
 
@@ -334,7 +343,7 @@ def plan_sensorless(vertices, goal, region, start_heading=None, com=None,
                                                    [-math.sin(before[2]), math.cos(before[2])]])
         line = float(np.min(world @ d)) + p.distance
         pushes.append(FencePush("pose", (float(d[0]), float(d[1])), line, p.distance, p.distance,
-                                (part.polygon.hull_index.index(p.edge[0]),)))
+                                (tuple(p.edge),)))
         before = np.asarray(p.pose_after)
     excluded = ()
     if start_heading is None or funnel.margins[0] == 0.0:
@@ -363,7 +372,7 @@ def plan_sensorless(vertices, goal, region, start_heading=None, com=None,
 def _fence(part, spread, psi, margin, edges, phase) -> FencePush:
     line, stroke = rg.fence_line(part, spread, psi, margin)
     return FencePush(phase, _unit(psi), line, rg.travel(part, margin), stroke,
-                     tuple(sorted(int(e) for e in edges)))
+                     tuple(part.polygon.edge_vertices(int(e)) for e in sorted(edges)))
 
 
 def _check_limits(part, pushes, spread, region, max_stroke, workspace):
