@@ -6,6 +6,12 @@
   :func:`plan_alternatives` (the candidates ranked below the plan, verified:
   robust synthesis chooses among them); plans are
   :class:`PushPlan` values of :class:`Push` steps.
+* Sensorless posing (Goldberg 1993, issue 40): :func:`push_function` and
+  :func:`orient` (the shortest orienting funnel, up to the push function's
+  symmetry) and :func:`plan_sensorless` (orient, register, pose: one list of
+  fence-line pushes from any heading and any position in a region, checked by
+  :func:`replay_sensorless` from a grid of starts); plans are
+  :class:`SensorlessPlan` values of :class:`FencePush` steps.
 * Tumbles of convex polyhedra (Marigo & Bicchi): :func:`analyze_polyhedron`
   (rotations, generators, lattice, reachable class) and :func:`plan_tumble`;
   plans are :class:`TumblePlan` values of :class:`Tumble` steps.
@@ -20,6 +26,9 @@ from planning.pushing.options import PushOptions
 from planning.pushing.part import PlanningError, PushPart, WorkspaceError, prepare_part
 from planning.pushing.plan import STRATEGIES, Push, PushPlan
 from planning.pushing.planner import plan_pose
+from planning.pushing.funnel import Funnel, PushFunction, exhaustive_length, orient, push_function
+from planning.pushing.sensorless import (FencePush, SensorlessPlan, plan_sensorless,
+                                        replay_sensorless, start_grid)
 from planning.tumbling.analysis import TumbleAnalysis
 from planning.tumbling.plan import Tumble, TumblePlan
 from planning.tumbling.planner import analyze_polyhedron, plan_tumble, tumble_alternatives
@@ -36,6 +45,8 @@ __all__ = [
     "plan_pose", "plan_alternatives", "tumble_alternatives", "plan_pose_batch", "PushOptions", "prepare_part", "PushPart", "PushPlanBatch", "Push",
     "PushPlan", "STRATEGIES", "PlanningError", "WorkspaceError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
     "Tumble", "TumblePlan",
+    "Funnel", "PushFunction", "exhaustive_length", "orient", "push_function", "FencePush",
+    "SensorlessPlan", "plan_sensorless", "replay_sensorless", "start_grid",
     "stability", "PushStability", "development_poses", "face_footprint", "lattice_count_bound",
     "paper_bounds", "plan_trajectory", "pose3", "quiet_polyhedron", "radius_for_count",
     "reduced_basis", "sample_reached_positions",

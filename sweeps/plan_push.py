@@ -9,6 +9,8 @@ Usage::
         [--min-fence-mu MU] [--workspace XMIN XMAX YMIN YMAX]
         [--max-reorients N] [--extra-steps N]
         [--json] [--plot FILE.png] [--psd FILE.png]
+    nudge plan-push PART --start any --region XMIN,XMAX,YMIN,YMAX --goal X,Y,THETA
+        [--start-heading LO,HI] [--max-stroke M] [...]
 
 The part: a part file (:mod:`sweeps.partfile`), a bundled part's name, or a
 CAD file given directly (:mod:`sweeps.cad`): a DXF outline, or a mesh's
@@ -33,6 +35,16 @@ part swept by every push stay inside), and the search's effort:
 ``--extra-steps N`` (each reorientation run tries the fewest steps up to N more,
 default 3).  A figure's file type comes from its suffix (``.png``, ``.pdf``,
 ``.svg``, ...), checked before any work.
+
+Sensorless posing (issue 40): ``--start any`` with ``--region XMIN,XMAX,YMIN,YMAX``
+(metres, world frame) plans from an unknown heading (or one in ``--start-heading
+LO,HI``, radians or ``deg``) at an unknown position in the region: the shortest
+orienting funnel (Goldberg 1993), one register push, then the pose plan, as one
+list of fence pushes (each a direction and the fence's final line), replayed
+exactly from a grid of 360 headings x 9 positions before it is printed; the
+table's ``phase`` column says which pushes orient, register and pose.
+``--max-stroke M`` bounds each fence's run (m): a region too large for it is
+refused (exit 1).  ``--psd`` then draws the push function with the funnel.
 
 Output: the plan's summary table, or with ``--json`` the plan as JSON
 (:meth:`planning.pushing.plan.PushPlan.to_dict`) and nothing else on stdout.
@@ -82,7 +94,14 @@ def build_parser(prog: str = "nudge plan-push") -> argparse.ArgumentParser:
                    help="a CAD file's unit (m, cm, mm, um, in); default: the file's own, else metres")
     p.add_argument("--face", metavar="FACE", default=None,
                    help="a mesh's face it rests on: -z (default), +z, -x, ... or a hull face number")
-    p.add_argument("--start", metavar="X,Y,THETA", help="start pose (m, m, rad or ...deg)")
+    p.add_argument("--start", metavar="X,Y,THETA", help="start pose (m, m, rad or ...deg), or "
+                   "'any' (unknown heading and position: needs --region)")
+    p.add_argument("--region", metavar="XMIN,XMAX,YMIN,YMAX",
+                   help="with --start any: the start positions of the centre of mass (m, world)")
+    p.add_argument("--start-heading", metavar="LO,HI",
+                   help="with --start any: the start headings lie in [LO, HI] (rad or ...deg)")
+    p.add_argument("--max-stroke", type=_number("--max-stroke"), metavar="M",
+                   help="with --start any: the longest run of a fence (m, > 0)")
     p.add_argument("--goal", metavar="X,Y,THETA", help="goal pose (m, m, rad or ...deg)")
     p.add_argument("--margin-deg", type=float, default=7.0, metavar="DEG",
                    help="margin angle taken off each maximum reorient angle (default 7)")
@@ -161,7 +180,7 @@ def _integer(flag: str):
 def _join_pose_args(argv: Sequence[str]) -> list[str]:
     """``--start -0.1,0,0`` -> ``--start=-0.1,0,0``, ``--face -z`` -> ``--face=-z``
     (argparse would take the value for an option)."""
-    return join_negative_values(argv, ("--start", "--goal", "--face"))
+    return join_negative_values(argv, ("--start", "--goal", "--face", "--region", "--start-heading"))
 
 
 def _flag_names(message: str) -> str:
@@ -170,7 +189,8 @@ def _flag_names(message: str) -> str:
                         ("start", "--start"), ("goal", "--goal"), ("support", "--support-c"),
                         ("min_fence_mu", "--min-fence-mu"), ("workspace", "--workspace"),
                         ("strategy", "--strategy"), ("max_reorients", "--max-reorients"),
-                        ("extra_steps", "--extra-steps")):
+                        ("extra_steps", "--extra-steps"), ("region", "--region"),
+                        ("start_heading", "--start-heading"), ("max_stroke", "--max-stroke")):
         if message.startswith(field + ":"):
             return flag + message[len(field):]
     return message
@@ -185,8 +205,9 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
             raise InputError(f"{missing}: required (give both --start and --goal, or --psd "
                              "alone to draw only the push stability diagram)")
         start = goal = None
+        sensorless = _sensorless_args(args)
         if args.start is not None:
-            start = parse_pose(args.start, "--start")
+            start = None if sensorless else parse_pose(args.start, "--start")
             goal = parse_pose(args.goal, "--goal")
         if args.plot and start is None:
             raise InputError("--plot: needs --start and --goal")
@@ -214,6 +235,8 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
     report_part(part)
     from sweeps import plausible
 
+    if sensorless:
+        return _run_sensorless(args, part, goal, sensorless)
     shown = plausible.screen_cli(part, poses={"--start": args.start, "--goal": args.goal},
                                  frictions={"--min-fence-mu": args.min_fence_mu},
                                  limit_surface={"--support-c": args.support_c})
@@ -265,6 +288,105 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
         sys.stdout.write(f"{part.name}: {prepared.class_name} part, stable edges {stable}\n")
 
     return _write_figures(args, part, plan, prepared)
+
+
+def _numbers(text: str, field: str, names: Sequence[str], unit: str, angles: bool = False):
+    """Comma-separated numbers (``angles``: radians or ``deg``), one error line naming ``field``."""
+    from sweeps.terminal import angle_value
+    form = ",".join(names)
+    parts = [p.strip() for p in str(text).split(",")]
+    if len(parts) != len(names):
+        raise InputError(f"{field}: expected {form} ({unit}), got {text!r}")
+    out = []
+    for name, p in zip(names, parts):
+        try:
+            v = angle_value(p) if angles else float(p)
+        except ValueError:
+            v = None
+        if v is None or not math.isfinite(v):
+            raise InputError(f"{field}: {name} must be a finite number ({unit}), got {p!r}")
+        out.append(v)
+    return tuple(out)
+
+
+def _sensorless_args(args):
+    """``(region, start_heading)`` of ``--start any``, None for a known start;
+    every misuse refused in one line (before any work)."""
+    any_start = args.start is not None and args.start.strip().lower() == "any"
+    if not any_start:
+        for flag, value in (("--region", args.region), ("--start-heading", args.start_heading),
+                            ("--max-stroke", args.max_stroke)):
+            if value is not None:
+                raise InputError(f"{flag}: only with --start any (an unknown start pose); give "
+                                 "--start any or drop it")
+        return None
+    if args.region is None:
+        raise InputError("--region: required with --start any: XMIN,XMAX,YMIN,YMAX (m), where the "
+                         "part's centre of mass may start")
+    region = _numbers(args.region, "--region", ("XMIN", "XMAX", "YMIN", "YMAX"), "m")
+    if region[0] > region[1] or region[2] > region[3]:
+        raise InputError(f"--region: needs XMIN <= XMAX and YMIN <= YMAX, got {args.region!r}; "
+                         "swap the bounds")
+    heading = None
+    if args.start_heading is not None:
+        heading = _numbers(args.start_heading, "--start-heading", ("LO", "HI"), "rad or ...deg",
+                           angles=True)
+        if not heading[0] <= heading[1] < heading[0] + 2 * math.pi:
+            raise InputError(f"--start-heading: needs LO <= HI < LO + 2 pi, got "
+                             f"{args.start_heading!r}; for every heading drop --start-heading")
+    if args.max_stroke is not None and args.max_stroke <= 0:
+        raise InputError(f"--max-stroke: must be > 0 (m), got {args.max_stroke}")
+    if args.plot:
+        raise InputError("--plot: not drawn for --start any (use --psd for the funnel)")
+    if args.support is not None or args.support_c is not None or args.min_fence_mu is not None:
+        raise InputError("--support: not with --start any yet (the orient and register pushes use "
+                         "Peshkin's distances, valid for any support)")
+    return region, heading
+
+
+def _run_sensorless(args, part, goal, sensorless) -> int:
+    """``--start any``: plan, check and print a sensorless plan."""
+    from sweeps import plausible
+
+    shown = plausible.screen_cli(part, poses={"--goal": args.goal})
+    if shown is None:
+        return Exit.INPUT
+    from kernels import PartError
+    from planning import PlanningError, PushOptions, plan_sensorless
+
+    region, heading = sensorless
+    options = PushOptions(margin_deg=args.margin_deg, safety_factor=args.safety_factor,
+                          objective=args.objective, solver=args.solver, strategy=args.strategy,
+                          workspace=None if args.workspace is None else tuple(args.workspace),
+                          max_reorients=args.max_reorients, extra_steps=args.extra_steps)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        plausible.mute(shown)
+        try:
+            plan = plan_sensorless(part.vertices, goal, region, heading, com=part.com,
+                                   options=options, max_stroke=args.max_stroke)
+        except PartError as exc:
+            report_warnings(caught)
+            return fail(f"{part.path}: {exc}")
+        except PlanningError as exc:
+            report_warnings(caught)
+            return fail(_flag_names(str(exc)), Exit.NEGATIVE)
+        except ValueError as exc:
+            report_warnings(caught)
+            return fail(_flag_names(str(exc)))
+    report_warnings(caught)
+    if args.json:
+        sys.stdout.write(json.dumps(plan.to_dict(), indent=2) + "\n")
+    else:
+        sys.stdout.write(f"{part.name}: {part.source}\n{plan.summary()}\n")
+    if args.psd:
+        from sweeps.figures import push as push_plots
+        try:
+            push_plots.plot_funnel(plan, args.psd, name=part.name)
+        except OSError as exc:
+            return fail(f"--psd: cannot write {args.psd} ({exc.strerror or exc})")
+        sys.stderr.write(f"wrote {args.psd}\n")
+    return Exit.OK
 
 
 def _write_figures(args, part, plan, prepared) -> int:

@@ -8,6 +8,9 @@
   edge every orientation ends on, the convergent and divergent orientations,
   and the maximum reorient and step angles of every stable edge.
   :func:`push_stability` computes its data.
+* :func:`plot_funnel` draws a sensorless plan's push function (Goldberg's
+  step function) with the orienting funnel on it: the possible headings
+  before and after every orient push.
 
 No I/O here beyond ``savefig`` of the path given.
 """
@@ -27,8 +30,8 @@ from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch, Polygon as PolyPatch  # noqa: E402
 
 from kernels import polygon as pg, rot2_np  # noqa: E402
-from planning import (PushOptions, PushPart, PushPlan, PushStability, prepare_part,  # noqa: E402
-                      stability)
+from planning import (PushOptions, PushPart, PushPlan, PushStability, SensorlessPlan,  # noqa: E402
+                      prepare_part, stability)
 from sweeps.figures.plan_steps import mark_steps  # noqa: E402
 
 START_COLOR = "tab:blue"
@@ -412,3 +415,55 @@ def _at_both_ends(x: float, tol: float = 1.0) -> list:
     if x > 360.0 - tol:
         return [x, x - 360.0]
     return [x]
+
+
+def plot_funnel(plan: SensorlessPlan, path, name: Optional[str] = None, dpi: int = 150) -> None:
+    """Draw the push function of a sensorless plan's part with its funnel and
+    save it to ``path``.
+
+    Horizontal axis: the heading relative to the push (degrees, the
+    convention of :mod:`planning.pushing.stability`: fence along x below the
+    part, moving in +y); vertical axis: the heading the push leaves (the step
+    function; basin boundaries, the unstable equilibria, as dotted lines).
+    For every orient push ``i``, the possible relative headings before it
+    (the whole circle for the first push from any heading, else points) are
+    marked on the step they fall on, in push ``i``'s colour.
+    """
+    f = plan.funnel
+    pf = f.push_function
+    fig, ax = plt.subplots(figsize=(7.5, 5.0))
+    th = np.linspace(0.0, 2 * math.pi, 3601)
+    out = np.degrees(pf.edge_theta[pf(th)])
+    cut = np.abs(np.diff(out)) > 1e-6
+    out[1:][cut] = np.nan
+    ax.plot(np.degrees(th), out, color="k", lw=1.5, label="push function")
+    for d in pf.divergent:
+        ax.axvline(math.degrees(d), color="0.6", ls=":", lw=0.8)
+    prev = None
+    for i, psi in enumerate(f.directions):
+        color = PUSH_COLORS[i % len(PUSH_COLORS)]
+        if prev is None:
+            if plan.start_heading is None:
+                ax.axvspan(0, 360, color=color, alpha=0.08, label="push 1: every heading")
+                prev = f.states[i]
+                continue
+            lo, hi = (h - psi + 0.5 * math.pi for h in plan.start_heading)
+            rel = np.mod(np.linspace(lo, hi, 200), 2 * math.pi)
+            ax.plot(np.degrees(rel), np.degrees(pf.edge_theta[pf(rel)]), ".", ms=2, color=color,
+                    label=f"push 1: headings [{math.degrees(plan.start_heading[0]):.4g}, "
+                          f"{math.degrees(plan.start_heading[1]):.4g}] deg")
+        else:
+            turn = psi - f.directions[i - 1]
+            rel = np.mod(pf.edge_theta[sorted(prev)] - turn, 2 * math.pi)
+            ax.plot(np.degrees(rel), np.degrees(pf.edge_theta[pf(rel)]), "o", ms=7, mfc="none",
+                    mew=1.8, color=color, label=f"push {i + 1}: turned {math.degrees(turn):.4g} deg")
+        prev = f.states[i]
+    title = (f"{name + ': ' if name else ''}push function and funnel ({f.length} orient pushes"
+             + (f", period {math.degrees(pf.period):.4g} deg" if pf.symmetry > 1 else "") + ")")
+    ax.set_title(title, fontsize=10)
+    ax.set_xlabel("heading relative to the push (deg)")
+    ax.set_ylabel("heading after the push (deg)")
+    ax.set_xlim(0, 360)
+    ax.legend(fontsize=7, loc="best")
+    fig.savefig(path, dpi=dpi, bbox_inches="tight")
+    plt.close(fig)
