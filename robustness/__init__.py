@@ -50,6 +50,7 @@ from robustness.certificates import (Schedule, auto_schedule, decide, first_cert
 from robustness.models import (PUSH_KINEMATIC, THROUGHPUT, block_samples, model_for,
                                peak_bytes, plan_kind, samples_per_second)
 from robustness.summary import STAT_COLUMNS, empty_summary
+from robustness.sensorless import is_sensorless, start_set
 from robustness.tables import FAILURE_MODES, to_arrow
 
 __all__ = [
@@ -62,5 +63,5 @@ __all__ = [
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
     "one_sided_upper", "samples_needed", "certify", "Certificate", "summarise",
     "tables", "tolerance_design", "failure_modes", "FAILURE_MODES", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
-    "first_certifying", "grow", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "release_executables", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow",
+    "first_certifying", "grow", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "release_executables", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow", "is_sensorless", "start_set",
 ]

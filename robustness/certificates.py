@@ -180,15 +180,19 @@ def _pct(c: float) -> str:
     return (t.rstrip("0").rstrip(".") if "." in t else t) + "%"
 
 
-def perturbed_sources(sampler, kind: str, model: str) -> tuple:
-    """What varies between samples of ``sampler`` under ``model`` (names)."""
+def perturbed_sources(sampler, kind: str, model: str, sensorless: bool = False) -> tuple:
+    """What varies between samples of ``sampler`` under ``model`` (names);
+    ``sensorless``: a sensorless plan's, whose start is drawn over its start set
+    in place of the start error (:mod:`robustness.sensorless`)."""
     g, f, e = sampler.geometry, sampler.friction, sampler.execution
     out = []
     if g.tau_v > 0:
         out.append("part vertices")
     if g.tau_com > 0:
         out.append("centre of mass")
-    if e.start_xy > 0 or e.start_theta > 0:
+    if sensorless:
+        out.append("start heading and position (uniform)")
+    elif e.start_xy > 0 or e.start_theta > 0:
         out.append("start pose")
     if kind == "push":
         if e.fence_angle > 0:
@@ -207,7 +211,7 @@ def perturbed_sources(sampler, kind: str, model: str) -> tuple:
 
 def decide(summary: dict, required_probability: float, confidence: float, *, kind: str,
            model: str, perturbed: tuple, criterion: Optional[SuccessCriterion] = None,
-           schedule: Optional[Schedule] = None) -> Certificate:
+           schedule: Optional[Schedule] = None, starts: str = "") -> Certificate:
     """The certificate of a task's Monte-Carlo summary (see the module docstring).
 
     Args:
@@ -222,7 +226,23 @@ def decide(summary: dict, required_probability: float, confidence: float, *, kin
       schedule: the looks the samples were drawn by (:func:`auto_schedule`;
         ``n`` must be one of its counts); None: one fixed look at ``n``.  Every
         bound is taken at its ``look_confidence``.
+      starts: a sensorless plan's start set in words
+        (:func:`robustness.sensorless.start_set`: ``any heading in [a, b] deg and
+        any position in [xmin, xmax] x [ymin, ymax] m``), which every claim
+        with samples begins with (``from any heading in ...: P(success) >= ...``);
+        "": a known start.
     """
+    cert = _decide(summary, required_probability, confidence, kind=kind, model=model,
+                   perturbed=perturbed, criterion=criterion, schedule=schedule)
+    if starts and cert.n_samples:
+        cert = dataclasses.replace(cert, claim=f"from {starts}: {cert.claim}")
+    return cert
+
+
+def _decide(summary: dict, required_probability: float, confidence: float, *, kind: str,
+            model: str, perturbed: tuple, criterion: Optional[SuccessCriterion] = None,
+            schedule: Optional[Schedule] = None) -> Certificate:
+    """:func:`decide` for a known start."""
     p, conf = float(required_probability), float(confidence)
     n, k = int(summary["n"]), int(summary["n_success"])
     if schedule is None:

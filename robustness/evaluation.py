@@ -120,6 +120,7 @@ from robustness.hulls import face_merge_tol
 from robustness.models import MODELS, model_for, plan_kind
 from robustness.replay import edge_pairs, push_nominal, run_push, run_tumble, tumble_nominal
 from robustness.samplers import Sampler, parameter_columns, parameter_lists
+from robustness.sensorless import draw_starts, is_sensorless, sensorless_rows
 from robustness.stats import CONFIDENCE
 from robustness.summary import summarise
 from robustness.summary import BoundViolation
@@ -235,8 +236,10 @@ def evaluate(plan, sampler: Sampler, n: int, key, criterion: Optional[SuccessCri
     """Evaluate a plan on ``n`` perturbed samples.
 
     Args:
-      plan: a :class:`~planning.pushing.plan.PushPlan` or a
-        :class:`~planning.tumbling.plan.TumblePlan`.
+      plan: a :class:`~planning.pushing.plan.PushPlan`, a
+        :class:`~planning.SensorlessPlan` (its starts drawn over its region and
+        heading interval, :mod:`robustness.sensorless`; no analytic bound, no
+        MuJoCo) or a :class:`~planning.tumbling.plan.TumblePlan`.
       sampler: the :class:`~robustness.samplers.Sampler` (tolerances).
       n: number of samples (>= 1).
       key: a ``jax.random`` key.
@@ -290,6 +293,10 @@ def evaluate(plan, sampler: Sampler, n: int, key, criterion: Optional[SuccessCri
         shape = dict(n_vertices=m, dim=3, n_tumbles=plan.n_tumbles)
         # the replay and the columns read the plan's tumbles of the drawn ones (no copy)
         draws = sampler.sample(key, n, dtype=jnp.float64, exact_steps=model == "mujoco", **shape)
+    sensorless = kind == "push" and is_sensorless(plan)
+    if sensorless and model == "mujoco":
+        raise ValueError("model: mujoco does not roll out sensorless plans here (bench/"
+                         "sensorless.py does); use quasistatic, limit_surface or exact")
     if model == "mujoco":
         from robustness.physics.settings import check_pad_friction
 
@@ -299,12 +306,18 @@ def evaluate(plan, sampler: Sampler, n: int, key, criterion: Optional[SuccessCri
             grip = (physics.settings.grip_ratio if physics is not None else 2.0)
             check_pad_friction(sampler.friction, kind, nominal_polyhedron(plan), grip)
         rows, dtype = _physics_rows(plan, kind, draws, sampler, crit, merge_factor, physics)
+    elif sensorless:   # the start drawn over the plan's start set (robustness.sensorless)
+        starts = draw_starts(plan, key, n)
+        rows = sensorless_rows(plan, draws, starts, crit, model, dtype, chunk)
     elif kind == "push":
         rows = _push_rows(plan, draws, crit, model, dtype, chunk, task)
     else:
         rows = _tumble_rows(plan, draws, crit, dtype, chunk, sampler, merge_factor)
     cast = draws.astype(dtype)   # a float32 evaluation sees the float64 one's samples
     cols = parameter_columns(cast, **shape)
+    if sensorless:   # the drawn start replaces the start error: its offset from plan.start
+        off = np.asarray(starts - np.asarray(plan.start)[None, :], dtype)
+        cols["start_dx_m"], cols["start_dy_m"], cols["start_dtheta_rad"] = off.T.astype(np.float64)
     lists = parameter_lists(cast, **shape)
     data = _columns(rows, cols, plan, kind, model, dtype, task)
     if model == "mujoco":

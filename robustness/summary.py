@@ -76,6 +76,8 @@ def nominal_final(plan, kind: str) -> np.ndarray:
     """The plan's own prediction of the final pose ``(x, y, theta)`` (m, rad): the
     exact replay's pose after the last push, or the tumble plan's predicted final
     configuration (which may lie up to eps from the goal)."""
+    if kind == "push" and hasattr(plan, "reached_goal"):   # a SensorlessPlan
+        return np.asarray(plan.reached_goal, np.float64)
     if kind == "push":
         return np.asarray(plan.pushes[-1].pose_after if plan.pushes else plan.start, np.float64)
     return np.asarray(plan.predicted_final[:3], np.float64)
@@ -100,7 +102,10 @@ def analytic_bound(plan, sampler, kind: str):
     every draw of ``sampler`` (a disc of radius tau_com lies in the box of
     half-width tau_com; Gaussians are truncated to their boxes)."""
     from robustness.bounds import push_plan_bound, tumble_plan_bound
+    from robustness.sensorless import is_sensorless
 
+    if is_sensorless(plan):   # linearised about one start: none for a start set
+        return None
     if kind == "push":
         return push_plan_bound(plan, sampler.geometry, sampler.execution)
     return tumble_plan_bound(plan, sampler.geometry, sampler.execution)

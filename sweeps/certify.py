@@ -182,7 +182,8 @@ def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = F
       UserError: one line per mistake (``lines``), each naming the file.
     """
     from robustness.physics import check_pad_friction
-    from sweeps.config import CertifyConfig, ConfigError, explicit_tasks, validate
+    from sweeps.config import (CertifyConfig, ConfigError, check_sensorless, explicit_tasks,
+                               validate)
     from sweeps.plausible import screen_config
     from sweeps.study import load_part_ref, part_polyhedron
     from sweeps.yamlio import dump_yaml, read_yaml
@@ -213,6 +214,7 @@ def load(path, n_samples=None, max_samples=None, seed=None, synthesize: bool = F
         _check_sample_cap(cfg, "--max-samples" if max_samples is not None else "max_samples")
         part = load_part_ref(cfg.part, path.parent)
         tasks = explicit_tasks(cfg.tasks, part.kind)
+        check_sensorless(cfg, tasks)
         if cfg.model == "mujoco":
             if part.kind == "polyhedron":
                 check_pad_friction(cfg.friction, "tumble", part_polyhedron(part),
@@ -333,7 +335,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     import jax
 
     from robustness import (tables, Schedule, auto_schedule, block_samples, decide, grow,
-                            model_for, no_plan, perturbed_sources)
+                            is_sensorless, model_for, no_plan, perturbed_sources, start_set)
     from sweeps.config import ConfigError
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
@@ -372,9 +374,11 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         return None
     summary = blocks.summary()
     _write_summary(store, ti, summary)
+    sensorless = is_sensorless(plan)
     cert = decide(summary, p, conf, kind=kind, model=model,
-                  perturbed=perturbed_sources(cfg.sampler(), kind, model), criterion=cfg.eps,
-                  schedule=schedule)
+                  perturbed=perturbed_sources(cfg.sampler(), kind, model, sensorless),
+                  criterion=cfg.eps, schedule=schedule,
+                  starts=start_set(plan) if sensorless else "")
     row.update(cert.to_row())
     if syn is not None:
         row["note"] = "; ".join(x for x in (row["note"], "certified on fresh draws, not the "
@@ -517,6 +521,9 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
 
 def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
     from robustness import model_for
+    from sweeps.config import reference_start
+
+    start = reference_start(start)   # a sensorless task: the region's centre (its claim says)
 
     push = part.kind == "polygon"
     sel = dict(selection="default plan", n_candidates=0, selection_n_samples=0,

@@ -240,11 +240,78 @@ class Required(Strict):
 
 class Task(Strict):
     """One task: start and goal pose ``[x, y, theta]`` (push) or configuration
-    ``[x, y, theta, face]`` (tumble; the start defaults to ``[0, 0, 0, 0]``)."""
+    ``[x, y, theta, face]`` (tumble; the start defaults to ``[0, 0, 0, 0]``).  A
+    push task's start may be unknown (sensorless posing, issue 40): ``{heading:
+    any, region: [xmin, xmax, ymin, ymax]}`` (m, world), or ``heading: [lo, hi]``
+    (rad or ``deg``) for a known interval (:class:`SensorlessStart`)."""
 
     name: str = Field(min_length=1)
-    start: Optional[list[Angle]] = None
+    start: Optional[Union[list[Angle], dict[str, Any]]] = None
     goal: list[Angle]
+
+
+@dataclasses.dataclass(frozen=True)
+class SensorlessStart:
+    """An unknown start of a push task: any position of the centre of mass in
+    ``region`` ``(xmin, xmax, ymin, ymax)`` (m, world) and any heading in
+    ``heading`` ``(lo, hi)`` (rad, ``lo <= hi < lo + 2 pi``; None: any heading).
+    Planned by :func:`planning.plan_sensorless`."""
+
+    region: tuple[float, float, float, float]
+    heading: Optional[tuple[float, float]] = None
+
+    @property
+    def reference(self) -> tuple[float, float, float]:
+        """The pose a ``plans`` / ``certificates`` row names as the start: the
+        region's centre and the heading interval's middle (0 for any heading);
+        the samples' ``start_d*`` columns are offsets from it (m, m, rad)."""
+        r, h = self.region, self.heading
+        return (0.5 * (r[0] + r[1]), 0.5 * (r[2] + r[3]),
+                0.0 if h is None else 0.5 * (h[0] + h[1]))
+
+
+def reference_start(start) -> tuple:
+    """A task's start as a row names it: the pose itself, or a
+    :class:`SensorlessStart`'s :attr:`~SensorlessStart.reference`."""
+    return start.reference if isinstance(start, SensorlessStart) else start
+
+
+def parse_sensorless_start(doc: dict, field: str, kind: str) -> SensorlessStart:
+    """``{heading: any | [lo, hi], region: [xmin, xmax, ymin, ymax]}`` of a push
+    task (:class:`SensorlessStart`); one line naming the field and the fix otherwise."""
+    if kind != "polygon":
+        raise ConfigError(f"{field}: heading: any / region: is sensorless posing of a pushed "
+                          f"polygon; a tumble task needs a start configuration [x, y, theta, "
+                          "face] (or none: [0, 0, 0, 0])")
+    extra = sorted(set(doc) - {"heading", "region"})
+    if extra:
+        raise ConfigError(f"{field}: unknown key {extra[0]!r}; allowed keys: heading, region "
+                          "(check the spelling)")
+    if "region" not in doc:
+        raise ConfigError(f"{field}.region: required with an unknown start: [xmin, xmax, ymin, "
+                          "ymax] (m, world), where the centre of mass may start")
+    if "heading" not in doc:
+        raise ConfigError(f"{field}.heading: required with a region: any (an unknown heading) "
+                          "or [lo, hi] (rad or ...deg), the headings the part may start at")
+    reg = doc["region"]
+    if not isinstance(reg, (list, tuple)) or len(reg) != 4:
+        raise ConfigError(f"{field}.region: expected [xmin, xmax, ymin, ymax] (m, world), got "
+                          f"{reg!r}")
+    region = tuple(_length(v, f"{field}.region[{i}]") for i, v in enumerate(reg))
+    if region[0] > region[1] or region[2] > region[3]:
+        raise ConfigError(f"{field}.region: needs xmin <= xmax and ymin <= ymax (m), got "
+                          f"{list(region)}; swap the bounds")
+    h = doc["heading"]
+    if isinstance(h, str) and h.strip().lower() == "any":
+        return SensorlessStart(region, None)
+    if not isinstance(h, (list, tuple)) or len(h) != 2:
+        raise ConfigError(f"{field}.heading: expected any or [lo, hi] (rad or ...deg), got {h!r}")
+    lo, hi = (parse_angle(v, f"{field}.heading[{i}]") for i, v in enumerate(h))
+    if not lo <= hi < lo + 2 * math.pi:
+        raise ConfigError(f"{field}.heading: needs lo <= hi < lo + 2 pi, got [{lo:.6g}, "
+                          f"{hi:.6g}] rad; swap the bounds, or give heading: any for every "
+                          "heading")
+    return SensorlessStart(region, (lo, hi))
 
 
 def _check_tripod(friction, part) -> None:
@@ -571,7 +638,8 @@ def parse_pose(values, field: str, kind: str) -> tuple:
 
 
 def explicit_tasks(tasks: list, kind: str) -> list[tuple[str, tuple, tuple]]:
-    """``(name, start, goal)`` of explicit tasks; a push task needs a start."""
+    """``(name, start, goal)`` of explicit tasks; a push task needs a start (a
+    pose, or a :class:`SensorlessStart`)."""
     out = []
     names = [t.name for t in tasks]
     dup = sorted({n for n in names if names.count(n) > 1})
@@ -581,12 +649,36 @@ def explicit_tasks(tasks: list, kind: str) -> list[tuple[str, tuple, tuple]]:
         goal = parse_pose(t.goal, f"tasks[{i}].goal", kind)
         if t.start is None:
             if kind == "polygon":
-                raise ConfigError(f"tasks[{i}].start: a push task needs a start pose [x, y, theta]")
+                raise ConfigError(f"tasks[{i}].start: a push task needs a start pose [x, y, theta]"
+                                  " (or an unknown one: {heading: any, region: [xmin, xmax, "
+                                  "ymin, ymax]})")
             start = (0.0, 0.0, 0.0, 0)
+        elif isinstance(t.start, dict):
+            start = parse_sensorless_start(t.start, f"tasks[{i}].start", kind)
         else:
             start = parse_pose(t.start, f"tasks[{i}].start", kind)
         out.append((t.name, start, goal))
     return out
+
+
+def check_sensorless(cfg, tasks) -> None:
+    """Sensorless tasks (a :class:`SensorlessStart`) only where their Monte Carlo
+    runs (:mod:`robustness.sensorless`): not under ``model: mujoco``, robust
+    synthesis or tolerance design (each needs a known start); one line naming
+    the field and the fix, before any work."""
+    for i, (name, start, _) in enumerate(tasks):
+        if not isinstance(start, SensorlessStart):
+            continue
+        which = f"tasks[{i}] ({name}) starts at an unknown pose (heading/region)"
+        if cfg.model == "mujoco":
+            raise ConfigError(f"model: mujoco does not roll out sensorless tasks ({which}); use "
+                              "model: quasistatic, limit_surface or exact (bench/sensorless.py "
+                              "has MuJoCo rollouts from random headings)")
+        for sec, flag in (("synthesize", "--synthesize"), ("design", "--design")):
+            v = getattr(cfg, sec, None)
+            if v is not None and v.enabled:
+                raise ConfigError(f"{sec}: needs a known start, and {which}; drop {flag} / "
+                                  f"{sec}: or give that task a start [x, y, theta]")
 
 
 # --------------------------------------------------------------------------

@@ -395,7 +395,7 @@ def _xy(pose):
     """The (x, y) of a pose as a config holds it (a list of numbers), else None."""
     try:
         return float(pose[0]), float(pose[1])
-    except (TypeError, ValueError, IndexError):
+    except (TypeError, ValueError, IndexError, KeyError):   # a sensorless start: a mapping
         return None
 
 

@@ -48,7 +48,7 @@ from robustness.physics import check_pad_friction
 
 from sweeps import catalog
 from sweeps.config import (Angle, ConfigError, Design as DesignSection, Evaluation, PartInline,
-                           Strict, Synthesize, Task, explicit_tasks,
+                           Strict, Synthesize, Task, check_sensorless, explicit_tasks,
                            parse_angle, parse_pose, validate)
 from sweeps.design import expand, parse_overrides, set_path
 from sweeps.plausible import check_design, wrap
@@ -368,9 +368,10 @@ def load_design(ref, overrides=()) -> Design:
         if design.configs[cid].kind != want:
             raise ConfigError(f"{path}: kind: the part {part.name!r} is a {part.kind}, so the study "
                               f"kind must be {want}")
-        design.tasks(cid)
+        tasks = design.tasks(cid)
         try:
             cfg = design.configs[cid]
+            check_sensorless(cfg, tasks)
             cfg.physics_run(part)   # the part's material against physics.cell
             if cfg.model == "mujoco" and part.kind == "polyhedron":
                 check_pad_friction(cfg.friction, "tumble", part_polyhedron(part),

@@ -53,7 +53,9 @@ def plan_task(part, start, goal, planner: Planner, criterion: SuccessCriterion,
 
     Args:
       part: the part file; start, goal: poses ``(x, y, theta)`` (polygon) or
-        configurations ``(x, y, theta, face)`` (polyhedron), m and rad.
+        configurations ``(x, y, theta, face)`` (polyhedron), m and rad; a
+        polygon's start may be a :class:`~sweeps.config.SensorlessStart` (then
+        the plan is a :class:`~planning.SensorlessPlan`).
       planner, criterion: the config's settings (``planner``, ``eps``; a tumble
         plan's accuracy defaults from the criterion, :func:`tumble_eps`).
       caught: a list that receives the warnings the planner raised (e.g. a
@@ -69,12 +71,16 @@ def plan_task(part, start, goal, planner: Planner, criterion: SuccessCriterion,
         names the field).
     """
     from kernels import PartError
-    from planning import PlanningError, plan_pose, plan_tumble
+    from planning import PlanningError, plan_pose, plan_sensorless, plan_tumble
+    from sweeps.config import SensorlessStart
 
     with warnings.catch_warnings(record=True) as got:
         warnings.simplefilter("always")
         try:
-            if part.kind == "polygon":
+            if isinstance(start, SensorlessStart):   # issue 40: orient, register, pose
+                plan = plan_sensorless(part.vertices, goal, start.region, start.heading,
+                                       com=part.com, options=planner.push_options())
+            elif part.kind == "polygon":
                 plan = plan_pose(part.vertices, start, goal, com=part.com,
                                  options=planner.push_options())
             else:
@@ -195,7 +201,12 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
 
 
 def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[str] = None) -> dict:
-    """The ``plans`` table's row of one task (``robustness.tables.PLANS_SCHEMA``)."""
+    """The ``plans`` table's row of one task (``robustness.tables.PLANS_SCHEMA``;
+    a sensorless task's start columns hold its reference start,
+    :func:`sweeps.config.reference_start`, its ``plan_class`` is ``sensorless``)."""
+    from sweeps.config import reference_start
+
+    start = reference_start(start)
     tumble = part.kind == "polyhedron"
     straight = math.hypot(goal[0] - start[0], goal[1] - start[1])
     row = dict(task=name, kind="tumble" if tumble else "push", part=part.name,
@@ -212,7 +223,14 @@ def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[
                                      else "no_plan")
         return row
     row["plan_json"] = plan_json(plan)
-    if tumble:
+    if hasattr(plan, "region"):   # a SensorlessPlan: fence-line pushes in three phases
+        total = float(plan.total_travel)
+        row.update(verdict="solved", plan_class="sensorless",
+                   distance_rule=plan.pose_plan.distance_rule, support=plan.pose_plan.support,
+                   n_steps=len(plan.pushes), total_distance_m=total,
+                   plan_error=float(max(plan.pose_plan.final_error)),
+                   length_ratio=total / straight if straight > 0 else math.nan)
+    elif tumble:
         row.update(verdict=plan.verdict, n_steps=plan.n_tumbles,
                    n_tumbles_paper=int(min(plan.n_tumbles_paper, 2 ** 62)),
                    plan_error=float(plan.error))

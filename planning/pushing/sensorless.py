@@ -105,6 +105,42 @@ class SensorlessPlan:
     funnel: Funnel
     checked: tuple[int, int, int] = (0, 0, 0)
 
+    @property
+    def vertices(self):
+        """The part's vertices as the caller gave them (m, part frame)."""
+        return self.pose_plan.vertices
+
+    @property
+    def com(self):
+        """The part's centre of mass (m, part frame)."""
+        return self.pose_plan.com
+
+    @property
+    def start(self) -> tuple[float, float, float]:
+        """The reference start ``(x, y, theta)`` (m, m, rad; world): the region's
+        centre and the heading interval's middle (0 for any heading).  Not a
+        start the plan needs: rows and Monte-Carlo start offsets name it."""
+        r, h = self.region, self.start_heading
+        return (0.5 * (r[0] + r[1]), 0.5 * (r[2] + r[3]),
+                0.0 if h is None else 0.5 * (h[0] + h[1]))
+
+    @property
+    def n_pushes(self) -> int:
+        return len(self.pushes)
+
+    @property
+    def total_distance(self) -> float:
+        """The fences' least travel after contact, summed (m): :attr:`total_travel`."""
+        return self.total_travel
+
+    @property
+    def margin_deg(self) -> float:
+        return self.pose_plan.margin_deg
+
+    @property
+    def safety_factor(self) -> float:
+        return self.pose_plan.safety_factor
+
     def count(self, phase: str) -> int:
         return sum(p.phase == phase for p in self.pushes)
 

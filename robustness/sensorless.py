@@ -1,0 +1,245 @@
+"""Monte Carlo of sensorless plans (issue 40): a
+:class:`~planning.SensorlessPlan` replayed on perturbed parts, friction and
+robot errors from starts drawn over the plan's own start set.
+
+**The start.**  A known-start plan's sample starts at the plan's start plus the
+sampler's start error (:mod:`robustness.evaluation`).  A sensorless plan has no
+start: it claims to work "from any heading in ``[a, b]`` and any position in
+the region".  So each sample's start heading is drawn uniformly from the
+plan's heading interval (``[-pi, pi)`` for any heading) and its position
+uniformly from the region (``(xmin, xmax) x (ymin, ymax)``, m, world), and
+that draw REPLACES the sampler's start error (``execution.start_xy``,
+``start_theta`` are not applied: no robot places the part; the region and the
+interval are the start's whole uncertainty, and a start outside them is
+outside the claim).  The draw uses its own key (``fold_in(key,``
+:data:`START_STREAM` ``)``), so the sampler's other draws are those a
+known-start plan of the same key gets.  The ``samples`` table's
+``start_dx_m``, ``start_dy_m``, ``start_dtheta_rad`` hold the drawn start
+minus the plan's reference start (:attr:`planning.SensorlessPlan.start`: the
+region's centre, the interval's middle or 0), so every sample's start can be
+read back.
+
+**The pushes.**  Every push of a sensorless plan is a fence that stops at a
+line (:class:`planning.FencePush`: ``direction . q = line``), not a distance:
+the fence's travel after contact is ``line - min_i(direction . p_i)`` over the
+part's vertices at the pose it has when that push starts (the nominal
+direction: the robot commands the line), times ``1 + distance_rel`` plus
+``distance_abs`` (the sampler's distance errors, floored at 0), along the
+direction turned by the sample's fence-angle error.  Each push runs the
+model's kernel for one push (quasi-static :func:`kernels.simulate_push`, the
+exact limit surface :func:`kernels.simulate_push_on_points`, or the exact
+replay :func:`kernels.replay_push`); the part's perturbed geometry and the
+reference point (the nominal centre of mass) are those of
+:mod:`robustness.evaluation`.
+
+**Success.**  The final pose against the plan's goal, the heading modulo the
+part's symmetry period when the part looks the same turned by it (the
+``final_theta_rad`` column is reported folded to within half a period of the
+goal's heading); a push that ends flush on none of the edges the plan allows
+for it (:attr:`planning.FencePush.edges`) is ``wrong_edge``, one that ends on
+a vertex ``incomplete_reorientation``.  No analytic bound is computed (the
+first-order bound linearises about one nominal start), and MuJoCo does not
+roll sensorless plans out here (``bench/sensorless.py`` does).
+
+Units: metres, radians, world frame.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from kernels import polygon as pg, polygon_hull_changed, rot2, wrap_angle_np
+
+#: ``jax.random.fold_in(key, START_STREAM)`` draws a sensorless sample's start
+START_STREAM = 0x5E0540
+
+
+def is_sensorless(plan) -> bool:
+    """Whether ``plan`` is a :class:`planning.SensorlessPlan`."""
+    from planning import SensorlessPlan
+
+    return isinstance(plan, SensorlessPlan)
+
+
+def start_set(plan) -> str:
+    """The starts a sensorless plan claims, in words: ``any heading in [a, b]
+    deg and any position in [xmin, xmax] x [ymin, ymax] m``."""
+    lo, hi = (-math.pi, math.pi) if plan.start_heading is None else plan.start_heading
+    r = plan.region
+    return (f"any heading in [{math.degrees(lo):.4g}, {math.degrees(hi):.4g}] deg and any "
+            f"position in [{r[0]:.4g}, {r[1]:.4g}] x [{r[2]:.4g}, {r[3]:.4g}] m")
+
+
+def draw_starts(plan, key, n: int) -> np.ndarray:
+    """(n, 3) float64 start poses ``(x, y, theta)`` (m, m, rad; world), uniform
+    over the plan's region and heading interval (any heading: ``[-pi, pi)``),
+    drawn with ``fold_in(key, START_STREAM)``."""
+    lo, hi = (-math.pi, math.pi) if plan.start_heading is None else plan.start_heading
+    r = plan.region
+    with jax.enable_x64(True):
+        u = np.asarray(jax.random.uniform(jax.random.fold_in(key, START_STREAM), (int(n), 3),
+                                          jnp.float64))
+    low = np.array([r[0], r[2], lo])
+    return low + u * (np.array([r[1], r[3], hi]) - low)
+
+
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class FenceNominal:
+    """A sensorless plan's numbers, padded to its buckets (traced): ``V0`` (mp, 2)
+    caller's vertices (m), ``com0`` (2,), ``ang`` (Pp,) fence directions (rad),
+    ``line`` (Pp,) the fences' final lines (m), ``active`` (Pp,) real pushes,
+    ``hull`` the hull's vertex indices."""
+
+    V0: jax.Array
+    com0: jax.Array
+    ang: jax.Array
+    line: jax.Array
+    active: jax.Array
+    hull: jax.Array
+
+
+def _fence_one(nom: FenceNominal, q, start, model):
+    """One sample: the fence-line pushes from ``start`` (module docstring)."""
+    from robustness.replay import PushReplay
+
+    dt = nom.V0.dtype
+    V = nom.V0 + q.dv
+    com = nom.com0 + q.dc
+    hi = nom.hull
+    geom = pg.polygon_geometry(V[hi] - com[None, :])
+    changed = polygon_hull_changed(V, com, hi)
+    th0 = start[2]
+    pose0 = jnp.concatenate([start[:2] + rot2(th0) @ q.dc, th0[None]])
+    if isinstance(model, tuple):
+        from kernels import family_support
+
+        pts, wts = family_support(model[1], q.family, geom.body, q.c, q.lift, q.points, q.weights)
+
+    def step(p, xs):
+        a, line, act, fe, rel, ab = xs
+        dn = jnp.stack([jnp.cos(a), jnp.sin(a)])
+        world = p[:2] + geom.body @ rot2(p[2]).T
+        s = line - jnp.min(world @ dn)
+        dist = jnp.where(act, jnp.maximum(s * (1.0 + rel) + ab, 0.0), 0.0)
+        d = jnp.stack([jnp.cos(a + fe), jnp.sin(a + fe)])
+        if model == "exact":
+            from kernels import replay_push
+
+            out = replay_push(geom, p, d, dist)
+            slip, trunc = jnp.zeros((), dt), ~out.finished
+        elif isinstance(model, tuple):
+            from kernels import simulate_push_on_points
+
+            out = simulate_push_on_points(geom, p, d, dist, pts, wts, q.mu)
+            slip, trunc = out.slip, out.truncated
+        else:
+            from kernels import simulate_push
+
+            out = simulate_push(geom, p, d, dist, q.c, q.mu)
+            slip, trunc = out.slip, out.truncated
+        new = jnp.where(act, out.pose, p)
+        return new, (out.edge, out.complete, jnp.where(act, slip, 0.0), act & trunc)
+
+    xs = (nom.ang, nom.line, nom.active, q.fence, q.rel, q.abs)
+    final, (edges, complete, slip, trunc) = jax.lax.scan(step, pose0.astype(dt), xs)
+    ref = final[:2] - rot2(final[2]) @ q.dc
+    return PushReplay(x=ref[0], y=ref[1], theta=final[2], edges=edges, complete=complete,
+                      slip=jnp.sum(slip), changed=changed, truncated=jnp.any(trunc))
+
+
+@functools.partial(jax.jit, static_argnames=("model",))
+def _fence_batch(nom, rows, model):
+    from robustness.replay import _block, _blocks
+
+    def one(r):
+        return _fence_one(nom, r[0], r[1], model)
+
+    return _blocks(lambda b: jax.vmap(one)(b), rows, _block(model))
+
+
+def run_sensorless(plan, draws, starts, model, dtype, chunk):
+    """Replay a sensorless plan on the samples ``draws`` from ``starts`` ((n, 3),
+    m, m, rad); returns ``(poly, allowed, PushReplay)``: the nominal polygon,
+    each push's allowed hull edges (a list of sets) and the per-sample outcomes
+    (numpy; ``edges`` / ``complete`` (n, P))."""
+    from robustness.replay import _bucket, _push_samples_of, _run_chunks, _static_model
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", pg.PartWarning)
+        poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    P, m = len(plan.pushes), len(plan.vertices)
+    Pp, mp = _bucket(P, 8), _bucket(m, 4)
+    ang = np.zeros(Pp)
+    line = np.zeros(Pp)
+    for i, p in enumerate(plan.pushes):
+        ang[i] = math.atan2(p.direction[1], p.direction[0])
+        line[i] = p.line
+    V0 = np.zeros((mp, 2))
+    V0[:m] = poly.vertices
+    nom = FenceNominal(V0=jnp.asarray(V0, dtype), com0=jnp.asarray(poly.com, dtype),
+                       ang=jnp.asarray(ang, dtype), line=jnp.asarray(line, dtype),
+                       active=jnp.asarray(np.arange(Pp) < P),
+                       hull=jnp.asarray(np.asarray(poly.hull_index, np.int32)))
+    rows = (_push_samples_of(draws, Pp, mp, dtype), jnp.asarray(starts, dtype))
+    res = _run_chunks(_fence_batch, nom, rows, draws.n, chunk, _static_model(model, draws))
+    res = dataclasses.replace(res, edges=res.edges[:, :P], complete=res.complete[:, :P])
+    allowed = [{poly.caller_edge_to_hull(e) for e in p.edges} for p in plan.pushes]
+    return poly, allowed, res
+
+
+def fold_heading(plan, theta) -> np.ndarray:
+    """Headings (rad) folded to within half a symmetry period of the goal's when
+    the part looks the same turned by the period (else wrapped, unchanged)."""
+    th = wrap_angle_np(np.asarray(theta, np.float64))
+    if not plan.part_symmetric or plan.symmetry <= 1:
+        return th
+    g = float(plan.goal[2])
+    d = wrap_angle_np(th - g)
+    return wrap_angle_np(th - np.round(d / plan.period) * plan.period)
+
+
+def sensorless_rows(plan, draws, starts, criterion, model, dtype, chunk):
+    """Per-sample outcomes (:class:`robustness.evaluation.SampleOutcomes`) of a
+    sensorless plan, classified by ``criterion`` (faults ``hull_changed``,
+    ``incomplete_reorientation``, ``wrong_edge``: a push flush on none of its
+    allowed edges)."""
+    from robustness.evaluation import SampleOutcomes, goal_errors
+    from robustness.replay import edge_pairs
+
+    n, P = draws.n, len(plan.pushes)
+    poly, allowed, r = run_sensorless(plan, draws, starts, model, dtype, chunk)
+    edges = np.asarray(r.edges, np.int64).reshape(n, P)
+    complete = np.asarray(r.complete).reshape(n, P).astype(bool)
+    ok_edge = np.stack([np.isin(edges[:, k], sorted(allowed[k])) for k in range(P)], axis=1)
+    wrong = complete & ~ok_edge
+    n_incomplete = (~complete).sum(axis=1)
+    changed = np.asarray(r.changed).astype(bool)
+    trunc = np.asarray(r.truncated).astype(bool)
+    slip = np.asarray(r.slip, np.float64)
+    theta = fold_heading(plan, r.theta)
+    fa, fb = edge_pairs(poly, edges[:, -1])
+    pa, pb = edge_pairs(poly, np.full(n, min(allowed[-1])))
+    valid = ~changed & ~trunc
+    *_, ep, et = goal_errors(r.x, r.y, theta, plan.goal)
+    success, mode = criterion.classify(ep, et, slip, valid=valid, faults=(
+        ("hull_changed", changed), ("incomplete_reorientation", (n_incomplete > 0) | trunc),
+        ("wrong_edge", wrong.any(axis=1))))
+    none = np.full(n, -1, np.int64)
+    return SampleOutcomes(
+        x=r.x, y=r.y, theta=theta, final_edge_a=fa, final_edge_b=fb, planned_edge_a=pa,
+        planned_edge_b=pb, final_face=none, planned_face=none, slip=slip,
+        n_incomplete=n_incomplete,
+        first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
+        hull_changed=changed, model_valid=valid, in_bound_model=np.zeros(n, bool),
+        success=success, failure_mode=mode)
+
+
+__all__ = ["START_STREAM", "is_sensorless", "start_set", "draw_starts", "run_sensorless",
+           "sensorless_rows", "fold_heading"]
