@@ -646,6 +646,8 @@ def explicit_tasks(tasks: list, kind: str) -> list[tuple[str, tuple, tuple]]:
     if dup:
         raise ConfigError(f"tasks: task names must be unique, {dup} repeated")
     for i, t in enumerate(tasks):
+        if isinstance(t.start, dict) and kind != "polygon":   # before the goal's form
+            parse_sensorless_start(t.start, f"tasks[{i}].start", kind)
         goal = parse_pose(t.goal, f"tasks[{i}].goal", kind)
         if t.start is None:
             if kind == "polygon":

@@ -124,7 +124,8 @@ class Loaded:
         if key is None:
             key = self._plan_keys[config_id, task_index] = json.dumps(
                 [part.vertices.tolist(), None if part.com is None else part.com.tolist(), start,
-                 goal, cfg.planner.model_dump(), cfg.eps.__dict__], sort_keys=True)
+                 goal, cfg.planner.model_dump(), cfg.eps.__dict__], sort_keys=True,
+                default=lambda o: dataclasses.asdict(o))   # a SensorlessStart
         try:
             out = _plan_cached(key, part, start, goal, cfg.planner, cfg.eps)
             if out[0] is not None and cfg.synthesize is not None and cfg.synthesize.enabled:

@@ -52,3 +52,157 @@ def test_known_start_tables_unchanged(tmp_path):
     assert r.returncode in (0, 1), r.stderr
     d = _digest(pd.read_parquet(out / "samples"))
     assert d == KNOWN_DIGEST, d
+
+
+# ---------------------------------------------------------------- the example, end to end
+EXAMPLE = EXAMPLES / "certify_sensorless.yaml"
+
+
+def test_example_certifies_from_the_start_set(tmp_path):
+    """``nudge certify examples/certify_sensorless.yaml``: both tasks planned with
+    the sensorless planner, sampled from starts drawn over their heading interval
+    and region, certified, and the claim names the start set."""
+    import json
+
+    out = tmp_path / "o"
+    r = nudge_here("certify", EXAMPLE, "--out", out, "--quiet")
+    assert r.returncode == 0, (r.stdout, r.stderr)
+    certs = pd.read_parquet(out / "certificates").sort_values("task").reset_index(drop=True)
+    assert certs["task"].tolist() == ["any_heading", "heading_interval"]
+    assert (certs["verdict"] == "certified").all(), certs["claim"].tolist()
+    assert (certs["n_samples"] == 60).all() and (certs["model"] == "quasistatic").all()
+    any_claim, interval_claim = certs["claim"]
+    assert any_claim.startswith("from any heading in [-180, 180] deg and any position in "
+                                "[0, 0.04] x [0, 0.04] m: P(success) >= "), any_claim
+    assert interval_claim.startswith("from any heading in [-20, 40] deg and any position in "
+                                     "[0, 0.04] x [0, 0.04] m: "), interval_claim
+    for c in certs["claim"]:
+        assert "95% confidence" in c and "60 samples of the quasistatic model" in c
+        assert "start heading and position (uniform)" in c and "start pose" not in c
+    assert "from any heading in [-180, 180] deg" in r.stdout
+    # the plans: sensorless, three phases, the reference start (region centre, interval middle)
+    plans = pd.read_parquet(out / "plans").sort_values("task").reset_index(drop=True)
+    assert (plans["plan_class"] == "sensorless").all() and plans["planned"].all()
+    assert plans["start_x_m"].tolist() == [0.02, 0.02] and plans["start_y_m"].tolist() == [0.02, 0.02]
+    assert plans["start_theta_rad"].tolist() == pytest.approx([0.0, math.radians(10.0)])
+    for js, steps in zip(plans["plan_json"], plans["n_steps"]):
+        d = json.loads(js)
+        phases = [p["phase"] for p in d["pushes"]]
+        assert len(phases) == steps and phases[-1] == "pose" and "register" in phases
+        assert phases == sorted(phases, key=["orient", "register", "pose"].index)
+    assert certs["plan_steps"].tolist() == plans["n_steps"].tolist()
+    # the samples start all over the start set (the offsets from the reference start)
+    s = pd.read_parquet(out / "samples")
+    for task, half in (("any_heading", math.pi), ("heading_interval", math.radians(30.0))):
+        t = s[s["task"] == task]
+        assert len(t) == 60 and t["success"].all()
+        dx, dy, dth = (t[c].to_numpy() for c in ("start_dx_m", "start_dy_m", "start_dtheta_rad"))
+        assert np.all(np.abs(dx) <= 0.02) and np.all(np.abs(dy) <= 0.02)
+        assert np.all(np.abs(dth) <= half)
+        # spread over the set, not one pose plus a small error
+        assert np.ptp(dx) > 0.02 and np.ptp(dy) > 0.02 and np.ptp(dth) > half
+    # the rectangle looks the same turned by pi: headings reported within half a period
+    assert np.all(np.abs(s["err_theta_rad"]) < 0.05)
+
+
+# ---------------------------------------------------------------- bad input: one line, exit 2
+SENSORLESS = f"""part: {EXAMPLES / 'rectangle.yaml'}
+tolerances: {{tau_v: 1e-5}}
+friction: {{mu_f: [0.8, 1.5]}}
+eps: {{pos_eps_m: 0.003, theta_eps_rad: 0.05}}
+n_samples: 30
+tasks:
+  - {{name: a, start: {{heading: any, region: [0, 0.04, 0, 0.04]}}, goal: [0.15, 0.1, 30deg]}}
+"""
+
+
+@pytest.mark.parametrize("edit,words", [
+    (("[0, 0.04, 0, 0.04]", "[0.04, 0, 0, 0.04]"),
+     ("tasks[0].start.region:", "xmin <= xmax", "swap the bounds")),
+    (("heading: any", "heading: [40deg, -20deg]"),
+     ("tasks[0].start.heading:", "lo <= hi", "swap the bounds")),
+    (("heading: any", "heading: [0, 400deg]"), ("tasks[0].start.heading:", "lo + 2 pi")),
+    (("heading: any", "heading: sideways"), ("tasks[0].start.heading:", "any or [lo, hi]")),
+    (("heading: any", "heading: [0, ten]"), ("tasks[0].start.heading[1]:", "deg")),
+    (("heading: any, ", ""), ("tasks[0].start.heading:", "required", "any")),
+    ((", region: [0, 0.04, 0, 0.04]", ""), ("tasks[0].start.region:", "required")),
+    (("region: [0, 0.04, 0, 0.04]", "region: [0, 0.04, 0]"), ("tasks[0].start.region:",)),
+    (("region:", "regoin:"), ("tasks[0].start:", "regoin", "allowed keys: heading, region")),
+    (("tasks:", "model: mujoco\ntasks:"), ("model: mujoco", "sensorless", "quasistatic")),
+    (("tasks:", "design: {n_samples: 100}\ntasks:"), ("design:", "known start")),
+    (("rectangle.yaml", "cube.yaml"), ("tasks[0].start:", "tumble task", "[x, y, theta, face]")),
+], ids=["region-inverted", "heading-inverted", "heading-too-wide", "heading-word",
+        "heading-angle", "no-heading", "no-region", "region-3", "misspelt-key", "mujoco",
+        "design", "tumble-part"])
+def test_bad_sensorless_starts_are_one_line_exit_2(tmp_path, edit, words):
+    p = tmp_path / "cfg.yaml"
+    p.write_text(SENSORLESS.replace(*edit))
+    out = tmp_path / "o"
+    r = nudge_here("certify", p, "--out", out)
+    assert r.returncode == 2, (r.stdout, r.stderr)
+    assert "Traceback" not in r.stderr and r.stdout == ""
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: "), r.stderr
+    for w in words:
+        assert w in lines[0], lines[0]
+    assert not out.exists()   # refused before any work
+
+
+def test_synthesize_flag_with_a_sensorless_task_is_refused(tmp_path):
+    p = tmp_path / "cfg.yaml"
+    p.write_text(SENSORLESS)
+    r = nudge_here("certify", p, "--synthesize", "--out", tmp_path / "o")
+    assert r.returncode == 2 and "synthesize:" in r.stderr and "--synthesize" in r.stderr
+    assert "Traceback" not in r.stderr
+
+
+# ---------------------------------------------------------------- a study
+STUDY = f"""study: sensorless
+kind: push
+part: {EXAMPLES / 'rectangle.yaml'}
+tasks:
+  - {{name: known, start: [0, 0, 0], goal: [0.15, 0.1, 30deg]}}
+  - {{name: unknown, start: {{heading: [-20deg, 40deg], region: [0, 0.04, 0, 0.04]}}, goal: [0.15, 0.1, 30deg]}}
+tolerances: {{tau_v: 2e-5}}
+friction: {{mu_f: [0.8, 1.5]}}
+eps: {{pos_eps_m: 0.003, theta_eps_rad: 0.05}}
+model: exact
+samples: 16
+seed: 1
+report: false
+"""
+
+
+def test_a_study_plans_and_samples_a_sensorless_task(tmp_path):
+    from sweeps import run
+
+    from tests.commandline import in_process
+
+    p = tmp_path / "s.yaml"
+    p.write_text(STUDY)
+    out = tmp_path / "o"
+    r = in_process(run.main, p, "--out", out, "--quiet")
+    assert r.returncode == 0, (r.stdout, r.stderr)
+    plans = pd.read_parquet(out / "plans").set_index("task")
+    assert plans.loc["unknown", "plan_class"] == "sensorless"
+    assert plans.loc["known", "plan_class"] != "sensorless"
+    s = pd.read_parquet(out / "samples")
+    u = s[s["task"] == "unknown"]
+    assert len(u) == 16 and u["success"].all()
+    assert np.ptp(u["start_dtheta_rad"]) > math.radians(20) and np.ptp(u["start_dx_m"]) > 0.01
+    k = s[s["task"] == "known"]
+    assert (k["start_dx_m"] == 0).all()   # no start error configured: the known start as given
+
+
+def test_a_study_refuses_an_inverted_region_in_one_line(tmp_path):
+    from sweeps import run
+
+    from tests.commandline import in_process
+
+    p = tmp_path / "s.yaml"
+    p.write_text(STUDY.replace("region: [0, 0.04, 0, 0.04]", "region: [0, 0.04, 0.04, 0]"))
+    r = in_process(run.main, p, "--out", tmp_path / "o")
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "tasks[1].start.region:" in lines[0] and "ymin <= ymax" in lines[0]
+    assert "Traceback" not in r.stderr
