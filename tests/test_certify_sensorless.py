@@ -206,3 +206,42 @@ def test_a_study_refuses_an_inverted_region_in_one_line(tmp_path):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "tasks[1].start.region:" in lines[0] and "ymin <= ymax" in lines[0]
     assert "Traceback" not in r.stderr
+
+
+# ---------------------------------------------------------------- the Monte Carlo itself
+def test_sensorless_monte_carlo_draws_its_starts_over_the_start_set():
+    """``robustness.evaluate`` of a SensorlessPlan: the starts uniform over the
+    heading interval and the region (not the plan's reference start plus an
+    error), reproducible from the key; with nothing else perturbed the exact
+    replay reaches the goal from every one, and the start is what was perturbed."""
+    import jax
+
+    from planning import plan_sensorless
+    from robustness import Sampler, SuccessCriterion, evaluate, perturbed_sources, start_set
+    from robustness.sensorless import draw_starts
+
+    rect = np.array([[0.0, 0.0], [0.04, 0.0], [0.04, 0.02], [0.0, 0.02]])
+    region, heading = (0.0, 0.04, 0.01, 0.03), (-0.3, 0.5)
+    plan = plan_sensorless(rect, (0.15, 0.1, 0.5), region, heading, n_headings=36, n_side=2)
+    crit = SuccessCriterion(pos_eps_m=1e-3, theta_eps_rad=0.01)
+    key = jax.random.key(7)
+    ev = evaluate(plan, Sampler(), 64, key, crit, "exact", bound=False)
+    s = ev.samples
+    assert s["success"].all(), s["failure_mode"].value_counts()
+    starts = draw_starts(plan, key, 64)
+    ref = np.asarray(plan.start)
+    assert ref.tolist() == pytest.approx([0.02, 0.02, 0.1])
+    got = np.stack([s["start_dx_m"], s["start_dy_m"], s["start_dtheta_rad"]], axis=1) + ref
+    np.testing.assert_allclose(got, starts, atol=1e-15)
+    assert starts[:, 0].min() >= 0.0 and starts[:, 0].max() <= 0.04
+    assert starts[:, 1].min() >= 0.01 and starts[:, 1].max() <= 0.03
+    assert starts[:, 2].min() >= -0.3 and starts[:, 2].max() <= 0.5
+    assert np.ptp(starts[:, 2]) > 0.6 and np.ptp(starts[:, 0]) > 0.03   # spread, not a point
+    again = evaluate(plan, Sampler(), 64, key, crit, "exact", bound=False).samples
+    pd.testing.assert_frame_equal(again, s)
+    assert perturbed_sources(Sampler(), "push", "exact", sensorless=True) == (
+        "start heading and position (uniform)",)
+    assert start_set(plan) == ("any heading in [-17.19, 28.65] deg and any position in "
+                               "[0, 0.04] x [0.01, 0.03] m")
+    # no analytic bound about one start for a start set
+    assert math.isnan(ev.summary["bound_position_m"])
