@@ -49,6 +49,9 @@ a length may carry a unit, ``tau_v: 0.05 mm``, converted to metres once)::
     model: quasistatic               # or exact, or mujoco (physics; tumbles: exact or mujoco)
     tasks:
       - {name: turn, start: [0, 0, 0], goal: [0.1, 0.05, 60deg]}
+      # sensorless (issue 40): any heading (or heading: [lo, hi]) anywhere in the region;
+      # each sample starts uniformly there, and the claim says "from any heading in ..."
+      - {name: feed, start: {heading: any, region: [0, 0.04, 0, 0.04]}, goal: [0.15, 0.1, 30deg]}
 
 Output: ``results/certify-<config stem>/<run-id>/`` (or ``--out DIR``) with one
 folder per table (``samples/``, ``summary/``, ``plans/``, ``certificates/``,
@@ -380,6 +383,11 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
                   criterion=cfg.eps, schedule=schedule,
                   starts=start_set(plan) if sensorless else "")
     row.update(cert.to_row())
+    ex = cfg.execution
+    if sensorless and (ex.start_xy > 0 or ex.start_theta > 0):
+        row["note"] = "; ".join(x for x in (row["note"], "execution.start_xy / start_theta not "
+                                            "applied: each sample's start is drawn over the "
+                                            "task's heading interval and region") if x)
     if syn is not None:
         row["note"] = "; ".join(x for x in (row["note"], "certified on fresh draws, not the "
                                             "selection draws the plan was chosen on") if x)

@@ -12,6 +12,9 @@ carry ``deg``, lengths a unit: ``tau_v: 0.05 mm``, :mod:`sweeps.units`)::
                                         # footprint with units: mm, sweeps.partfile)
     tasks:                              # explicit list, or sampled goals:
       sample: {n: 6, annulus: [0.05, 0.15], heading: [-180deg, 180deg]}
+    # an explicit push task may start unknown (sensorless posing, issue 40):
+    #   - {name: feed, start: {heading: any, region: [0, 0.04, 0, 0.04]}, goal: [...]}
+    # (heading: [lo, hi] for a known interval; its samples start uniformly there)
     planner: {margin_deg: 7, safety_factor: 1.15}   # + objective, strategy (search | paper),
                                         # support_c [lo, hi] m, min_fence_mu, workspace
                                         # [xmin, xmax, ymin, ymax] m, max_reorients (24),

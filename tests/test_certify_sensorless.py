@@ -245,3 +245,18 @@ def test_sensorless_monte_carlo_draws_its_starts_over_the_start_set():
                                "[0, 0.04] x [0.01, 0.03] m")
     # no analytic bound about one start for a start set
     assert math.isnan(ev.summary["bound_position_m"])
+
+
+def test_a_start_error_is_not_applied_and_the_certificate_says_so(tmp_path):
+    p = tmp_path / "cfg.yaml"
+    p.write_text(SENSORLESS.replace("tasks:", "execution: {start_xy: 5.0e-4}\nmodel: exact\ntasks:"))
+    out = tmp_path / "o"
+    r = nudge_here("certify", p, "--out", out, "--quiet")
+    assert r.returncode == 0, (r.stdout, r.stderr)
+    c = pd.read_parquet(out / "certificates").iloc[0]
+    assert "start_xy / start_theta not applied" in c["note"]
+    assert c["claim"].startswith("from any heading in [-180, 180] deg and any position in "
+                                 "[0, 0.04] x [0, 0.04] m: P(success) >= ")
+    assert "30 samples of the exact model" in c["claim"]
+    s = pd.read_parquet(out / "samples")
+    assert np.all(np.abs(s["start_dx_m"]) <= 0.02) and np.ptp(s["start_dx_m"]) > 0.01
