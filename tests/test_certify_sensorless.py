@@ -58,6 +58,7 @@ def test_known_start_tables_unchanged(tmp_path):
 EXAMPLE = EXAMPLES / "certify_sensorless.yaml"
 
 
+@pytest.mark.slow
 def test_example_certifies_from_the_start_set(tmp_path):
     """``nudge certify examples/certify_sensorless.yaml``: both tasks planned with
     the sensorless planner, sampled from starts drawn over their heading interval
@@ -173,6 +174,7 @@ report: false
 """
 
 
+@pytest.mark.slow
 def test_a_study_plans_and_samples_a_sensorless_task(tmp_path):
     from sweeps import run
 
@@ -209,6 +211,7 @@ def test_a_study_refuses_an_inverted_region_in_one_line(tmp_path):
 
 
 # ---------------------------------------------------------------- the Monte Carlo itself
+@pytest.mark.slow
 def test_sensorless_monte_carlo_draws_its_starts_over_the_start_set():
     """``robustness.evaluate`` of a SensorlessPlan: the starts uniform over the
     heading interval and the region (not the plan's reference start plus an
@@ -247,6 +250,7 @@ def test_sensorless_monte_carlo_draws_its_starts_over_the_start_set():
     assert math.isnan(ev.summary["bound_position_m"])
 
 
+@pytest.mark.slow
 def test_a_start_error_is_not_applied_and_the_certificate_says_so(tmp_path):
     p = tmp_path / "cfg.yaml"
     p.write_text(SENSORLESS.replace("tasks:", "execution: {start_xy: 5.0e-4}\nmodel: exact\ntasks:"))
