@@ -270,9 +270,13 @@ def main(argv=None, prog: str = "nudge certify") -> int:
         return fail(str(exc))
     if code == Exit.INTERRUPTED:
         return code
+    from sweeps.config import SensorlessStart
+
+    # a sensorless task: --synthesize and --design need a known start, never suggested
+    unknown = {name for name, start, _ in tasks if isinstance(start, SensorlessStart)}
     sys.stdout.write(format_table(certs, lambda c: next_steps(
-        c, cfg.friction.support, synthesized=bool(args.synthesize), designed=bool(args.design)))
-        + "\n")
+        c, cfg.friction.support, synthesized=bool(args.synthesize) or c["task"] in unknown,
+        designed=bool(args.design) or c["task"] in unknown)) + "\n")
     sys.stdout.write(f"results: {out}\n")
     return code
 

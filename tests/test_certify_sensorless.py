@@ -264,3 +264,30 @@ def test_a_start_error_is_not_applied_and_the_certificate_says_so(tmp_path):
     assert "30 samples of the exact model" in c["claim"]
     s = pd.read_parquet(out / "samples")
     assert np.all(np.abs(s["start_dx_m"]) <= 0.02) and np.ptp(s["start_dx_m"]) > 0.01
+
+
+@pytest.mark.slow
+def test_a_failing_sensorless_task_gets_the_remedies_it_can_use(tmp_path):
+    """The triangle slips along fences of friction 0.3-0.8 (the orient and register
+    pushes assume it sticks): not certified, slip; the margin search re-plans it
+    sensorlessly; the next steps name no --synthesize / --design (refused for it)."""
+    p = tmp_path / "cfg.yaml"
+    p.write_text(f"""part: {EXAMPLES / 'biplus_stable.yaml'}
+tolerances: {{tau_v: 2.0e-5}}
+friction: {{mu_f: [0.3, 0.8]}}
+eps: {{pos_eps_m: 0.003, theta_eps_rad: 0.05}}
+n_samples: 30
+margin_search: {{margins_deg: [5, 9], safety_factors: [1.15], n_samples: 20}}
+tasks:
+  - {{name: a, start: {{heading: any, region: [0, 0.04, 0, 0.04]}}, goal: [0.15, 0.1, 30deg]}}
+""")
+    out = tmp_path / "o"
+    r = nudge_here("certify", p, "--out", out, "--quiet")
+    assert r.returncode == 1, (r.stdout, r.stderr)
+    c = pd.read_parquet(out / "certificates").iloc[0]
+    assert c["verdict"] == "not certified" and c["dominant_failure_mode"] == "slip"
+    assert c["claim"].startswith("from any heading in [-180, 180] deg")
+    assert "margin / safety factor" in c["note"]
+    nxt = [ln for ln in r.stdout.splitlines() if "next:" in ln]
+    assert nxt and "friction.mu_f" in nxt[0]
+    assert "--synthesize" not in r.stdout and "--design" not in r.stdout
