@@ -37,7 +37,7 @@ from robustness.stats import (CONFIDENCE, REQUIRED_PROBABILITY, clopper_pearson,
                               one_sided_upper, samples_needed)
 from robustness.summary import summarise
 from robustness.synthesis import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES,
-                                  Candidate, Scores, Synthesis, physics_tiebreak, push_candidates,
+                                  SHORTLIST, Candidate, Scores, Synthesis, physics_tiebreak, push_candidates,
                                   score_candidates, select, selection_key, synthesize)
 from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTolerance,
                                    SuccessCriterion)
@@ -45,9 +45,10 @@ from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTo
 # used by the layers above (the one boundary: tests/test_layers.py)
 from robustness import failure_modes, tables, tolerance_design  # noqa: F401  (modules other layers use)
 from robustness.compiled import release_executables
+from robustness.confirmation import NO_PHYSICS, PhysicsCheck, confirm_in_physics, confirmation_key
 from robustness.certificates import (Schedule, auto_schedule, decide, first_certifying, grow,
                                      no_plan, perturbed_sources)
-from robustness.models import (PUSH_KINEMATIC, THROUGHPUT, block_samples, model_for,
+from robustness.models import (DEFAULT_MODEL, PUSH_KINEMATIC, THROUGHPUT, block_samples, decision_model, model_for,
                                peak_bytes, plan_kind, samples_per_second)
 from robustness.summary import STAT_COLUMNS, empty_summary
 from robustness.tables import FAILURE_MODES, to_arrow
@@ -56,7 +57,8 @@ __all__ = [
     "synthesize", "physics_tiebreak", "push_candidates", "score_candidates", "select", "selection_key", "Candidate",
     "Scores", "Synthesis", "GRID_MARGINS_DEG", "GRID_SAFETY_FACTORS", "GRID_STRATEGIES",
     "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Sampler",
-    "CONFIDENCE", "REQUIRED_PROBABILITY", "plan_kind",
+    "CONFIDENCE", "REQUIRED_PROBABILITY", "plan_kind", "DEFAULT_MODEL", "decision_model", "SHORTLIST",
+    "NO_PHYSICS", "PhysicsCheck", "confirm_in_physics", "confirmation_key",
     "Draws", "PerturbationParams",
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "Bound", "SourceBound", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",

@@ -59,6 +59,7 @@ import numpy as np
 
 from kernels import VARYING_SUPPORTS
 from robustness import stats
+from robustness.models import DEFAULT_MODEL
 from robustness.tolerances import SuccessCriterion
 
 VERDICTS = ("certified", "not certified", "no plan")
@@ -387,7 +388,7 @@ def first_certifying(candidates, evaluate_one: Callable) -> Optional[object]:
 def certify(plan, sampler, key, criterion: Optional[SuccessCriterion] = None, *,
             required_probability: float = stats.REQUIRED_PROBABILITY,
             confidence: float = stats.CONFIDENCE, n_samples="auto", max_samples: int = 100_000,
-            model: str = "quasistatic", dtype=None, physics=None, task: str = "task",
+            model: str = DEFAULT_MODEL, dtype=None, physics=None, task: str = "task",
             bound: bool = True):
     """Certify one plan: sample, replay, decide (see the module docstring).
 

@@ -52,7 +52,7 @@ from kernels import float64
 from planning import STRATEGIES, PlanningError, PushOptions, plan_alternatives, plan_pose
 from robustness import stats
 from robustness.evaluation import goal_errors
-from robustness.models import PUSH_KINEMATIC, plan_kind
+from robustness.models import DEFAULT_MODEL, MODELS, PUSH_KINEMATIC, decision_model, plan_kind
 from robustness.replay import run_push_many
 from robustness.samplers import Sampler
 from robustness.stats import CONFIDENCE
@@ -505,7 +505,7 @@ def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key,
 def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key,
                criterion: Optional[SuccessCriterion] = None,
                options: Optional[PushOptions] = None, objective: str = "max_lower_bound",
-               required_probability: Optional[float] = None, model: str = "quasistatic",
+               required_probability: Optional[float] = None, model: str = DEFAULT_MODEL,
                dtype=jnp.float64, confidence: float = CONFIDENCE, **grid) -> Synthesis:
     """Candidates of a push task (2-d ``vertices``: :func:`push_candidates`) or a
     tumble task (3-d: :func:`tumble_candidates`; ``grid`` the keywords of
@@ -518,12 +518,13 @@ def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key
     exact kinematics (``limit_surface``: of more than :data:`SHORTLIST`
     candidates the quasi-static model shortlists the default plan and the best
     ``SHORTLIST - 1`` on the same draws, and the exact limit surface chooses
-    among them; ``mujoco``: the quasi-static model chooses, physics certifies)."""
+    among them; ``mujoco``: :func:`~robustness.models.decision_model`, the exact
+    limit surface, chooses, physics certifies; default
+    :data:`~robustness.models.DEFAULT_MODEL`)."""
     tumble = np.asarray(vertices).shape[-1] == 3
-    if tumble:
-        model = "exact"
-    elif model not in PUSH_KINEMATIC:
-        model = "quasistatic"
+    if model not in MODELS:
+        raise ValueError(f"model: expected one of {MODELS}, got {model!r}")
+    model = decision_model(model, "tumble" if tumble else "push")
     if tumble:
         cands, skipped = tumble_candidates(vertices, start, goal, com, **grid)
     else:

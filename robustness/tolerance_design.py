@@ -63,6 +63,7 @@ import numpy as np
 
 from robustness import stats
 from robustness.evaluation import evaluate
+from robustness.models import DEFAULT_MODEL
 from robustness.samplers import Sampler
 
 #: push-plan axes, tumble-plan axes
@@ -240,7 +241,7 @@ class Judge:
     default: the plan kind's)."""
 
     def __init__(self, plan, n: int, key, *, p: float, confidence: float,
-                 model: str = "quasistatic", dtype=jnp.float64, criterion=None, physics=None):
+                 model: str = DEFAULT_MODEL, dtype=jnp.float64, criterion=None, physics=None):
         self.plan, self.n, self.key, self.p, self.confidence = plan, int(n), key, float(p), float(confidence)
         self.kw = dict(criterion=criterion, model=model, dtype=dtype, physics=physics,
                        summary=False, bound=False)

@@ -119,24 +119,44 @@ def _task_samples(cfg: CertifyConfig) -> int:
     return cfg.max_samples if cfg.n_samples == "auto" else int(cfg.n_samples)
 
 
+#: evaluations of the design draws a tolerance design takes: about this many per
+#: axis (bracket and bisection, the knock-outs) and this many besides (the joint
+#: design); measured 66-76 on the triangle's six push axes
+DESIGN_EVALUATIONS_PER_AXIS, DESIGN_EVALUATIONS_BESIDES = 10, 12
+
+
 def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> float:
     """The certification's time (s) on 2 CPU cores from the measured throughput
-    of its model on its support (:func:`robustness.models.samples_per_second`):
-    every task's samples (``auto``: up to ``max_samples``), the synthesis's
-    selection draws over its candidate cap, the margin search's grid, less the
-    ``kept`` samples of an interrupted run's finished blocks; plus a few
-    seconds a task of planning and compilation."""
-    from robustness import samples_per_second
+    of each model on its support (:func:`robustness.models.samples_per_second`):
+    every task's samples (``auto``: up to ``max_samples``) under the config's
+    model, less the ``kept`` samples of an interrupted run's finished blocks;
+    the synthesis's selection draws over its candidate cap under the model that
+    chooses (:func:`robustness.decision_model`; the exact limit surface scores
+    a shortlist that the quasi-static model draws up), or the margin search's
+    grid; the tolerance design's evaluations; plus a few seconds a task of
+    planning and compilation."""
+    from robustness import SHORTLIST, decision_model, samples_per_second, tolerance_design as td
 
     kind = _plan_kind(part)
-    rate = samples_per_second(kind, cfg.model, cfg.friction.support)
-    n = _task_samples(cfg)
+    support = cfg.friction.support
+    rate = lambda model: samples_per_second(kind, model, support)  # noqa: E731
+    choose = decision_model(cfg.model, kind)
+    secs = max(n_tasks * _task_samples(cfg) - kept, 0) / rate(cfg.model)
     if cfg.synthesize is not None and cfg.synthesize.enabled:
-        n += cfg.synthesize.n_samples * cfg.synthesize.max_candidates
+        s = cfg.synthesize
+        scored = s.max_candidates
+        if choose == "limit_surface" and s.max_candidates > SHORTLIST:
+            secs += n_tasks * s.n_samples * s.max_candidates / rate("quasistatic")
+            scored = SHORTLIST
+        secs += n_tasks * s.n_samples * scored / rate(choose)
     elif kind == "push" and cfg.margin_search is not None and cfg.margin_search.enabled:
         m = cfg.margin_search
-        n += m.n_samples * len(m.margins_deg) * len(m.safety_factors)
-    return max(n_tasks * n - kept, 0) / rate + 2.0 * n_tasks + 8.0
+        secs += n_tasks * m.n_samples * len(m.margins_deg) * len(m.safety_factors) / rate(cfg.model)
+    if cfg.design is not None and cfg.design.enabled:
+        axes = len(cfg.design.axes or (td.PUSH_AXES if kind == "push" else td.TUMBLE_AXES))
+        evals = DESIGN_EVALUATIONS_PER_AXIS * axes + DESIGN_EVALUATIONS_BESIDES
+        secs += n_tasks * evals * cfg.design.n_samples / rate(choose)
+    return secs + 2.0 * n_tasks + 8.0
 
 
 def estimate_peak(cfg: CertifyConfig, part) -> float:
@@ -379,6 +399,11 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     if syn is not None:
         row["note"] = "; ".join(x for x in (row["note"], "certified on fresh draws, not the "
                                             "selection draws the plan was chosen on") if x)
+        check = confirm_task(cfg, part, plan, summary, key)
+        if check is not None:
+            row.update(check.to_row())
+            row["note"] = "; ".join(x for x in (row["note"], check.sentence()) if x)
+            _log(quiet, f"[{name}] {check.sentence()}")
     if cert.verdict != "certified" and kind == "push" and cfg.margin_search is not None \
             and cfg.margin_search.enabled and syn is None:
         rec = margin_search(part, start, goal, cfg, key, model)
@@ -395,6 +420,25 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         row["note"] = "; ".join(x for x in (row["note"], f"tolerance design: {line}") if x)
         _log(quiet, f"[{name}] tolerance design: {line}")
     return row
+
+
+def confirm_task(cfg, part, plan, summary, key):
+    """The synthesized plan of a push task rolled out in MuJoCo
+    (``synthesize.confirm_samples`` fresh draws, :func:`robustness.confirm_in_physics`)
+    beside its certificate; None when there is nothing to confirm with: no
+    rollouts asked for, a tumble task, a model that is physics already, or a
+    support MuJoCo does not build (``points``)."""
+    from kernels import REALISABLE_SUPPORTS
+    from robustness import confirm_in_physics, confirmation_key
+
+    n = cfg.synthesize.confirm_samples
+    if (not n or part.kind != "polygon" or cfg.model == "mujoco"
+            or cfg.friction.support not in REALISABLE_SUPPORTS):
+        return None
+    return confirm_in_physics(plan, cfg.sampler(), n, confirmation_key(key), cfg.eps,
+                              model=cfg.model, model_k=int(summary["n_success"]),
+                              model_n=int(summary["n"]), confidence=cfg.required.confidence,
+                              physics=cfg.physics.run(part, cfg.friction))
 
 
 def design_task(cfg, part, plan, name, key, store, ti) -> str:
@@ -526,7 +570,9 @@ def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
                    selection_n_samples=syn.scores.n,
                    selection_ci_low=float(syn.scores.ci_low[syn.chosen]),
                    default_selection_ci_low=float(syn.scores.ci_low[0]))
-    return dict(**sel,task=name, kind="push" if push else "tumble", part=part.name,
+    from robustness import NO_PHYSICS
+
+    return dict(**sel, **NO_PHYSICS, task=name, kind="push" if push else "tumble", part=part.name,
                 part_source=part.source.name, part_units=part.units,
                 model=model_for(cfg.model, "push" if push else "tumble"),
                 start_x_m=start[0], start_y_m=start[1], start_theta_rad=start[2],

@@ -105,12 +105,11 @@ def synthesize_for(cfg, part, start, goal, key):
     :class:`~robustness.Synthesis`."""
     import jax.numpy as jnp
 
-    from robustness import PUSH_KINEMATIC, selection_key, synthesize
+    from robustness import decision_model, selection_key, synthesize
 
     sy = cfg.synthesize
     push = part.kind == "polygon"
-    model = (cfg.model if cfg.model in PUSH_KINEMATIC else "quasistatic") if push \
-        else "exact"
+    model = decision_model(cfg.model, "push" if push else "tumble")
     grid = (dict(options=cfg.planner.push_options(), **sy.grid(cfg.friction)) if push
             else sy.tumble_grid(tumble_eps(cfg.planner, cfg.eps), cfg.planner.tumble_tau_v,
                                 cfg.planner.tau_g))
@@ -134,7 +133,7 @@ def synthesize_for(cfg, part, start, goal, key):
 def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
     """Tolerance design of one task's plan under a config (its ``design``
     section, sampler, eps, requirement; :mod:`robustness.tolerance_design`,
-    the quasi-static or exact kinematics) on the design draws of the task's
+    under :func:`robustness.decision_model`) on the design draws of the task's
     ``key`` (:func:`robustness.tolerance_design.design_key`).
 
     Returns:
@@ -144,11 +143,10 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
     import jax
     import jax.numpy as jnp
 
-    from robustness import PUSH_KINEMATIC, model_for, tolerance_design as td
+    from robustness import decision_model, tolerance_design as td
 
     kind = "push" if part.kind == "polygon" else "tumble"
-    model = cfg.model if cfg.model in PUSH_KINEMATIC and kind == "push" else \
-        model_for("quasistatic" if cfg.model == "mujoco" else cfg.model, kind)
+    model = decision_model(cfg.model, kind)
     d = cfg.design
     axes = tuple(a for a in (d.axes or td.axes_for(plan)) if a in td.axes_for(plan))
     p, conf = cfg.required.probability, cfg.required.confidence
