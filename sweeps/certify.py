@@ -109,11 +109,6 @@ def build_parser(prog: str = "nudge certify") -> Parser:
     return p
 
 
-def _plan_kind(part) -> str:
-    """``"push"`` for a polygon, ``"tumble"`` for a polyhedron."""
-    return "push" if part.kind == "polygon" else "tumble"
-
-
 def _task_samples(cfg: CertifyConfig) -> int:
     """The most samples a task draws (``auto``: up to ``max_samples``)."""
     return cfg.max_samples if cfg.n_samples == "auto" else int(cfg.n_samples)
@@ -126,9 +121,9 @@ def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> f
     selection draws over its candidate cap, the margin search's grid, less the
     ``kept`` samples of an interrupted run's finished blocks; plus a few
     seconds a task of planning and compilation."""
-    from robustness import samples_per_second
+    from robustness import kind_for_part, samples_per_second
 
-    kind = _plan_kind(part)
+    kind = kind_for_part(part.kind)
     rate = samples_per_second(kind, cfg.model, cfg.friction.support)
     n = _task_samples(cfg)
     if cfg.synthesize is not None and cfg.synthesize.enabled:
@@ -143,9 +138,9 @@ def estimate_peak(cfg: CertifyConfig, part) -> float:
     """The certification's peak memory (bytes): a block of samples at a time
     (:func:`robustness.block_samples`, :func:`robustness.peak_bytes`), never
     more than a task's sample count."""
-    from robustness import block_samples, model_for, peak_bytes
+    from robustness import block_samples, kind_for_part, model_for, peak_bytes
 
-    kind = _plan_kind(part)
+    kind = kind_for_part(part.kind)
     model = model_for(cfg.model, kind)
     return peak_bytes(model, min(_task_samples(cfg), block_samples(kind, model,
                                                                    cfg.friction.support)))
@@ -333,11 +328,11 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     import jax
 
     from robustness import (tables, Schedule, auto_schedule, block_samples, decide, grow,
-                            model_for, no_plan, perturbed_sources)
+                            kind_for_part, model_for, no_plan, perturbed_sources)
     from sweeps.config import ConfigError
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
-    kind = _plan_kind(part)
+    kind = kind_for_part(part.kind)
     model = model_for(cfg.model, kind)
     p, conf = cfg.required.probability, cfg.required.confidence
     caught: list = []
@@ -516,9 +511,10 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
 
 
 def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
-    from robustness import model_for
+    from robustness import kind_for_part, model_for
 
-    push = part.kind == "polygon"
+    kind = kind_for_part(part.kind)
+    push = kind == "push"
     sel = dict(selection="default plan", n_candidates=0, selection_n_samples=0,
                selection_ci_low=math.nan, default_selection_ci_low=math.nan)
     if syn is not None:
@@ -526,13 +522,13 @@ def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
                    selection_n_samples=syn.scores.n,
                    selection_ci_low=float(syn.scores.ci_low[syn.chosen]),
                    default_selection_ci_low=float(syn.scores.ci_low[0]))
-    return dict(**sel,task=name, kind="push" if push else "tumble", part=part.name,
+    return dict(**sel,task=name, kind=kind, part=part.name,
                 part_source=part.source.name, part_units=part.units,
-                model=model_for(cfg.model, "push" if push else "tumble"),
+                model=model_for(cfg.model, kind),
                 start_x_m=start[0], start_y_m=start[1], start_theta_rad=start[2],
                 start_face=start[3] if not push else -1, goal_x_m=goal[0], goal_y_m=goal[1],
                 goal_theta_rad=goal[2], goal_face=goal[3] if not push else -1,
-                plan_steps=0 if plan is None else (plan.n_pushes if push else plan.n_tumbles),
+                plan_steps=0 if plan is None else plan.n_steps,
                 plan_distance_m=plan.total_distance if (push and plan is not None) else math.nan,
                 plan_verdict="no_plan" if plan is None else ("solved" if push else plan.verdict),
                 margin_deg=(plan.margin_deg if plan is not None else cfg.planner.margin_deg)

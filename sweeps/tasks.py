@@ -146,7 +146,7 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
 
     from robustness import PUSH_KINEMATIC, model_for, tolerance_design as td
 
-    kind = "push" if part.kind == "polygon" else "tumble"
+    kind = plan.kind
     model = cfg.model if cfg.model in PUSH_KINEMATIC and kind == "push" else \
         model_for("quasistatic" if cfg.model == "mujoco" else cfg.model, kind)
     d = cfg.design
