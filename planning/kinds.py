@@ -7,6 +7,8 @@ A plan type is a frozen dataclass that carries, besides its data:
   the physics rollout, the bound, the defaults of each kind), read instead of
   rediscovering a plan's kind from its attributes;
 * ``n_steps``: its steps (pushes, tumbles);
+* ``verdict``: ``"solved"`` for a plan that reaches its goal (a push plan always:
+  the planner returns verified plans only), else the planner's verdict;
 * ``nominal_part()``: the nominal part the plan was made for (a
   :class:`kernels.Polygon` or :class:`kernels.Polyhedron`);
 * ``draw_shape()``: the keywords ``n_vertices``, ``dim`` and ``n_pushes`` or
@@ -34,6 +36,9 @@ class Plan(Protocol):
     @property
     def n_steps(self) -> int: ...
 
+    @property
+    def verdict(self) -> str: ...
+
     def nominal_part(self): ...
 
     def draw_shape(self) -> dict: ...
@@ -45,6 +50,6 @@ class Plan(Protocol):
 PLAN_TYPES = {cls.kind: cls for cls in (PushPlan, TumblePlan, SensorlessPlan)}
 
 #: the methods and properties of the plan interface
-INTERFACE = ("kind", "n_steps", "nominal_part", "draw_shape", "to_dict")
+INTERFACE = ("kind", "n_steps", "verdict", "nominal_part", "draw_shape", "to_dict")
 
 __all__ = ["PLAN_TYPES", "INTERFACE", "Plan"]

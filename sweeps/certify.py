@@ -492,12 +492,12 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
             how = dict(margin_deg=pl.margin_deg, safety_factor=pl.safety_factor,
                        strategy=pl.strategy, distance_rule=pl.distance_rule, support=pl.support,
                        min_fence_mu=math.nan if pl.min_fence_mu is None else pl.min_fence_mu,
-                       n_steps=pl.n_pushes, total_distance_m=pl.total_distance,
+                       n_steps=pl.n_steps, total_distance_m=pl.total_distance,
                        tumble_eps=math.nan)
         else:
             how = dict(margin_deg=math.nan, safety_factor=math.nan,
                        strategy="short" if c.options.shorten else "paper", distance_rule=None,
-                       support=None, min_fence_mu=math.nan, n_steps=pl.n_tumbles,
+                       support=None, min_fence_mu=math.nan, n_steps=pl.n_steps,
                        total_distance_m=math.nan, tumble_eps=c.options.eps)
         rows.append(dict(run_id=store.run_id, task=name, candidate=i, label=c.label, **how,
                          alternative=c.rank, bound_position_m=float(s.bound_position_m[i]),
@@ -530,7 +530,7 @@ def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
                 goal_theta_rad=goal[2], goal_face=goal[3] if not push else -1,
                 plan_steps=0 if plan is None else plan.n_steps,
                 plan_distance_m=plan.total_distance if (push and plan is not None) else math.nan,
-                plan_verdict="no_plan" if plan is None else ("solved" if push else plan.verdict),
+                plan_verdict="no_plan" if plan is None else plan.verdict,
                 margin_deg=(plan.margin_deg if plan is not None else cfg.planner.margin_deg)
                 if push else math.nan,
                 safety_factor=(plan.safety_factor if plan is not None

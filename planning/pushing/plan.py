@@ -122,7 +122,7 @@ class PushPlan:
       turns: extra full turns of the main reorient run (0 or 1).
 
     The plan interface (:mod:`planning.kinds`): ``kind`` ``"push"``,
-    :attr:`n_steps`, :meth:`nominal_part`, :meth:`draw_shape`.
+    :attr:`n_steps`, :attr:`verdict`, :meth:`nominal_part`, :meth:`draw_shape`.
     """
 
     #: the plan's kind: its key in the evaluation's dispatch table (:mod:`planning.kinds`)
@@ -161,6 +161,12 @@ class PushPlan:
     def n_steps(self) -> int:
         """The plan's steps (its pushes): the plan interface."""
         return len(self.pushes)
+
+    @property
+    def verdict(self) -> str:
+        """``"solved"``: the planner returns only plans its exact replay verified
+        (the plan interface; a tumble plan's verdict can be another)."""
+        return "solved"
 
     def nominal_part(self):
         """The nominal part, a :class:`kernels.Polygon` of the plan's vertices and

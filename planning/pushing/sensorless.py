@@ -92,7 +92,7 @@ class SensorlessPlan:
     The plan interface (:mod:`planning.kinds`): ``kind`` ``"sensorless"`` (its own
     kind, not ``"push"``: it has no single start pose; the Monte-Carlo evaluation
     has no entry for it yet, :data:`robustness.kinds.NOT_EVALUATED`),
-    :attr:`n_steps`, :meth:`nominal_part`, :meth:`draw_shape`.
+    :attr:`n_steps`, :attr:`verdict`, :meth:`nominal_part`, :meth:`draw_shape`.
     """
 
     #: the plan's kind: its key in the evaluation's dispatch table (:mod:`planning.kinds`)
@@ -117,6 +117,12 @@ class SensorlessPlan:
     def n_steps(self) -> int:
         """The plan's steps (every push of the three phases): the plan interface."""
         return len(self.pushes)
+
+    @property
+    def verdict(self) -> str:
+        """``"solved"``: returned only after the grid replay reached the goal from
+        every start (the plan interface)."""
+        return "solved"
 
     def nominal_part(self):
         """The nominal part (:class:`kernels.Polygon`), that of the pose phase's plan."""

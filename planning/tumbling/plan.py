@@ -125,7 +125,7 @@ class TumblePlan:
         :mod:`planning.tumbling.effort`).
 
     The plan interface (:mod:`planning.kinds`): ``kind`` ``"tumble"``,
-    :attr:`n_steps`, :meth:`nominal_part`, :meth:`draw_shape`.
+    :attr:`n_steps`, ``verdict`` (a field), :meth:`nominal_part`, :meth:`draw_shape`.
     """
 
     #: the plan's kind: its key in the evaluation's dispatch table (:mod:`planning.kinds`)
