@@ -57,8 +57,8 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from kernels import VARYING_SUPPORTS
 from robustness import stats
+from robustness.kinds import KINDS, kind_of, model_for
 from robustness.models import DEFAULT_MODEL
 from robustness.tolerances import SuccessCriterion
 
@@ -183,7 +183,7 @@ def _pct(c: float) -> str:
 
 def perturbed_sources(sampler, kind: str, model: str) -> tuple:
     """What varies between samples of ``sampler`` under ``model`` (names)."""
-    g, f, e = sampler.geometry, sampler.friction, sampler.execution
+    g, e = sampler.geometry, sampler.execution
     out = []
     if g.tau_v > 0:
         out.append("part vertices")
@@ -191,18 +191,7 @@ def perturbed_sources(sampler, kind: str, model: str) -> tuple:
         out.append("centre of mass")
     if e.start_xy > 0 or e.start_theta > 0:
         out.append("start pose")
-    if kind == "push":
-        if e.fence_angle > 0:
-            out.append("fence angle")
-        if e.distance_abs > 0 or e.distance_rel > 0:
-            out.append("push distance")
-        if model in ("quasistatic", "limit_surface", "mujoco"):  # the exact replay does not depend on friction
-            if f.mu_f[1] > f.mu_f[0]:
-                out.append("fence friction")
-            if f.support in VARYING_SUPPORTS or (f.c is not None and f.c[1] > f.c[0]):
-                out.append(f"support ({f.support})")   # uniform, ring: one c, nothing drawn
-    elif e.tumble_slip_xy > 0 or e.tumble_slip_theta > 0:
-        out.append("slip after tumbles")
+    out += KINDS[kind].sources(sampler, model)   # the kind's own execution errors
     return tuple(out)
 
 
@@ -415,10 +404,9 @@ def certify(plan, sampler, key, criterion: Optional[SuccessCriterion] = None, *,
     import pandas as pd
 
     from robustness.evaluation import evaluate
-    from robustness.models import model_for, plan_kind
     from robustness.summary import summarise
 
-    kind = plan_kind(plan)
+    kind = kind_of(plan).kind
     model = model_for(model, kind)
     dtype = jnp.float64 if dtype is None else dtype
     criterion = SuccessCriterion.for_plan(plan) if criterion is None else criterion

@@ -15,35 +15,22 @@
   :mod:`kernels.tumble`, the only non-physical model of a tumble).
 * ``"mujoco"``: the plan rolled out in MuJoCo (:mod:`robustness.physics`).
 
-No JAX here: the command lines import it to validate configs quickly.
+A plan's kind and the model that applies to it: :mod:`robustness.kinds` (the
+dispatch table), re-exported here.
 """
 from __future__ import annotations
 
 import math
 
-MODELS = ("quasistatic", "limit_surface", "exact", "mujoco")
+# their home: the dispatch table of plan kinds
+from robustness.kinds import MODELS, PUSH_KINEMATIC, model_for, plan_kind  # noqa: F401
+
 #: the model every decision is made with unless a config or a caller names another
 #: (studies, certification, robust synthesis, margin search, tolerance design): the
 #: exact limit surface, whose success agrees with MuJoCo on 0.95 of runs on rigid
 #: corners where the ellipsoidal ``quasistatic`` model agrees on 0.66
 #: (``bench/fidelity.py``); ``quasistatic`` stays, named, as the fast approximation
 DEFAULT_MODEL = "limit_surface"
-#: the kinematic models of a push plan (no physics engine)
-PUSH_KINEMATIC = ("quasistatic", "limit_surface", "exact")
-
-
-def plan_kind(plan) -> str:
-    """A plan's kind: ``"push"`` (a :class:`~planning.PushPlan`, it has ``pushes``)
-    or ``"tumble"`` (a :class:`~planning.TumblePlan`, it has ``tumbles``).
-
-    Raises:
-      TypeError: neither.
-    """
-    if hasattr(plan, "pushes"):
-        return "push"
-    if hasattr(plan, "tumbles"):
-        return "tumble"
-    raise TypeError(f"plan: expected a PushPlan or a TumblePlan, got {type(plan).__name__}")
 
 
 def decision_model(model: str, kind: str) -> str:
@@ -54,13 +41,6 @@ def decision_model(model: str, kind: str) -> str:
     if model == "mujoco":
         return DEFAULT_MODEL if kind == "push" else "exact"
     return model_for(model, kind)
-
-
-def model_for(model: str, kind: str) -> str:
-    """The model a plan of ``kind`` (``"push"`` / ``"tumble"``) is evaluated under
-    when ``model`` is asked for: tumbles have no quasi-static model, so anything but
-    ``"mujoco"`` is ``"exact"`` for them."""
-    return model if kind == "push" or model == "mujoco" else "exact"
 
 
 #: Measured throughput of a whole study, samples per second on 2 CPU cores once

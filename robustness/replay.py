@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import warnings
 from typing import Optional
 
 import jax
@@ -327,9 +326,9 @@ def _push_batch(nom, q, model):
 
 
 def push_nominal(plan):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pg.PartWarning)
-        poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    """``(poly, planned)``: the plan's nominal polygon (:meth:`planning.PushPlan.nominal_part`)
+    and the hull edge each push lands."""
+    poly = plan.nominal_part()
     planned = [poly.caller_edge_to_hull(p.edge) for p in plan.pushes]
     return poly, planned
 
@@ -654,19 +653,8 @@ def _tumble_batch(nom, q, merge_tol, topology, check, slip_series):
 
 def tumble_nominal(plan):
     """The plan's nominal polyhedron (its faces as the planner merged them at
-    the plan's ``tau_v``); built once per part (a Qhull call and the face
-    merging cost a few ms, paid twice per evaluation before)."""
-    return _nominal_polyhedron(tuple(map(tuple, np.asarray(plan.vertices, np.float64).tolist())),
-                               tuple(np.asarray(plan.com, np.float64).tolist()), plan.tau_v)
-
-
-@functools.lru_cache(maxsize=64)
-def _nominal_polyhedron(vertices: tuple, com: tuple, tau_v):
-    from kernels import PartWarning, make_polyhedron
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PartWarning)
-        return make_polyhedron(np.asarray(vertices), np.asarray(com), tau_v=tau_v)
+    the plan's ``tau_v``; :meth:`planning.TumblePlan.nominal_part`, built once per part)."""
+    return plan.nominal_part()
 
 
 def _tumble_nominal_of(plan, poly, W: int, dtype) -> tuple:

@@ -63,12 +63,15 @@ import numpy as np
 
 from robustness import stats
 from robustness.evaluation import evaluate
+from robustness.kinds import kind_of
 from robustness.models import DEFAULT_MODEL
 from robustness.samplers import Sampler
 
 #: push-plan axes, tumble-plan axes
 PUSH_AXES = ("tau_v", "tau_com", "start", "fence_angle", "push_distance", "fence_friction")
 TUMBLE_AXES = ("tau_v", "start", "tumble_slip")
+#: the design axes by plan kind (every kind of the dispatch table: tests/test_plan_kinds.py)
+AXES = {"push": PUSH_AXES, "tumble": TUMBLE_AXES}
 #: ``axis: ((section, field, reference scale as a fraction of the part's size or an absolute
 #: value, is_length), ...)``
 _FIELDS = {
@@ -166,7 +169,7 @@ class JointDesign:
 
 def axes_for(plan) -> tuple:
     """The design axes of a plan's kind."""
-    return PUSH_AXES if hasattr(plan, "pushes") else TUMBLE_AXES
+    return AXES[kind_of(plan).kind]
 
 
 def _size(plan) -> float:

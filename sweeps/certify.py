@@ -109,11 +109,6 @@ def build_parser(prog: str = "nudge certify") -> Parser:
     return p
 
 
-def _plan_kind(part) -> str:
-    """``"push"`` for a polygon, ``"tumble"`` for a polyhedron."""
-    return "push" if part.kind == "polygon" else "tumble"
-
-
 def _task_samples(cfg: CertifyConfig) -> int:
     """The most samples a task draws (``auto``: up to ``max_samples``)."""
     return cfg.max_samples if cfg.n_samples == "auto" else int(cfg.n_samples)
@@ -135,9 +130,10 @@ def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> f
     a shortlist that the quasi-static model draws up), or the margin search's
     grid; the tolerance design's evaluations; plus a few seconds a task of
     planning and compilation."""
-    from robustness import SHORTLIST, decision_model, samples_per_second, tolerance_design as td
+    from robustness import (SHORTLIST, decision_model, kind_for_part, samples_per_second,
+                            tolerance_design as td)
 
-    kind = _plan_kind(part)
+    kind = kind_for_part(part.kind)
     support = cfg.friction.support
     rate = lambda model: samples_per_second(kind, model, support)  # noqa: E731
     choose = decision_model(cfg.model, kind)
@@ -153,7 +149,7 @@ def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> f
         m = cfg.margin_search
         secs += n_tasks * m.n_samples * len(m.margins_deg) * len(m.safety_factors) / rate(cfg.model)
     if cfg.design is not None and cfg.design.enabled:
-        axes = len(cfg.design.axes or (td.PUSH_AXES if kind == "push" else td.TUMBLE_AXES))
+        axes = len(cfg.design.axes or td.AXES[kind])
         evals = DESIGN_EVALUATIONS_PER_AXIS * axes + DESIGN_EVALUATIONS_BESIDES
         secs += n_tasks * evals * cfg.design.n_samples / rate(choose)
     return secs + 2.0 * n_tasks + 8.0
@@ -163,9 +159,9 @@ def estimate_peak(cfg: CertifyConfig, part) -> float:
     """The certification's peak memory (bytes): a block of samples at a time
     (:func:`robustness.block_samples`, :func:`robustness.peak_bytes`), never
     more than a task's sample count."""
-    from robustness import block_samples, model_for, peak_bytes
+    from robustness import block_samples, kind_for_part, model_for, peak_bytes
 
-    kind = _plan_kind(part)
+    kind = kind_for_part(part.kind)
     model = model_for(cfg.model, kind)
     return peak_bytes(model, min(_task_samples(cfg), block_samples(kind, model,
                                                                    cfg.friction.support)))
@@ -353,11 +349,11 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     import jax
 
     from robustness import (tables, Schedule, auto_schedule, block_samples, decide, grow,
-                            model_for, no_plan, perturbed_sources)
+                            kind_for_part, model_for, no_plan, perturbed_sources)
     from sweeps.config import ConfigError
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
-    kind = _plan_kind(part)
+    kind = kind_for_part(part.kind)
     model = model_for(cfg.model, kind)
     p, conf = cfg.required.probability, cfg.required.confidence
     caught: list = []
@@ -541,12 +537,12 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
             how = dict(margin_deg=pl.margin_deg, safety_factor=pl.safety_factor,
                        strategy=pl.strategy, distance_rule=pl.distance_rule, support=pl.support,
                        min_fence_mu=math.nan if pl.min_fence_mu is None else pl.min_fence_mu,
-                       n_steps=pl.n_pushes, total_distance_m=pl.total_distance,
+                       n_steps=pl.n_steps, total_distance_m=pl.total_distance,
                        tumble_eps=math.nan)
         else:
             how = dict(margin_deg=math.nan, safety_factor=math.nan,
                        strategy="short" if c.options.shorten else "paper", distance_rule=None,
-                       support=None, min_fence_mu=math.nan, n_steps=pl.n_tumbles,
+                       support=None, min_fence_mu=math.nan, n_steps=pl.n_steps,
                        total_distance_m=math.nan, tumble_eps=c.options.eps)
         rows.append(dict(run_id=store.run_id, task=name, candidate=i, label=c.label, **how,
                          alternative=c.rank, bound_position_m=float(s.bound_position_m[i]),
@@ -560,9 +556,10 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
 
 
 def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
-    from robustness import model_for
+    from robustness import NO_PHYSICS, kind_for_part, model_for
 
-    push = part.kind == "polygon"
+    kind = kind_for_part(part.kind)
+    push = kind == "push"
     sel = dict(selection="default plan", n_candidates=0, selection_n_samples=0,
                selection_ci_low=math.nan, default_selection_ci_low=math.nan)
     if syn is not None:
@@ -570,17 +567,15 @@ def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
                    selection_n_samples=syn.scores.n,
                    selection_ci_low=float(syn.scores.ci_low[syn.chosen]),
                    default_selection_ci_low=float(syn.scores.ci_low[0]))
-    from robustness import NO_PHYSICS
-
-    return dict(**sel, **NO_PHYSICS, task=name, kind="push" if push else "tumble", part=part.name,
+    return dict(**sel, **NO_PHYSICS, task=name, kind=kind, part=part.name,
                 part_source=part.source.name, part_units=part.units,
-                model=model_for(cfg.model, "push" if push else "tumble"),
+                model=model_for(cfg.model, kind),
                 start_x_m=start[0], start_y_m=start[1], start_theta_rad=start[2],
                 start_face=start[3] if not push else -1, goal_x_m=goal[0], goal_y_m=goal[1],
                 goal_theta_rad=goal[2], goal_face=goal[3] if not push else -1,
-                plan_steps=0 if plan is None else (plan.n_pushes if push else plan.n_tumbles),
+                plan_steps=0 if plan is None else plan.n_steps,
                 plan_distance_m=plan.total_distance if (push and plan is not None) else math.nan,
-                plan_verdict="no_plan" if plan is None else ("solved" if push else plan.verdict),
+                plan_verdict="no_plan" if plan is None else plan.verdict,
                 margin_deg=(plan.margin_deg if plan is not None else cfg.planner.margin_deg)
                 if push else math.nan,
                 safety_factor=(plan.safety_factor if plan is not None

@@ -44,6 +44,7 @@ from typing import Annotated, Any, Literal, Optional, Union
 import numpy as np
 from pydantic import Discriminator, Field, StrictBool, Tag, model_validator
 
+from robustness import KINDS
 from robustness.physics import check_pad_friction
 
 from sweeps import catalog
@@ -55,7 +56,8 @@ from sweeps.plausible import check_design, wrap
 from sweeps.units import at_path
 from sweeps.yamlio import dump_yaml, read_yaml
 
-KIND_OF_PART = {"polygon": "push", "polyhedron": "tumble"}
+#: the study kind of each part kind (the dispatch table's ``part_kind``, robustness.KINDS)
+KIND_OF_PART = {k.part_kind: k.kind for k in KINDS.values()}
 
 #: Keys that say where and how a study runs, not what it computes.
 OPERATIONAL = ("executor", "output", "report")
@@ -193,7 +195,7 @@ class Design:
         key = _part_key(cfg) + cfg.kind   # a mesh named directly: footprint (push) or hull
         if key not in self._parts:
             self._parts[key] = load_part_ref(cfg.part, self.base,
-                                             {v: k for k, v in KIND_OF_PART.items()}[cfg.kind])
+                                             KINDS[cfg.kind].part_kind)
         return self._parts[key]
 
     def parts(self) -> list:

@@ -91,7 +91,7 @@ def plan_task(part, start, goal, planner: Planner, criterion: SuccessCriterion,
         finally:
             if caught is not None:
                 caught.extend(got)
-    if part.kind == "polyhedron" and plan.verdict != "solved":
+    if plan.verdict != "solved":   # a tumble plan may not reach its goal (the plan interface)
         return None, f"{plan.verdict}: {' '.join(str(plan.reason).split())}"
     return plan, ""
 
@@ -145,7 +145,7 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
 
     from robustness import decision_model, tolerance_design as td
 
-    kind = "push" if part.kind == "polygon" else "tumble"
+    kind = plan.kind
     model = decision_model(cfg.model, kind)
     d = cfg.design
     axes = tuple(a for a in (d.axes or td.axes_for(plan)) if a in td.axes_for(plan))
@@ -211,14 +211,14 @@ def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[
         return row
     row["plan_json"] = plan_json(plan)
     if tumble:
-        row.update(verdict=plan.verdict, n_steps=plan.n_tumbles,
+        row.update(verdict=plan.verdict, n_steps=plan.n_steps,
                    n_tumbles_paper=int(min(plan.n_tumbles_paper, 2 ** 62)),
                    plan_error=float(plan.error))
     else:
         total = float(plan.total_distance)
-        row.update(verdict="solved", plan_class=plan.plan_class, distance_rule=plan.distance_rule,
+        row.update(verdict=plan.verdict, plan_class=plan.plan_class, distance_rule=plan.distance_rule,
                    support=plan.support,
-                   n_steps=plan.n_pushes,
+                   n_steps=plan.n_steps,
                    total_distance_m=total, plan_error=float(max(plan.final_error)),
                    length_ratio=total / straight if straight > 0 else math.nan)
     return row
