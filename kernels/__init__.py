@@ -32,7 +32,7 @@ from kernels.quasistatic_points import simulate_push as simulate_push_on_points
 from kernels.quasistatic_points import simulate_pushes as simulate_pushes_on_points
 from kernels.tumble import TumbleConfig, make_config, replay, tumble
 from kernels.support import (SUPPORT_FAMILIES, corner_weights, equilibrium_weights,
-                             family_c_range, family_support, tripod_fit)
+                             family_c_range, family_point_count, family_support, tripod_fit)
 
 # used by the layers above (the one boundary: tests/test_layers.py)
 from kernels import polygon, reorient, support  # noqa: F401  (modules other layers use)
@@ -52,7 +52,7 @@ __all__ = [
     "polygon_geometry", "Polyhedron", "TumbleGeometry", "make_polyhedron", "tumble_geometry",
     "PushOutcome", "replay_push", "replay_pushes", "SimOutcome", "limit_surface_ratio",
     "simulate_push", "simulate_pushes", "Motion", "push_motion", "simulate_push_on_points",
-    "simulate_pushes_on_points", "family_support", "TumbleConfig", "make_config", "replay", "tumble",
+    "simulate_pushes_on_points", "family_support", "family_point_count", "TumbleConfig", "make_config", "replay", "tumble",
     "SUPPORT_FAMILIES", "corner_weights", "equilibrium_weights", "family_c_range", "tripod_fit",
     "polygon", "reorient", "support", "DEFAULT_MERGE_TOL", "NEARLY_FLAT_RAD", "ANY_COMPONENTS",
     "FAMILIES", "FAMILY", "FOOT_INSET",

@@ -319,6 +319,13 @@ def family_points(family: str, body, c=None):
                      f"got {family!r}")
 
 
+def family_point_count(family: str, n_corners: int, n_sampled: int) -> int:
+    """How many support points :func:`family_support` builds for ``family`` on a
+    part of ``n_corners`` hull corners (``points``: the ``n_sampled`` sampled)."""
+    return {"rigid": n_corners, "uniform": UNIFORM_FEET, "ring": RING_FEET, "tripod": 3,
+            "points": n_sampled}[family]
+
+
 def family_c_range(family: str, body) -> tuple[float, float]:
     """The range (m) of the limit-surface ratio ``c`` that a family can give
     the nominal part ``body`` (CCW, body frame, the centre of mass at the

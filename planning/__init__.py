@@ -16,6 +16,10 @@
   (rotations, generators, lattice, reachable class) and :func:`plan_tumble`;
   plans are :class:`TumblePlan` values of :class:`Tumble` steps.
 
+Every plan type implements the plan interface (:mod:`planning.kinds`: ``kind``,
+``n_steps``, ``nominal_part()``, ``draw_shape()``); :data:`PLAN_TYPES` lists them
+by kind.
+
 Every function computes in float64 whatever the caller's JAX setting, and
 every returned plan has been replayed by the exact kinematics of
 :mod:`kernels`.  Units: metres, radians, CCW positive.
@@ -32,6 +36,7 @@ from planning.pushing.sensorless import (FencePush, SensorlessPlan, plan_sensorl
 from planning.tumbling.analysis import TumbleAnalysis
 from planning.tumbling.plan import Tumble, TumblePlan
 from planning.tumbling.planner import analyze_polyhedron, plan_tumble, tumble_alternatives
+from planning.kinds import PLAN_TYPES, Plan
 
 # used by the layers above (the one boundary: tests/test_layers.py)
 from planning.pushing import stability  # noqa: F401  (modules other layers use)
@@ -44,7 +49,7 @@ from planning.tumbling.trajectory import plan_trajectory, quiet_polyhedron, samp
 __all__ = [
     "plan_pose", "plan_alternatives", "tumble_alternatives", "plan_pose_batch", "PushOptions", "prepare_part", "PushPart", "PushPlanBatch", "Push",
     "PushPlan", "STRATEGIES", "PlanningError", "WorkspaceError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
-    "Tumble", "TumblePlan",
+    "Tumble", "TumblePlan", "PLAN_TYPES", "Plan",
     "Funnel", "PushFunction", "exhaustive_length", "orient", "push_function", "FencePush",
     "SensorlessPlan", "plan_sensorless", "replay_sensorless", "start_grid",
     "stability", "PushStability", "development_poses", "face_footprint", "lattice_count_bound",

@@ -19,6 +19,9 @@
 * Tolerance design: :mod:`tolerance_design` (the loosest value of each tolerance
   that still certifies a plan, what drives its failures, a joint design
   verified on fresh draws).
+* Plan kinds: :data:`KINDS`, the dispatch table (each plan kind's draw, replay,
+  physics rollout, bound and defaults; :func:`kind_of` a plan's row by
+  ``plan.kind``, :func:`kind_for_part`).
 * Success: :class:`SuccessCriterion` (the tolerances, their defaults by plan kind
   and the one classification of every model's samples).
 * Statistics: :func:`clopper_pearson`, :func:`one_sided_lower`, :func:`one_sided_upper`;
@@ -37,7 +40,7 @@ from robustness.stats import (CONFIDENCE, REQUIRED_PROBABILITY, clopper_pearson,
                               one_sided_upper, samples_needed)
 from robustness.summary import summarise
 from robustness.synthesis import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES,
-                                  Candidate, Scores, Synthesis, physics_tiebreak, push_candidates,
+                                  SHORTLIST, Candidate, Scores, Synthesis, physics_tiebreak, push_candidates,
                                   score_candidates, select, selection_key, synthesize)
 from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTolerance,
                                    SuccessCriterion)
@@ -45,10 +48,13 @@ from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTo
 # used by the layers above (the one boundary: tests/test_layers.py)
 from robustness import failure_modes, tables, tolerance_design  # noqa: F401  (modules other layers use)
 from robustness.compiled import release_executables
+from robustness.confirmation import NO_PHYSICS, PhysicsCheck, confirm_in_physics, confirmation_key
 from robustness.certificates import (Schedule, auto_schedule, decide, first_certifying, grow,
                                      no_plan, perturbed_sources)
-from robustness.models import (PUSH_KINEMATIC, THROUGHPUT, block_samples, model_for,
-                               peak_bytes, plan_kind, samples_per_second)
+from robustness.kinds import (KINDS, NOT_EVALUATED, PlanKind, kind_for_part, kind_of, model_for,
+                              plan_kind)
+from robustness.models import (DEFAULT_MODEL, PUSH_KINEMATIC, THROUGHPUT, block_samples,
+                               decision_model, peak_bytes, samples_per_second)
 from robustness.summary import STAT_COLUMNS, empty_summary
 from robustness.sensorless import is_sensorless, start_set
 from robustness.tables import FAILURE_MODES, to_arrow
@@ -57,7 +63,9 @@ __all__ = [
     "synthesize", "physics_tiebreak", "push_candidates", "score_candidates", "select", "selection_key", "Candidate",
     "Scores", "Synthesis", "GRID_MARGINS_DEG", "GRID_SAFETY_FACTORS", "GRID_STRATEGIES",
     "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Sampler",
-    "CONFIDENCE", "REQUIRED_PROBABILITY", "plan_kind",
+    "CONFIDENCE", "REQUIRED_PROBABILITY", "plan_kind", "KINDS", "NOT_EVALUATED", "PlanKind",
+    "kind_for_part", "kind_of", "DEFAULT_MODEL", "decision_model", "SHORTLIST",
+    "NO_PHYSICS", "PhysicsCheck", "confirm_in_physics", "confirmation_key",
     "Draws", "PerturbationParams",
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "Bound", "SourceBound", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",

@@ -55,14 +55,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 from typing import Mapping
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg, PartWarning, rot2, float64, replay_pushes
+from kernels import polygon as pg, rot2, float64, replay_pushes
 from planning import PushPlan, prepare_part
 from robustness.tolerances import ExecutionTolerance, GeometryTolerance
 
@@ -286,12 +285,9 @@ def tumble_plan_bound(plan, geometry: GeometryTolerance = GeometryTolerance(),
     the nominal positions ``p_k`` of the plan's trajectory.  The position bound
     is ``hypot`` of the x and y sums, as in :mod:`robustness.bounds`.
     """
-    from kernels import make_polyhedron, make_config, replay_trajectory
+    from kernels import make_config, replay_trajectory
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PartWarning)
-        poly = make_polyhedron(np.asarray(plan.vertices), np.asarray(plan.com),
-                               tau_v=plan.tau_v)  # the plan's faces
+    poly = plan.nominal_part()   # the plan's faces (the plan interface)
     e = execution
     start = make_config(*plan.start[:3], int(plan.start[3]), dtype=jnp.float64)
     faces = np.asarray(plan.faces, np.int32)

@@ -57,8 +57,9 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from kernels import VARYING_SUPPORTS
 from robustness import stats
+from robustness.kinds import KINDS, kind_of, model_for
+from robustness.models import DEFAULT_MODEL
 from robustness.tolerances import SuccessCriterion
 
 VERDICTS = ("certified", "not certified", "no plan")
@@ -184,7 +185,7 @@ def perturbed_sources(sampler, kind: str, model: str, sensorless: bool = False) 
     """What varies between samples of ``sampler`` under ``model`` (names);
     ``sensorless``: a sensorless plan's, whose start is drawn over its start set
     in place of the start error (:mod:`robustness.sensorless`)."""
-    g, f, e = sampler.geometry, sampler.friction, sampler.execution
+    g, e = sampler.geometry, sampler.execution
     out = []
     if g.tau_v > 0:
         out.append("part vertices")
@@ -194,18 +195,7 @@ def perturbed_sources(sampler, kind: str, model: str, sensorless: bool = False) 
         out.append("start heading and position (uniform)")
     elif e.start_xy > 0 or e.start_theta > 0:
         out.append("start pose")
-    if kind == "push":
-        if e.fence_angle > 0:
-            out.append("fence angle")
-        if e.distance_abs > 0 or e.distance_rel > 0:
-            out.append("push distance")
-        if model in ("quasistatic", "limit_surface", "mujoco"):  # the exact replay does not depend on friction
-            if f.mu_f[1] > f.mu_f[0]:
-                out.append("fence friction")
-            if f.support in VARYING_SUPPORTS or (f.c is not None and f.c[1] > f.c[0]):
-                out.append(f"support ({f.support})")   # uniform, ring: one c, nothing drawn
-    elif e.tumble_slip_xy > 0 or e.tumble_slip_theta > 0:
-        out.append("slip after tumbles")
+    out += KINDS[kind].sources(sampler, model)   # the kind's own execution errors
     return tuple(out)
 
 
@@ -407,7 +397,7 @@ def first_certifying(candidates, evaluate_one: Callable) -> Optional[object]:
 def certify(plan, sampler, key, criterion: Optional[SuccessCriterion] = None, *,
             required_probability: float = stats.REQUIRED_PROBABILITY,
             confidence: float = stats.CONFIDENCE, n_samples="auto", max_samples: int = 100_000,
-            model: str = "quasistatic", dtype=None, physics=None, task: str = "task",
+            model: str = DEFAULT_MODEL, dtype=None, physics=None, task: str = "task",
             bound: bool = True):
     """Certify one plan: sample, replay, decide (see the module docstring).
 
@@ -434,10 +424,9 @@ def certify(plan, sampler, key, criterion: Optional[SuccessCriterion] = None, *,
     import pandas as pd
 
     from robustness.evaluation import evaluate
-    from robustness.models import model_for, plan_kind
     from robustness.summary import summarise
 
-    kind = plan_kind(plan)
+    kind = kind_of(plan).kind
     model = model_for(model, kind)
     dtype = jnp.float64 if dtype is None else dtype
     criterion = SuccessCriterion.for_plan(plan) if criterion is None else criterion

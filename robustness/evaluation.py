@@ -107,20 +107,19 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import warnings
 from typing import Optional
 
 import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 
-from kernels import polygon as pg, wrap_angle_np, float64
+from kernels import wrap_angle_np, float64
 from robustness.compiled import release_executables
-from robustness.hulls import face_merge_tol
-from robustness.models import MODELS, model_for, plan_kind
-from robustness.replay import edge_pairs, push_nominal, run_push, run_tumble, tumble_nominal
+from robustness.kinds import kind_of, model_for
+from robustness.models import MODELS
+from robustness.outcomes import SampleOutcomes, goal_errors  # noqa: F401  (goal_errors: read here by others)
 from robustness.samplers import Sampler, parameter_columns, parameter_lists
-from robustness.sensorless import draw_starts, is_sensorless, sensorless_rows
+from robustness.sensorless import draw_starts, is_sensorless
 from robustness.stats import CONFIDENCE
 from robustness.summary import summarise
 from robustness.summary import BoundViolation
@@ -163,71 +162,9 @@ class Evaluation:
         return len(self.columns["sample_id"])
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class SampleOutcomes:
-    """What a model says became of each of ``n`` samples (numpy arrays of
-    length n), the input of the ``samples`` rows.
-
-    Attributes:
-      x, y, theta: final pose of the plan's reference point (m, m, rad; world
-        frame, CCW positive).
-      final_edge_a, final_edge_b, planned_edge_a, planned_edge_b: the caller's
-        vertex indices of the edge on the fence after the last push, and of
-        the planned one (-1: none, or a tumble plan).
-      final_face, planned_face: the face on the plane after the last tumble,
-        and the planned one (-1 for push plans).
-      slip: summed slip (m).
-      n_incomplete: pushes that did not finish reorienting (tumbles: the plan's
-        steps that were invalid); first_wrong_step: the first push that
-        landed another edge (-1: none).
-      hull_changed: the perturbed part is not the nominal part's combinatorics;
-        model_valid: the model's assumptions hold for the sample;
-        in_bound_model: inside the analytic bound's model.
-      success, failure_mode: the samples classified by the evaluation's
-        :class:`~robustness.SuccessCriterion` (:meth:`~robustness.SuccessCriterion.classify`,
-        with the model's own faults).
-      max_tilt_rad: physics: the largest tilt of the part (rad; None: NaN).
-      c_physical_m: physics, push: the limit-surface ratio that MuJoCo's support
-        loads realise after the part settled (m; None: NaN), beside the drawn ``c``.
-      support_ok: physics, push: the centre of mass stood inside the loaded support
-        contacts after settling (None: null).
-    """
-
-    x: np.ndarray
-    y: np.ndarray
-    theta: np.ndarray
-    final_edge_a: np.ndarray
-    final_edge_b: np.ndarray
-    planned_edge_a: np.ndarray
-    planned_edge_b: np.ndarray
-    final_face: np.ndarray
-    planned_face: np.ndarray
-    slip: np.ndarray
-    n_incomplete: np.ndarray
-    first_wrong_step: np.ndarray
-    hull_changed: np.ndarray
-    model_valid: np.ndarray
-    in_bound_model: np.ndarray
-    success: np.ndarray
-    failure_mode: np.ndarray
-    max_tilt_rad: Optional[np.ndarray] = None
-    c_physical_m: Optional[np.ndarray] = None
-    support_ok: Optional[np.ndarray] = None
-
-
 # --------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------
-def _warn_truncated(r, task) -> None:
-    """A push still moving at the kernel's phase cap is reported, never silently kept."""
-    k = int(np.sum(np.asarray(r.truncated)))
-    if k:
-        warnings.warn(f"task {task!r}: {k} sample(s) had a push still moving at the quasi-static "
-                      "kernel's phase cap (kernels.quasistatic.phase_cap); they are counted as "
-                      "incomplete_reorientation failures, outside the kernel's model",
-                      RuntimeWarning, stacklevel=4)
-
-
 @float64
 def evaluate(plan, sampler: Sampler, n: int, key, criterion: Optional[SuccessCriterion] = None,
              model: str = "quasistatic", dtype=jnp.float64, *, confidence: float = CONFIDENCE,
@@ -269,9 +206,12 @@ def evaluate(plan, sampler: Sampler, n: int, key, criterion: Optional[SuccessCri
     Returns:
       :class:`Evaluation`.
     """
-    kind = plan_kind(plan)
+    ops = kind_of(plan)   # the plan's row of the dispatch table (robustness.kinds)
+    kind = ops.kind
     if model not in MODELS:
         raise ValueError(f"model: expected one of {MODELS}, got {model!r}")
+    if model == "mujoco" and model not in ops.models:
+        ops.physics_rows(plan)   # says why this kind is not rolled out
     if not (isinstance(n, (int, np.integer)) and n >= 1):
         raise ValueError(f"n: expected an integer >= 1, got {n!r}")
     dtype = jnp.dtype(dtype)
@@ -281,47 +221,22 @@ def evaluate(plan, sampler: Sampler, n: int, key, criterion: Optional[SuccessCri
         raise TypeError(f"criterion: expected a robustness.SuccessCriterion, got {crit!r}")
     chunk = max(1, int(chunk))
     release_executables()   # a long run of many plan shapes stays under the map limit
-    m = len(plan.vertices)
-    if kind == "push":
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", pg.PartWarning)
-            poly0 = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
-        shape = dict(n_vertices=m, dim=2, n_pushes=len(plan.pushes))
-        draws = sampler.sample(key, n, body=poly0.body, dtype=jnp.float64,
-                               keep_support=model in ("mujoco", "limit_surface"), **shape)
-    else:
-        shape = dict(n_vertices=m, dim=3, n_tumbles=plan.n_tumbles)
-        # the replay and the columns read the plan's tumbles of the drawn ones (no copy)
-        draws = sampler.sample(key, n, dtype=jnp.float64, exact_steps=model == "mujoco", **shape)
-    sensorless = kind == "push" and is_sensorless(plan)
-    if sensorless and model == "mujoco":
-        raise ValueError("model: mujoco does not roll out sensorless plans here (bench/"
-                         "sensorless.py does); use quasistatic, limit_surface or exact")
+    shape = plan.draw_shape()
+    draws = ops.draw(plan, sampler, key, n, model)
     if model == "mujoco":
-        from robustness.physics.settings import check_pad_friction
-
-        if kind == "tumble":
-            from robustness.physics.tumbling import nominal_polyhedron
-
-            grip = (physics.settings.grip_ratio if physics is not None else 2.0)
-            check_pad_friction(sampler.friction, kind, nominal_polyhedron(plan), grip)
-        rows, dtype = _physics_rows(plan, kind, draws, sampler, crit, merge_factor, physics)
-    elif sensorless:   # the start drawn over the plan's start set (robustness.sensorless)
-        starts = draw_starts(plan, key, n)
-        rows = sensorless_rows(plan, draws, starts, crit, model, dtype, chunk)
-    elif kind == "push":
-        rows = _push_rows(plan, draws, crit, model, dtype, chunk, task)
+        rows, dtype = _physics_rows(plan, ops, draws, sampler, crit, merge_factor, physics)
     else:
-        rows = _tumble_rows(plan, draws, crit, dtype, chunk, sampler, merge_factor)
+        rows = ops.rows(plan, draws, crit, model=model, dtype=dtype, chunk=chunk, task=task,
+                        sampler=sampler, merge_factor=merge_factor, key=key)
     cast = draws.astype(dtype)   # a float32 evaluation sees the float64 one's samples
     cols = parameter_columns(cast, **shape)
-    if sensorless:   # the drawn start replaces the start error: its offset from plan.start
-        off = np.asarray(starts - np.asarray(plan.start)[None, :], dtype)
+    if is_sensorless(plan):   # the drawn start replaces the start error: its offset from plan.start
+        off = np.asarray(draw_starts(plan, key, n) - np.asarray(plan.start)[None, :], dtype)
         cols["start_dx_m"], cols["start_dy_m"], cols["start_dtheta_rad"] = off.T.astype(np.float64)
     lists = parameter_lists(cast, **shape)
     data = _columns(rows, cols, plan, kind, model, dtype, task)
     if model == "mujoco":
-        _compare_with_kinematics(data, plan, kind, draws, crit, chunk, task, sampler, merge_factor)
+        _compare_with_kinematics(data, plan, ops, draws, crit, chunk, task, sampler, merge_factor)
     ev = Evaluation(columns=data, summary=None, param_columns=tuple(cols), kind=kind,
                     model=model, lists=lists)
     if summary:
@@ -334,109 +249,23 @@ def evaluate(plan, sampler: Sampler, n: int, key, criterion: Optional[SuccessCri
     return ev
 
 
-def _push_rows(plan, draws, criterion, model, dtype, chunk, task) -> SampleOutcomes:
-    """Per-sample outcomes of a push plan under the quasi-static or exact kernel,
-    classified by ``criterion`` (faults: ``hull_changed``,
-    ``incomplete_reorientation``, ``wrong_edge``; a success whose intermediate push
-    was incomplete or landed another edge stays a success, its flags visible in
-    its columns)."""
-    P, n = len(plan.pushes), draws.n
-    poly, planned, r = run_push(plan, draws, model, dtype, chunk)
-    _warn_truncated(r, task)
-    edges = np.asarray(r.edges).reshape(n, P)
-    complete = np.asarray(r.complete).reshape(n, P).astype(bool)
-    wrong = complete & (edges != np.asarray(planned, np.int64)[None, :])
-    n_incomplete = (~complete).sum(axis=1)
-    changed = np.asarray(r.changed).astype(bool)
-    trunc = np.asarray(r.truncated).astype(bool)
-    slip = np.asarray(r.slip, np.float64)
-    fa, fb = edge_pairs(poly, edges[:, -1] if P else np.full(n, -1))
-    pa, pb = edge_pairs(poly, np.full(n, planned[-1] if P else -1))
-    valid = ~changed & ~trunc
-    *_, ep, et = goal_errors(r.x, r.y, r.theta, plan.goal)
-    success, mode = criterion.classify(ep, et, slip, valid=valid, faults=(
-        ("hull_changed", changed), ("incomplete_reorientation", (n_incomplete > 0) | trunc),
-        ("wrong_edge", wrong.any(axis=1))))
-    return SampleOutcomes(
-        x=r.x, y=r.y, theta=r.theta, final_edge_a=fa, final_edge_b=fb,
-        planned_edge_a=pa, planned_edge_b=pb, final_face=np.full(n, -1, np.int64),
-        planned_face=np.full(n, -1, np.int64), slip=slip, n_incomplete=n_incomplete,
-        first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
-        hull_changed=changed, model_valid=valid,
-        in_bound_model=(~changed) & (n_incomplete == 0) & (~wrong.any(axis=1)) & (slip == 0.0)
-        & ~trunc, success=success, failure_mode=mode)
-
-
-def _tumble_rows(plan, draws, criterion, dtype, chunk, sampler, merge_factor) -> SampleOutcomes:
-    """Per-sample outcomes of a tumble plan under the exact tumble kinematics,
-    classified by ``criterion`` (faults: ``combinatorics_changed``, ``wrong_face``:
-    an invalid tumble or another face on the plane at the end, which rules a
-    success out)."""
-    poly = tumble_nominal(plan)
-    tol = None
-    if sampler.geometry.tau_v > 0:   # the perturbed hulls, checked in the same compiled call
-        v = np.asarray(poly.vertices)
-        diam = float(np.max(np.linalg.norm(v[:, None] - v[None], axis=-1)))
-        tol = face_merge_tol(sampler.geometry.tau_v, diam, merge_factor)
-    n = draws.n
-    poly, r = run_tumble(plan, draws, dtype, chunk, merge_tol=tol,
-                         slip_theta=sampler.execution.tumble_slip_theta)
-    changed = np.asarray(r.changed).astype(bool)
-    face = np.asarray(r.face, np.int64)
-    ok = np.asarray(r.ok).astype(bool)
-    pface = np.full(n, int(plan.goal[3]), np.int64)
-    bad_face = (~ok) | (face != pface)
-    none = np.full(n, -1, np.int64)
-    slip = np.asarray(r.slip, np.float64)
-    *_, ep, et = goal_errors(r.x, r.y, r.theta, plan.goal)
-    success, mode = criterion.classify(ep, et, slip, valid=~changed & ~bad_face, faults=(
-        ("combinatorics_changed", changed), ("wrong_face", bad_face)))
-    return SampleOutcomes(
-        x=r.x, y=r.y, theta=r.theta, final_edge_a=none, final_edge_b=none,
-        planned_edge_a=none, planned_edge_b=none, final_face=face, planned_face=pface,
-        slip=slip, n_incomplete=(~ok).astype(np.int64),
-        first_wrong_step=none, hull_changed=changed, model_valid=~changed,
-        in_bound_model=(~changed) & (~bad_face), success=success, failure_mode=mode)
-
-
-def _physics_rows(plan, kind, draws, sampler, criterion, merge_factor, physics) -> tuple:
-    """Per-sample outcomes of a plan rolled out in MuJoCo (:mod:`robustness.physics`):
+def _physics_rows(plan, ops, draws, sampler, criterion, merge_factor, physics) -> tuple:
+    """Per-sample outcomes of a plan rolled out in MuJoCo (:mod:`robustness.physics`;
+    the kind's half: ``ops.physics_rows`` of the dispatch table):
     the physics layer classifies every sample by ``criterion`` itself (tipping,
     toppling, a fence strike, leaving the workspace come on top of the kernels'
     failure modes);
     no sample is inside an analytic bound's model (physics always slips a
     little), so the bound columns stay empty.  Returns ``(SampleOutcomes, dtype)``
     (float32 under MJX)."""
-    from robustness.physics import PhysicsRun, rollout_push_plan, rollout_tumble_plan
+    from robustness.physics import PhysicsRun
 
     run = physics or PhysicsRun()
     if not isinstance(run, PhysicsRun):
         raise ValueError(f"physics: expected a robustness.physics.PhysicsRun, got {run!r}")
     common = dict(backend=run.backend, settings=run.settings, criterion=criterion)
     n = draws.n
-    none = np.full(n, -1, np.int64)
-    if kind == "push":
-        r = rollout_push_plan(plan, draws, stroke=run.stroke, **common)
-        poly, planned = push_nominal(plan)
-        edges = np.asarray(r["edges"])
-        complete = np.asarray(r["complete"], bool)
-        wrong = complete & (edges != np.asarray(planned, np.int64)[None, :])
-        fa, fb = edge_pairs(poly, edges[:, -1])
-        pa, pb = edge_pairs(poly, np.full(n, planned[-1]))
-        extra = dict(final_edge_a=fa, final_edge_b=fb, planned_edge_a=pa, planned_edge_b=pb,
-                     final_face=none, planned_face=none, n_incomplete=(~complete).sum(axis=1),
-                     first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
-                     hull_changed=np.asarray(r["hull_changed"], bool),
-                     c_physical_m=np.asarray(r["c_physical"], np.float64),
-                     support_ok=np.asarray(r["support_ok"], bool))
-    else:
-        r = rollout_tumble_plan(plan, draws, merge_factor=merge_factor,
-                                tau_v=sampler.geometry.tau_v, **common)
-        extra = dict(final_edge_a=none, final_edge_b=none, planned_edge_a=none,
-                     planned_edge_b=none, final_face=np.asarray(r["face"], np.int64),
-                     planned_face=np.full(n, int(plan.goal[3]), np.int64),
-                     n_incomplete=np.asarray(r["n_wrong_faces"], np.int64), first_wrong_step=none,
-                     hull_changed=np.asarray(r["combinatorics_changed"], bool))
+    r, extra = ops.physics_rows(plan, draws, sampler, criterion, merge_factor, run, common)
     out = SampleOutcomes(
         x=r["x"], y=r["y"], theta=r["theta"], slip=np.asarray(r["slip"], np.float64),
         model_valid=np.asarray(r["simulated"], bool), in_bound_model=np.zeros(n, bool),
@@ -445,35 +274,24 @@ def _physics_rows(plan, kind, draws, sampler, criterion, merge_factor, physics) 
     return out, jnp.dtype(jnp.float32 if r["backend"] == "mjx" else jnp.float64)
 
 
-def _compare_with_kinematics(data, plan, kind, draws, criterion, chunk, task, sampler,
+def _compare_with_kinematics(data, plan, ops, draws, criterion, chunk, task, sampler,
                              merge_factor) -> None:
     """Physics rows get the kinematic models' answers on the same draws beside them
     (float64, into the columns ``data``): ``dpos_vs_<model>_m`` (m) and
     ``dtheta_vs_<model>_rad`` (rad, wrapped), the physics final pose minus the
-    model's, and ``success_<model>``; push rows against ``quasistatic`` and
-    ``exact``, tumble rows against ``exact``."""
+    model's, and ``success_<model>``, for each of the kind's ``references`` (push
+    rows against ``quasistatic`` and ``exact``, tumble rows against ``exact``)."""
     f64 = jnp.dtype(jnp.float64)
-    for ref in ("quasistatic", "exact") if kind == "push" else ("exact",):
-        if kind == "push":
-            rr = _push_rows(plan, draws, criterion, ref, f64, chunk, task)
-        else:
-            rr = _tumble_rows(plan, draws, criterion, f64, chunk, sampler, merge_factor)
+    kind = ops.kind
+    for ref in ops.references:
+        rr = ops.rows(plan, draws, criterion, model=ref, dtype=f64, chunk=chunk, task=task,
+                      sampler=sampler, merge_factor=merge_factor)
         other = _columns(rr, {}, plan, kind, ref, f64, task)
         data[f"dpos_vs_{ref}_m"] = np.hypot(data["final_x_m"] - other["final_x_m"],
                                             data["final_y_m"] - other["final_y_m"])
         data[f"dtheta_vs_{ref}_rad"] = wrap_angle_np(data["final_theta_rad"]
                                                      - other["final_theta_rad"])
         data[f"success_{ref}"] = pd.array(other["success"], dtype="boolean")
-
-
-def goal_errors(x, y, theta, goal) -> tuple:
-    """Final-pose errors against a plan's goal ``(x, y, theta[, face])``:
-    ``(theta wrapped, err_x, err_y, err_pos, err_theta wrapped)`` (m, rad; world
-    frame), numpy float64 of the shape of ``x``."""
-    g = np.asarray(goal[:3], np.float64)
-    th = wrap_angle_np(np.asarray(theta, np.float64))
-    ex, ey = np.asarray(x, np.float64) - g[0], np.asarray(y, np.float64) - g[1]
-    return th, ex, ey, np.hypot(ex, ey), wrap_angle_np(th - g[2])
 
 
 def _columns(rows: SampleOutcomes, cols: dict, plan, kind, model, dtype, task) -> dict:

@@ -1,48 +1,46 @@
 """The evaluation models and which one applies to a plan.
 
-* ``"quasistatic"``: push plans under the quasi-static pushing model
-  (:mod:`kernels.quasistatic`: sticking / sliding fence contact, limit surface).
-* ``"limit_surface"``: push plans under the same quasi-static model on the
-  exact limit surface of the sample's support points (its family's corners or
-  feet and their loads, :mod:`kernels.quasistatic_points`): some 1,000
-  times slower in the kernel (43 samples/s of a 7-push plan on rigid corners
-  against 48,000-70,000, 2 CPU cores; 180-500 times in a whole study), and it
-  predicts the slip a part on 3-4 corners shows in
-  MuJoCo where the ellipsoid of the same ``c`` predicts none.
+* ``"limit_surface"`` (:data:`DEFAULT_MODEL`): push plans under the
+  quasi-static pushing model on the exact limit surface of the sample's
+  support points (its family's corners or feet and their loads,
+  :mod:`kernels.quasistatic_points`); it predicts the slip a part on 3-4
+  corners shows in MuJoCo where the ellipsoid of the same ``c`` predicts none.
+  Some 2,000 samples/s of a 7-push plan on rigid corners, 250-350 on ``any``
+  (2 CPU cores; :data:`THROUGHPUT` for whole studies).
+* ``"quasistatic"``: the fast approximation, the same pushing model on the
+  ellipsoidal limit surface of one ratio ``c`` (:mod:`kernels.quasistatic`:
+  sticking / sliding fence contact): 100-1,000 times faster, and wrong where
+  a part rests on a few corners.
 * ``"exact"``: the papers' kinematics (push: :mod:`kernels.push`; tumble:
   :mod:`kernels.tumble`, the only non-physical model of a tumble).
 * ``"mujoco"``: the plan rolled out in MuJoCo (:mod:`robustness.physics`).
 
-No JAX here: the command lines import it to validate configs quickly.
+A plan's kind and the model that applies to it: :mod:`robustness.kinds` (the
+dispatch table), re-exported here.
 """
 from __future__ import annotations
 
 import math
 
-MODELS = ("quasistatic", "limit_surface", "exact", "mujoco")
-#: the kinematic models of a push plan (no physics engine)
-PUSH_KINEMATIC = ("quasistatic", "limit_surface", "exact")
+# their home: the dispatch table of plan kinds
+from robustness.kinds import MODELS, PUSH_KINEMATIC, model_for, plan_kind  # noqa: F401
+
+#: the model every decision is made with unless a config or a caller names another
+#: (studies, certification, robust synthesis, margin search, tolerance design): the
+#: exact limit surface, whose success agrees with MuJoCo on 0.95 of runs on rigid
+#: corners where the ellipsoidal ``quasistatic`` model agrees on 0.66
+#: (``bench/fidelity.py``); ``quasistatic`` stays, named, as the fast approximation
+DEFAULT_MODEL = "limit_surface"
 
 
-def plan_kind(plan) -> str:
-    """A plan's kind: ``"push"`` (a :class:`~planning.PushPlan`, it has ``pushes``)
-    or ``"tumble"`` (a :class:`~planning.TumblePlan`, it has ``tumbles``).
-
-    Raises:
-      TypeError: neither.
-    """
-    if hasattr(plan, "pushes"):
-        return "push"
-    if hasattr(plan, "tumbles"):
-        return "tumble"
-    raise TypeError(f"plan: expected a PushPlan or a TumblePlan, got {type(plan).__name__}")
-
-
-def model_for(model: str, kind: str) -> str:
-    """The model a plan of ``kind`` (``"push"`` / ``"tumble"``) is evaluated under
-    when ``model`` is asked for: tumbles have no quasi-static model, so anything but
-    ``"mujoco"`` is ``"exact"`` for them."""
-    return model if kind == "push" or model == "mujoco" else "exact"
+def decision_model(model: str, kind: str) -> str:
+    """The kinematic model that makes a choice (robust synthesis, margin search,
+    tolerance design) for a configuration of ``model``: the model itself, or
+    under ``"mujoco"`` (physics certifies; its rollouts are too slow to search
+    with) :data:`DEFAULT_MODEL` for pushes, the exact kinematics for tumbles."""
+    if model == "mujoco":
+        return DEFAULT_MODEL if kind == "push" else "exact"
+    return model_for(model, kind)
 
 
 #: Measured throughput of a whole study, samples per second on 2 CPU cores once
@@ -72,6 +70,10 @@ THROUGHPUT = {
     ("push", "limit_surface", "*"): 50.0,
     ("push", "mujoco", "rigid"): 6.0,
     ("push", "mujoco", "*"): 1.9,
+    # a sensorless plan replays its pushes as a push plan does (not measured apart)
+    ("sensorless", "exact", "*"): 80_000.0,
+    ("sensorless", "quasistatic", "*"): 5_000.0,
+    ("sensorless", "limit_surface", "*"): 50.0,
     ("tumble", "exact", "*"): 100_000.0,
     ("tumble", "mujoco", "*"): 1.0,
 }

@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import warnings
 from typing import Optional
 
 import jax
@@ -194,6 +193,64 @@ def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0):
                                           for x, m in zip(xs, sizes)], axis=sample_axis), *outs)
 
 
+#: the exact limit surface's batches of several support families (``any``) are
+#: split on the host into families of at most this many support points and the
+#: rest: each part replays at its own point count, not the largest family's
+#: (``any``: rigid corners and tripods, then the pads and rings of 24-25 feet)
+FEW_POINTS = 8
+#: ... when the batch has more samples than this (below it, one compiled call
+#: costs less than a second compilation would save)
+SPLIT_MIN_SAMPLES = 256
+
+
+def _split_by_points(model, rows, n: int, n_corners: int):
+    """The host-side split of a limit-surface batch (:data:`FEW_POINTS`):
+    ``[(static model, sample indices), ...]``, or None to run it whole."""
+    if not (isinstance(model, tuple) and len(model[1]) > 1 and n > SPLIT_MIN_SAMPLES):
+        return None
+    from kernels import FAMILIES, family_point_count
+
+    n_sampled = int(np.shape(rows.points)[1]) if rows.points is not None else 0
+    few = tuple(f for f in model[1] if family_point_count(f, n_corners, n_sampled) <= FEW_POINTS)
+    many = tuple(f for f in model[1] if f not in few)
+    if not few or not many:
+        return None
+    code = np.asarray(rows.family)
+    out = []
+    for fams in (few, many):
+        idx = np.flatnonzero(np.isin(code, [FAMILIES.index(f) for f in fams]))
+        if len(idx):
+            out.append(((model[0], fams), idx))
+    return out
+
+
+def _run_split(fn, nom, rows, n: int, chunk: int, model, n_corners: int,
+               sample_axis: int = 0):
+    """:func:`_run_chunks` of a push batch, with a limit-surface batch of
+    several support families split by point count (:func:`_split_by_points`):
+    each group padded to whole blocks of :data:`LIMIT_SURFACE_BLOCK` and run a
+    block per call (one compilation per group whatever the sample count), the
+    outcomes put back in sample order."""
+    groups = _split_by_points(model, rows, n, n_corners)
+    if groups is None:
+        return _run_chunks(fn, nom, rows, n, chunk, model, sample_axis=sample_axis)
+    tm = jax.tree_util.tree_map
+    rows = tm(np.asarray, rows)
+    lead = (slice(None),) * sample_axis
+    out = None
+    for static, idx in groups:
+        k = len(idx)
+        sel = np.concatenate([idx, np.full(-k % LIMIT_SURFACE_BLOCK, idx[0])])
+        res = _run_chunks(fn, nom, tm(lambda x: x[sel], rows), len(sel), LIMIT_SURFACE_BLOCK,
+                          static, sample_axis=sample_axis)
+        if out is None:
+            out = tm(lambda x: np.zeros(x.shape[:sample_axis] + (n,) + x.shape[sample_axis + 1:],
+                                        x.dtype), res)
+        for o, r in zip(jax.tree_util.tree_leaves(out), jax.tree_util.tree_leaves(res)):
+            o[lead + (idx,)] = r[lead + (slice(0, k),)]
+    return out
+
+
 # --------------------------------------------------------------------------
 # Push plans
 # --------------------------------------------------------------------------
@@ -269,9 +326,9 @@ def _push_batch(nom, q, model):
 
 
 def push_nominal(plan):
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pg.PartWarning)
-        poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    """``(poly, planned)``: the plan's nominal polygon (:meth:`planning.PushPlan.nominal_part`)
+    and the hull edge each push lands."""
+    poly = plan.nominal_part()
     planned = [poly.caller_edge_to_hull(p.edge) for p in plan.pushes]
     return poly, planned
 
@@ -352,7 +409,8 @@ def run_push(plan, draws, model, dtype, chunk):
     Pp, mp = _push_bucket(P, model), _bucket(m, 4)
     nom = _push_nominal_of(plan, poly, planned, Pp, mp, dtype)
     rows = _push_samples_of(draws, Pp, mp, dtype)
-    res = _run_chunks(_push_batch, nom, rows, draws.n, chunk, _static_model(model, draws))
+    res = _run_split(_push_batch, nom, rows, draws.n, chunk, _static_model(model, draws),
+                     len(poly.hull_index))
     res = dataclasses.replace(res, edges=res.edges[:, :P], complete=res.complete[:, :P])
     return poly, planned, res
 
@@ -400,8 +458,8 @@ def run_push_many(plans, draws, model, dtype, chunk: int = 4096) -> PushReplay:
     noms += [noms[0]] * (_bucket(K, 1) - K)   # a power of two of plans: shared compilations
     noms = jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *noms)
     rows = _push_samples_of(draws, Pp, mp, dtype)
-    res = _run_chunks(_push_batch_many, noms, rows, draws.n, chunk, _static_model(model, draws),
-                      sample_axis=1)
+    res = _run_split(_push_batch_many, noms, rows, draws.n, chunk, _static_model(model, draws),
+                     len(poly.hull_index), sample_axis=1)
     res = jax.tree_util.tree_map(lambda x: x[:K], res)
     return dataclasses.replace(res, edges=res.edges[:, :, :P], complete=res.complete[:, :, :P])
 
@@ -595,19 +653,8 @@ def _tumble_batch(nom, q, merge_tol, topology, check, slip_series):
 
 def tumble_nominal(plan):
     """The plan's nominal polyhedron (its faces as the planner merged them at
-    the plan's ``tau_v``); built once per part (a Qhull call and the face
-    merging cost a few ms, paid twice per evaluation before)."""
-    return _nominal_polyhedron(tuple(map(tuple, np.asarray(plan.vertices, np.float64).tolist())),
-                               tuple(np.asarray(plan.com, np.float64).tolist()), plan.tau_v)
-
-
-@functools.lru_cache(maxsize=64)
-def _nominal_polyhedron(vertices: tuple, com: tuple, tau_v):
-    from kernels import PartWarning, make_polyhedron
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PartWarning)
-        return make_polyhedron(np.asarray(vertices), np.asarray(com), tau_v=tau_v)
+    the plan's ``tau_v``; :meth:`planning.TumblePlan.nominal_part`, built once per part)."""
+    return plan.nominal_part()
 
 
 def _tumble_nominal_of(plan, poly, W: int, dtype) -> tuple:

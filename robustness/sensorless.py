@@ -210,7 +210,7 @@ def sensorless_rows(plan, draws, starts, criterion, model, dtype, chunk):
     sensorless plan, classified by ``criterion`` (faults ``hull_changed``,
     ``incomplete_reorientation``, ``wrong_edge``: a push flush on none of its
     allowed edges)."""
-    from robustness.evaluation import SampleOutcomes, goal_errors
+    from robustness.outcomes import SampleOutcomes, goal_errors
     from robustness.replay import edge_pairs
 
     n, P = draws.n, len(plan.pushes)

@@ -16,6 +16,7 @@ import pandas as pd
 
 from kernels import float64
 from robustness import stats
+from robustness.kinds import KINDS
 from robustness.stats import CONFIDENCE
 from robustness.tables import FAILURE_MODES
 from robustness.tolerances import SuccessCriterion
@@ -63,7 +64,7 @@ def summarise(samples: pd.DataFrame, plan, sampler, *, kind: str, model: str, dt
     verts = np.asarray(plan.vertices, np.float64)
     scale = (float(np.max(np.linalg.norm(verts - verts.mean(axis=0), axis=1)))
              + max(float(np.hypot(*plan.start[:2])), float(np.hypot(*plan.goal[:2]))))
-    steps = len(plan.pushes) if kind == "push" else plan.n_tumbles
+    steps = plan.n_steps
     eps = 1e3 * float(jnp.finfo(jnp.dtype(dtype)).eps) * math.sqrt(steps + 1)
     s = summary_row(df, kind, model, dtype, criterion, confidence, b, task, (dev_p, dev_t),
                     atol=(eps * scale, eps), stacklevel=warn_stacklevel + 1)
@@ -76,11 +77,7 @@ def nominal_final(plan, kind: str) -> np.ndarray:
     """The plan's own prediction of the final pose ``(x, y, theta)`` (m, rad): the
     exact replay's pose after the last push, or the tumble plan's predicted final
     configuration (which may lie up to eps from the goal)."""
-    if kind == "push" and hasattr(plan, "reached_goal"):   # a SensorlessPlan
-        return np.asarray(plan.reached_goal, np.float64)
-    if kind == "push":
-        return np.asarray(plan.pushes[-1].pose_after if plan.pushes else plan.start, np.float64)
-    return np.asarray(plan.predicted_final[:3], np.float64)
+    return KINDS[kind].nominal_final(plan)
 
 
 def deviations(df: pd.DataFrame, plan, kind: str) -> tuple[np.ndarray, np.ndarray]:
@@ -101,14 +98,7 @@ def analytic_bound(plan, sampler, kind: str):
     """The first-order bound (:mod:`robustness.bounds`) over the box that holds
     every draw of ``sampler`` (a disc of radius tau_com lies in the box of
     half-width tau_com; Gaussians are truncated to their boxes)."""
-    from robustness.bounds import push_plan_bound, tumble_plan_bound
-    from robustness.sensorless import is_sensorless
-
-    if is_sensorless(plan):   # linearised about one start: none for a start set
-        return None
-    if kind == "push":
-        return push_plan_bound(plan, sampler.geometry, sampler.execution)
-    return tumble_plan_bound(plan, sampler.geometry, sampler.execution)
+    return KINDS[kind].bound(plan, sampler.geometry, sampler.execution)
 
 
 def empty_summary(task: str, kind: str, model: str, dtype: str, criterion: SuccessCriterion,
@@ -148,7 +138,7 @@ def paper_bound_check(s: dict, df, plan, sampler, kind: str, bound: bool, task, 
     s["paper_bound_position_m"] = s["paper_bound_theta_rad"] = math.nan
     s["paper_bound_violated"] = None
     e = sampler.execution
-    if kind != "tumble" or not bound or e.start_xy or e.start_theta or e.tumble_slip_xy \
+    if not KINDS[kind].paper_bounds or not bound or e.start_xy or e.start_theta or e.tumble_slip_xy \
             or e.tumble_slip_theta:
         return
     from robustness.bounds import tumble_plan_paper_bounds

@@ -51,9 +51,8 @@ import numpy as np
 from kernels import float64
 from planning import STRATEGIES, PlanningError, PushOptions, plan_alternatives, plan_pose
 from robustness import stats
-from robustness.evaluation import goal_errors
-from robustness.models import PUSH_KINEMATIC, plan_kind
-from robustness.replay import run_push_many
+from robustness.kinds import kind_of
+from robustness.models import DEFAULT_MODEL, MODELS, decision_model
 from robustness.samplers import Sampler
 from robustness.stats import CONFIDENCE
 from robustness.tolerances import SuccessCriterion
@@ -296,67 +295,24 @@ def score_candidates(plans: Sequence, sampler: Sampler, n: int, key,
     plans = list(plans)
     if not plans:
         raise ValueError("plans: expected at least one candidate plan")
-    tumble = plan_kind(plans[0]) == "tumble"
+    ops = kind_of(plans[0])   # the candidates' row of the dispatch table (robustness.kinds)
     criterion = SuccessCriterion.for_plan(plans[0]) if criterion is None else criterion
-    if tumble:
-        success = _tumble_success(plans, sampler, int(n), key, dtype, criterion, chunk,
-                                  merge_factor)
-    else:
-        if model not in PUSH_KINEMATIC:
-            raise ValueError(f"model: robust synthesis scores push candidates under the "
-                             f"quasistatic, limit_surface or exact kinematics, got {model!r}")
-        success = _push_success(plans, sampler, int(n), key, model, dtype, criterion, chunk)
+    success = ops.success_many(plans, sampler, int(n), key, model=model, dtype=dtype,
+                               criterion=criterion, chunk=chunk, merge_factor=merge_factor)
     k = success.sum(axis=1)
     low = np.array([stats.one_sided_lower(int(x), int(n), confidence) for x in k])
     K = len(plans)
     bp, bt = np.full(K, np.nan), np.full(K, np.nan)
-    if bounds or tumble:
-        from robustness.bounds import push_plan_bound, tumble_plan_bound
-
+    if bounds or ops.cost_needs_bound:
         for i, pl in enumerate(plans):
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                b = (tumble_plan_bound(pl, sampler.geometry, sampler.execution) if tumble
-                     else push_plan_bound(pl, sampler.geometry, sampler.execution))
+                b = ops.bound(pl, sampler.geometry, sampler.execution)
             bp[i], bt[i] = b.position_m, b.theta_rad
-    cost = bp if tumble else np.array([p.total_distance for p in plans], np.float64)
-    steps = np.array([p.n_tumbles if tumble else p.n_pushes for p in plans], np.int64)
+    cost = np.array([ops.candidate_cost(pl, bp[i]) for i, pl in enumerate(plans)], np.float64)
+    steps = np.array([p.n_steps for p in plans], np.int64)
     return Scores(success=success, ci_low=low, cost=cost, steps=steps,
                   confidence=float(confidence), bound_position_m=bp, bound_theta_rad=bt)
-
-
-def _push_success(plans, sampler, n, key, model, dtype, criterion, chunk) -> np.ndarray:
-    from kernels import polygon as pg
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pg.PartWarning)
-        poly0 = pg.make_polygon(np.asarray(plans[0].vertices), np.asarray(plans[0].com))
-    P = max(len(p.pushes) for p in plans)
-    draws = sampler.sample(key, n, body=poly0.body, dtype=jnp.float64,
-                           n_vertices=len(plans[0].vertices), dim=2, n_pushes=P)
-    r = run_push_many(plans, draws.astype(jnp.dtype(dtype)), model, jnp.dtype(dtype), chunk)
-    _, _, _, ep, et = goal_errors(r.x, r.y, r.theta, plans[0].goal)
-    valid = ~np.asarray(r.changed, bool) & ~np.asarray(r.truncated, bool)
-    return criterion.success(ep, et, valid)
-
-
-def _tumble_success(plans, sampler, n, key, dtype, criterion, chunk, merge_factor) -> np.ndarray:
-    from robustness.hulls import face_merge_tol
-    from robustness.replay import run_tumble_many, tumble_nominal
-
-    L = max(p.n_tumbles for p in plans)
-    draws = sampler.sample(key, n, dtype=jnp.float64, n_vertices=len(plans[0].vertices), dim=3,
-                           n_tumbles=L)
-    tol = None
-    if sampler.geometry.tau_v > 0:
-        v = np.asarray(tumble_nominal(plans[0]).vertices)
-        diam = float(np.max(np.linalg.norm(v[:, None] - v[None], axis=-1)))
-        tol = face_merge_tol(sampler.geometry.tau_v, diam, merge_factor)
-    r = run_tumble_many(plans, draws, jnp.dtype(dtype), chunk, merge_tol=tol,
-                        slip_theta=sampler.execution.tumble_slip_theta)
-    _, _, _, ep, et = goal_errors(r.x, r.y, r.theta, plans[0].goal)
-    on_face = np.asarray(r.ok, bool) & (np.asarray(r.face) == int(plans[0].goal[3]))
-    return criterion.success(ep, et, ~np.asarray(r.changed, bool) & on_face)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -505,7 +461,7 @@ def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key,
 def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key,
                criterion: Optional[SuccessCriterion] = None,
                options: Optional[PushOptions] = None, objective: str = "max_lower_bound",
-               required_probability: Optional[float] = None, model: str = "quasistatic",
+               required_probability: Optional[float] = None, model: str = DEFAULT_MODEL,
                dtype=jnp.float64, confidence: float = CONFIDENCE, **grid) -> Synthesis:
     """Candidates of a push task (2-d ``vertices``: :func:`push_candidates`) or a
     tumble task (3-d: :func:`tumble_candidates`; ``grid`` the keywords of
@@ -518,12 +474,13 @@ def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key
     exact kinematics (``limit_surface``: of more than :data:`SHORTLIST`
     candidates the quasi-static model shortlists the default plan and the best
     ``SHORTLIST - 1`` on the same draws, and the exact limit surface chooses
-    among them; ``mujoco``: the quasi-static model chooses, physics certifies)."""
+    among them; ``mujoco``: :func:`~robustness.models.decision_model`, the exact
+    limit surface, chooses, physics certifies; default
+    :data:`~robustness.models.DEFAULT_MODEL`)."""
     tumble = np.asarray(vertices).shape[-1] == 3
-    if tumble:
-        model = "exact"
-    elif model not in PUSH_KINEMATIC:
-        model = "quasistatic"
+    if model not in MODELS:
+        raise ValueError(f"model: expected one of {MODELS}, got {model!r}")
+    model = decision_model(model, "tumble" if tumble else "push")
     if tumble:
         cands, skipped = tumble_candidates(vertices, start, goal, com, **grid)
     else:

@@ -245,6 +245,10 @@ CERTIFICATES_SCHEMA = pa.schema([
     pa.field("selection_n_samples", I64),           # selection draws (independent of n_samples)
     pa.field("selection_ci_low", F64),              # chosen plan's bound on them (optimistic)
     pa.field("default_selection_ci_low", F64),      # the default plan's on the same draws
+    pa.field("physics_n_samples", I64),             # MuJoCo rollouts of the chosen plan (0: none)
+    pa.field("physics_n_success", I64),
+    pa.field("physics_ci_low", F64),                # their one-sided lower bound
+    pa.field("physics_agrees", BOOL),               # physics and the model agree (None: not run)
     pa.field("note", STR),
 ])
 

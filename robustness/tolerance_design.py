@@ -63,11 +63,16 @@ import numpy as np
 
 from robustness import stats
 from robustness.evaluation import evaluate
+from robustness.kinds import kind_of
+from robustness.models import DEFAULT_MODEL
 from robustness.samplers import Sampler
 
 #: push-plan axes, tumble-plan axes
 PUSH_AXES = ("tau_v", "tau_com", "start", "fence_angle", "push_distance", "fence_friction")
 TUMBLE_AXES = ("tau_v", "start", "tumble_slip")
+#: the design axes by plan kind (every kind of the dispatch table: tests/test_plan_kinds.py)
+AXES = {"push": PUSH_AXES, "tumble": TUMBLE_AXES,
+        "sensorless": ()}   # none: a design needs a known start (configs refuse it)
 #: ``axis: ((section, field, reference scale as a fraction of the part's size or an absolute
 #: value, is_length), ...)``
 _FIELDS = {
@@ -165,7 +170,7 @@ class JointDesign:
 
 def axes_for(plan) -> tuple:
     """The design axes of a plan's kind."""
-    return PUSH_AXES if hasattr(plan, "pushes") else TUMBLE_AXES
+    return AXES[kind_of(plan).kind]
 
 
 def _size(plan) -> float:
@@ -240,7 +245,7 @@ class Judge:
     default: the plan kind's)."""
 
     def __init__(self, plan, n: int, key, *, p: float, confidence: float,
-                 model: str = "quasistatic", dtype=jnp.float64, criterion=None, physics=None):
+                 model: str = DEFAULT_MODEL, dtype=jnp.float64, criterion=None, physics=None):
         self.plan, self.n, self.key, self.p, self.confidence = plan, int(n), key, float(p), float(confidence)
         self.kw = dict(criterion=criterion, model=model, dtype=dtype, physics=physics,
                        summary=False, bound=False)

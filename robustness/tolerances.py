@@ -224,12 +224,12 @@ class SuccessCriterion:
     def for_plan(cls, plan) -> "SuccessCriterion":
         """The default criterion of a plan's kind: a tumble plan's own accuracy
         ``plan.eps`` (m and rad) for both tolerances; the class defaults (1 mm,
-        1 degree) for a push plan.  The one home of the per-kind defaults."""
-        from robustness.models import plan_kind
+        1 degree) for a push plan: the ``default_eps`` of the plan kind's row of
+        the dispatch table (:data:`robustness.kinds.KINDS`)."""
+        from robustness.kinds import kind_of   # not at the top: kinds -> bounds -> this module
 
-        if plan_kind(plan) == "tumble":
-            return cls(float(plan.eps), float(plan.eps))
-        return cls()
+        eps = kind_of(plan).default_eps(plan)
+        return cls() if eps is None else cls(*eps)
 
     def within(self, err_pos_m, err_theta_rad) -> np.ndarray:
         """Whether final-pose errors (position m, orientation rad, any sign) are

@@ -24,7 +24,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from robustness import STAT_COLUMNS, evaluate, model_for, plan_kind, summarise, tables
+from robustness import STAT_COLUMNS, evaluate, model_for, summarise, tables
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,7 +96,7 @@ def summarise_blocks(stats: Sequence[dict], plan, cfg, task: str, *, model: Opti
     the concatenated samples."""
     import pandas as pd
 
-    kind = plan_kind(plan)
+    kind = plan.kind
     df = pd.DataFrame({c: np.concatenate([s[c] for s in stats]) for c in STAT_COLUMNS})
     return summarise(df, plan, cfg.sampler(), kind=kind, model=model_for(model or cfg.model, kind),
                      dtype=cfg.dtype, criterion=cfg.eps, confidence=cfg.required.confidence,

@@ -112,43 +112,59 @@ def build_parser(prog: str = "nudge certify") -> Parser:
     return p
 
 
-def _plan_kind(part) -> str:
-    """``"push"`` for a polygon, ``"tumble"`` for a polyhedron."""
-    return "push" if part.kind == "polygon" else "tumble"
-
-
 def _task_samples(cfg: CertifyConfig) -> int:
     """The most samples a task draws (``auto``: up to ``max_samples``)."""
     return cfg.max_samples if cfg.n_samples == "auto" else int(cfg.n_samples)
 
 
+#: evaluations of the design draws a tolerance design takes: about this many per
+#: axis (bracket and bisection, the knock-outs) and this many besides (the joint
+#: design); measured 66-76 on the triangle's six push axes
+DESIGN_EVALUATIONS_PER_AXIS, DESIGN_EVALUATIONS_BESIDES = 10, 12
+
+
 def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> float:
     """The certification's time (s) on 2 CPU cores from the measured throughput
-    of its model on its support (:func:`robustness.models.samples_per_second`):
-    every task's samples (``auto``: up to ``max_samples``), the synthesis's
-    selection draws over its candidate cap, the margin search's grid, less the
-    ``kept`` samples of an interrupted run's finished blocks; plus a few
-    seconds a task of planning and compilation."""
-    from robustness import samples_per_second
+    of each model on its support (:func:`robustness.models.samples_per_second`):
+    every task's samples (``auto``: up to ``max_samples``) under the config's
+    model, less the ``kept`` samples of an interrupted run's finished blocks;
+    the synthesis's selection draws over its candidate cap under the model that
+    chooses (:func:`robustness.decision_model`; the exact limit surface scores
+    a shortlist that the quasi-static model draws up), or the margin search's
+    grid; the tolerance design's evaluations; plus a few seconds a task of
+    planning and compilation."""
+    from robustness import (SHORTLIST, decision_model, kind_for_part, samples_per_second,
+                            tolerance_design as td)
 
-    kind = _plan_kind(part)
-    rate = samples_per_second(kind, cfg.model, cfg.friction.support)
-    n = _task_samples(cfg)
+    kind = kind_for_part(part.kind)
+    support = cfg.friction.support
+    rate = lambda model: samples_per_second(kind, model, support)  # noqa: E731
+    choose = decision_model(cfg.model, kind)
+    secs = max(n_tasks * _task_samples(cfg) - kept, 0) / rate(cfg.model)
     if cfg.synthesize is not None and cfg.synthesize.enabled:
-        n += cfg.synthesize.n_samples * cfg.synthesize.max_candidates
+        s = cfg.synthesize
+        scored = s.max_candidates
+        if choose == "limit_surface" and s.max_candidates > SHORTLIST:
+            secs += n_tasks * s.n_samples * s.max_candidates / rate("quasistatic")
+            scored = SHORTLIST
+        secs += n_tasks * s.n_samples * scored / rate(choose)
     elif kind == "push" and cfg.margin_search is not None and cfg.margin_search.enabled:
         m = cfg.margin_search
-        n += m.n_samples * len(m.margins_deg) * len(m.safety_factors)
-    return max(n_tasks * n - kept, 0) / rate + 2.0 * n_tasks + 8.0
+        secs += n_tasks * m.n_samples * len(m.margins_deg) * len(m.safety_factors) / rate(cfg.model)
+    if cfg.design is not None and cfg.design.enabled:
+        axes = len(cfg.design.axes or td.AXES[kind])
+        evals = DESIGN_EVALUATIONS_PER_AXIS * axes + DESIGN_EVALUATIONS_BESIDES
+        secs += n_tasks * evals * cfg.design.n_samples / rate(choose)
+    return secs + 2.0 * n_tasks + 8.0
 
 
 def estimate_peak(cfg: CertifyConfig, part) -> float:
     """The certification's peak memory (bytes): a block of samples at a time
     (:func:`robustness.block_samples`, :func:`robustness.peak_bytes`), never
     more than a task's sample count."""
-    from robustness import block_samples, model_for, peak_bytes
+    from robustness import block_samples, kind_for_part, model_for, peak_bytes
 
-    kind = _plan_kind(part)
+    kind = kind_for_part(part.kind)
     model = model_for(cfg.model, kind)
     return peak_bytes(model, min(_task_samples(cfg), block_samples(kind, model,
                                                                    cfg.friction.support)))
@@ -342,11 +358,12 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     import jax
 
     from robustness import (tables, Schedule, auto_schedule, block_samples, decide, grow,
-                            is_sensorless, model_for, no_plan, perturbed_sources, start_set)
+                            is_sensorless, kind_for_part, model_for, no_plan, perturbed_sources,
+                            start_set)
     from sweeps.config import ConfigError
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
-    kind = _plan_kind(part)
+    kind = kind_for_part(part.kind)
     model = model_for(cfg.model, kind)
     p, conf = cfg.required.probability, cfg.required.confidence
     caught: list = []
@@ -395,6 +412,11 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     if syn is not None:
         row["note"] = "; ".join(x for x in (row["note"], "certified on fresh draws, not the "
                                             "selection draws the plan was chosen on") if x)
+        check = confirm_task(cfg, part, plan, summary, key)
+        if check is not None:
+            row.update(check.to_row())
+            row["note"] = "; ".join(x for x in (row["note"], check.sentence()) if x)
+            _log(quiet, f"[{name}] {check.sentence()}")
     if cert.verdict != "certified" and kind == "push" and cfg.margin_search is not None \
             and cfg.margin_search.enabled and syn is None:
         rec = margin_search(part, start, goal, cfg, key, model)
@@ -411,6 +433,25 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         row["note"] = "; ".join(x for x in (row["note"], f"tolerance design: {line}") if x)
         _log(quiet, f"[{name}] tolerance design: {line}")
     return row
+
+
+def confirm_task(cfg, part, plan, summary, key):
+    """The synthesized plan of a push task rolled out in MuJoCo
+    (``synthesize.confirm_samples`` fresh draws, :func:`robustness.confirm_in_physics`)
+    beside its certificate; None when there is nothing to confirm with: no
+    rollouts asked for, a tumble task, a model that is physics already, or a
+    support MuJoCo does not build (``points``)."""
+    from kernels import REALISABLE_SUPPORTS
+    from robustness import confirm_in_physics, confirmation_key
+
+    n = cfg.synthesize.confirm_samples
+    if (not n or part.kind != "polygon" or cfg.model == "mujoco"
+            or cfg.friction.support not in REALISABLE_SUPPORTS):
+        return None
+    return confirm_in_physics(plan, cfg.sampler(), n, confirmation_key(key), cfg.eps,
+                              model=cfg.model, model_k=int(summary["n_success"]),
+                              model_n=int(summary["n"]), confidence=cfg.required.confidence,
+                              physics=cfg.physics.run(part, cfg.friction))
 
 
 def design_task(cfg, part, plan, name, key, store, ti) -> str:
@@ -513,12 +554,12 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
             how = dict(margin_deg=pl.margin_deg, safety_factor=pl.safety_factor,
                        strategy=pl.strategy, distance_rule=pl.distance_rule, support=pl.support,
                        min_fence_mu=math.nan if pl.min_fence_mu is None else pl.min_fence_mu,
-                       n_steps=pl.n_pushes, total_distance_m=pl.total_distance,
+                       n_steps=pl.n_steps, total_distance_m=pl.total_distance,
                        tumble_eps=math.nan)
         else:
             how = dict(margin_deg=math.nan, safety_factor=math.nan,
                        strategy="short" if c.options.shorten else "paper", distance_rule=None,
-                       support=None, min_fence_mu=math.nan, n_steps=pl.n_tumbles,
+                       support=None, min_fence_mu=math.nan, n_steps=pl.n_steps,
                        total_distance_m=math.nan, tumble_eps=c.options.eps)
         rows.append(dict(run_id=store.run_id, task=name, candidate=i, label=c.label, **how,
                          alternative=c.rank, bound_position_m=float(s.bound_position_m[i]),
@@ -532,12 +573,13 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
 
 
 def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
-    from robustness import model_for
+    from robustness import NO_PHYSICS, kind_for_part, model_for
     from sweeps.config import reference_start
 
     start = reference_start(start)   # a sensorless task: the region's centre (its claim says)
 
-    push = part.kind == "polygon"
+    kind = kind_for_part(part.kind)
+    push = kind == "push"
     sel = dict(selection="default plan", n_candidates=0, selection_n_samples=0,
                selection_ci_low=math.nan, default_selection_ci_low=math.nan)
     if syn is not None:
@@ -545,15 +587,15 @@ def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
                    selection_n_samples=syn.scores.n,
                    selection_ci_low=float(syn.scores.ci_low[syn.chosen]),
                    default_selection_ci_low=float(syn.scores.ci_low[0]))
-    return dict(**sel,task=name, kind="push" if push else "tumble", part=part.name,
+    return dict(**sel, **NO_PHYSICS, task=name, kind=kind, part=part.name,
                 part_source=part.source.name, part_units=part.units,
-                model=model_for(cfg.model, "push" if push else "tumble"),
+                model=model_for(cfg.model, kind),
                 start_x_m=start[0], start_y_m=start[1], start_theta_rad=start[2],
                 start_face=start[3] if not push else -1, goal_x_m=goal[0], goal_y_m=goal[1],
                 goal_theta_rad=goal[2], goal_face=goal[3] if not push else -1,
-                plan_steps=0 if plan is None else (plan.n_pushes if push else plan.n_tumbles),
+                plan_steps=0 if plan is None else plan.n_steps,
                 plan_distance_m=plan.total_distance if (push and plan is not None) else math.nan,
-                plan_verdict="no_plan" if plan is None else ("solved" if push else plan.verdict),
+                plan_verdict="no_plan" if plan is None else plan.verdict,
                 margin_deg=(plan.margin_deg if plan is not None else cfg.planner.margin_deg)
                 if push else math.nan,
                 safety_factor=(plan.safety_factor if plan is not None

@@ -27,7 +27,8 @@ from kernels import (FAMILY, PLAN_SUPPORTS, PLANNED_FAMILIES, REALISABLE_SUPPORT
 from robustness.physics import PhysicsSettings
 from planning import PushOptions
 from robustness import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES, ExecutionTolerance,
-                        FrictionRange, GeometryTolerance, SuccessCriterion, CONFIDENCE, REQUIRED_PROBABILITY)
+                        FrictionRange, GeometryTolerance, SuccessCriterion, CONFIDENCE, DEFAULT_MODEL,
+                        REQUIRED_PROBABILITY)
 from sweeps.budget import MAX_SAMPLES
 from sweeps.errors import UserError
 from sweeps.partfile import part_fields
@@ -187,6 +188,8 @@ class Synthesize(Strict):
     slack: StrictInt = Field(2, ge=0, le=100)
     physics_samples: StrictInt = Field(0, ge=0, le=10_000)     # MuJoCo tie-break (push tasks)
     physics_candidates: StrictInt = Field(4, ge=2, le=64)
+    # the chosen plan rolled out in MuJoCo on fresh draws, beside its certificate (push tasks)
+    confirm_samples: StrictInt = Field(24, ge=0, le=10_000)
 
     @model_validator(mode="after")
     def _grid(self):
@@ -393,7 +396,7 @@ class Evaluation(Strict):
     eps: SuccessCriterion = Field(default_factory=SuccessCriterion)
     required: Required = Field(default_factory=Required)
     seed: int = Field(0, ge=0)
-    model: Literal["quasistatic", "limit_surface", "exact", "mujoco"] = "quasistatic"
+    model: Literal["quasistatic", "limit_surface", "exact", "mujoco"] = DEFAULT_MODEL
     dtype: Literal["float64", "float32"] = "float64"
     physics: Physics = Field(default_factory=Physics)
 

@@ -266,6 +266,7 @@ CERTIFY_TEMPLATE = jinja2.Template("""<!doctype html>
 {{ style | safe }}h3 { font-size: 1.0em; }
 .drawing { background: #eef6ee; border: 1px solid #9c9; padding: 0.6em; font-family: monospace; }
 .drawing.no { background: #fbeeee; border-color: #c99; }
+td.bad { background: #fbeeee; color: #900; font-weight: bold; }
 </style></head><body>
 <h1>nudge certification of <code>{{ part }}</code></h1>
 <p>part from <code>{{ part_source }}</code>{% if part_cad %}: {{ part_cad }}{% endif %}</p>
@@ -273,10 +274,11 @@ CERTIFY_TEMPLATE = jinja2.Template("""<!doctype html>
 (also <code>candidates</code>, <code>design</code>, <code>samples</code>, <code>plans</code>).</p>
 <h2>Certificates</h2>
 <table><tr><th class="l">task</th><th class="l">verdict</th><th>n</th><th>success</th><th>CP low</th>
-<th class="l">selection</th></tr>
+<th class="l">selection</th><th class="l">MuJoCo</th></tr>
 {% for c in certs %}<tr><td class="l">{{ c.task }}</td><td class="l">{{ c.verdict }}</td><td>{{ c.n }}</td>
-<td>{{ c.rate }}</td><td>{{ c.low }}</td><td class="l">{{ c.selection }}</td></tr>
-<tr><td></td><td class="l" colspan="5">{{ c.claim }}</td></tr>{% endfor %}</table>
+<td>{{ c.rate }}</td><td>{{ c.low }}</td><td class="l">{{ c.selection }}</td>
+<td class="l{% if c.disagree %} bad{% endif %}">{{ c.physics }}</td></tr>
+<tr><td></td><td class="l" colspan="6">{{ c.claim }}{% if c.physics_line %}<br>{{ c.physics_line }}{% endif %}</td></tr>{% endfor %}</table>
 {% for t in synth %}<h3>Robust synthesis: {{ t.task }}</h3>
 <p class="note">{{ t.n }} candidates on the same {{ t.draws }} selection draws ({{ t.model }} model);
 the ten with the highest lower bound, and the default plan. Bounds here are on the selection draws
@@ -311,6 +313,18 @@ def _values(v) -> str:
     return ", ".join("-" if x != x else f"{x:.4g}" for x in v)
 
 
+def _physics_cell(c) -> dict:
+    """A certificate's MuJoCo confirmation for the report (``physics_*`` columns;
+    the sentence is the note's)."""
+    n = int(getattr(c, "physics_n_samples", 0) or 0)
+    if not n:
+        return dict(physics="-", disagree=False, physics_line="")
+    agrees = getattr(c, "physics_agrees", None)
+    line = next((x for x in str(c.note or "").split("; ") if x.startswith("MuJoCo on")), "")
+    return dict(physics=f"{int(c.physics_n_success)}/{n}" + (" agrees" if agrees else " DISAGREES"),
+                disagree=not agrees, physics_line=line)
+
+
 def write_certify_report(store, part, config_text: str) -> pathlib.Path:
     """``report.html`` of a certification run: its certificates, the candidates
     of synthesized tasks and the tolerance design (read from the run's tables);
@@ -325,7 +339,7 @@ def write_certify_report(store, part, config_text: str) -> pathlib.Path:
     f = lambda x, fmt=".4f": "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, fmt)  # noqa: E731
     crow = [dict(task=c.task, verdict=c.verdict, n=int(c.n_samples), rate=f(c.success_rate),
                  low=f(c.ci_low_one_sided), selection=c.selection or "default plan",
-                 claim=c.claim) for c in certs.itertuples()]
+                 claim=c.claim, **_physics_cell(c)) for c in certs.itertuples()]
     synth = []
     for task, g in (cands.groupby("task", sort=False) if not cands.empty else ()):
         g = g.sort_values(["ci_low_one_sided", "total_distance_m", "bound_position_m"],

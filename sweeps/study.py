@@ -47,6 +47,7 @@ from typing import Annotated, Any, Literal, Optional, Union
 import numpy as np
 from pydantic import Discriminator, Field, StrictBool, Tag, model_validator
 
+from robustness import KINDS, kind_for_part
 from robustness.physics import check_pad_friction
 
 from sweeps import catalog
@@ -58,7 +59,9 @@ from sweeps.plausible import check_design, wrap
 from sweeps.units import at_path
 from sweeps.yamlio import dump_yaml, read_yaml
 
-KIND_OF_PART = {"polygon": "push", "polyhedron": "tumble"}
+#: the study kind of each part kind (the dispatch table's ``part_kind``, robustness.KINDS:
+#: the first row of a part kind, its known-start plans; a sensorless task is a push study's)
+KIND_OF_PART = {pk: kind_for_part(pk) for pk in {k.part_kind for k in KINDS.values()}}
 
 #: Keys that say where and how a study runs, not what it computes.
 OPERATIONAL = ("executor", "output", "report")
@@ -196,7 +199,7 @@ class Design:
         key = _part_key(cfg) + cfg.kind   # a mesh named directly: footprint (push) or hull
         if key not in self._parts:
             self._parts[key] = load_part_ref(cfg.part, self.base,
-                                             {v: k for k, v in KIND_OF_PART.items()}[cfg.kind])
+                                             KINDS[cfg.kind].part_kind)
         return self._parts[key]
 
     def parts(self) -> list:

@@ -97,7 +97,7 @@ def plan_task(part, start, goal, planner: Planner, criterion: SuccessCriterion,
         finally:
             if caught is not None:
                 caught.extend(got)
-    if part.kind == "polyhedron" and plan.verdict != "solved":
+    if plan.verdict != "solved":   # a tumble plan may not reach its goal (the plan interface)
         return None, f"{plan.verdict}: {' '.join(str(plan.reason).split())}"
     return plan, ""
 
@@ -111,12 +111,11 @@ def synthesize_for(cfg, part, start, goal, key):
     :class:`~robustness.Synthesis`."""
     import jax.numpy as jnp
 
-    from robustness import PUSH_KINEMATIC, selection_key, synthesize
+    from robustness import decision_model, selection_key, synthesize
 
     sy = cfg.synthesize
     push = part.kind == "polygon"
-    model = (cfg.model if cfg.model in PUSH_KINEMATIC else "quasistatic") if push \
-        else "exact"
+    model = decision_model(cfg.model, "push" if push else "tumble")
     grid = (dict(options=cfg.planner.push_options(), **sy.grid(cfg.friction)) if push
             else sy.tumble_grid(tumble_eps(cfg.planner, cfg.eps), cfg.planner.tumble_tau_v,
                                 cfg.planner.tau_g))
@@ -140,7 +139,7 @@ def synthesize_for(cfg, part, start, goal, key):
 def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
     """Tolerance design of one task's plan under a config (its ``design``
     section, sampler, eps, requirement; :mod:`robustness.tolerance_design`,
-    the quasi-static or exact kinematics) on the design draws of the task's
+    under :func:`robustness.decision_model`) on the design draws of the task's
     ``key`` (:func:`robustness.tolerance_design.design_key`).
 
     Returns:
@@ -150,11 +149,10 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
     import jax
     import jax.numpy as jnp
 
-    from robustness import PUSH_KINEMATIC, model_for, tolerance_design as td
+    from robustness import decision_model, tolerance_design as td
 
-    kind = "push" if part.kind == "polygon" else "tumble"
-    model = cfg.model if cfg.model in PUSH_KINEMATIC and kind == "push" else \
-        model_for("quasistatic" if cfg.model == "mujoco" else cfg.model, kind)
+    kind = plan.kind
+    model = decision_model(cfg.model, kind)
     d = cfg.design
     axes = tuple(a for a in (d.axes or td.axes_for(plan)) if a in td.axes_for(plan))
     p, conf = cfg.required.probability, cfg.required.confidence
@@ -223,7 +221,7 @@ def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[
                                      else "no_plan")
         return row
     row["plan_json"] = plan_json(plan)
-    if hasattr(plan, "region"):   # a SensorlessPlan: fence-line pushes in three phases
+    if plan.kind == "sensorless":   # fence-line pushes in three phases
         total = float(plan.total_travel)
         row.update(verdict="solved", plan_class="sensorless",
                    distance_rule=plan.pose_plan.distance_rule, support=plan.pose_plan.support,
@@ -231,14 +229,14 @@ def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[
                    plan_error=float(max(plan.pose_plan.final_error)),
                    length_ratio=total / straight if straight > 0 else math.nan)
     elif tumble:
-        row.update(verdict=plan.verdict, n_steps=plan.n_tumbles,
+        row.update(verdict=plan.verdict, n_steps=plan.n_steps,
                    n_tumbles_paper=int(min(plan.n_tumbles_paper, 2 ** 62)),
                    plan_error=float(plan.error))
     else:
         total = float(plan.total_distance)
-        row.update(verdict="solved", plan_class=plan.plan_class, distance_rule=plan.distance_rule,
+        row.update(verdict=plan.verdict, plan_class=plan.plan_class, distance_rule=plan.distance_rule,
                    support=plan.support,
-                   n_steps=plan.n_pushes,
+                   n_steps=plan.n_steps,
                    total_distance_m=total, plan_error=float(max(plan.final_error)),
                    length_ratio=total / straight if straight > 0 else math.nan)
     return row

@@ -53,7 +53,7 @@ def test_example_end_to_end_layout_and_metadata(tmp_path):
     assert str(frames["summary"]["bound_violated"].dtype) == "boolean"
     # every certificate states what it proves: the one-sided bound, the model, the samples
     for _, c in certs.iterrows():
-        assert "quasistatic" in c["claim"] and "40 samples" in c["claim"]
+        assert "limit_surface" in c["claim"] and "40 samples" in c["claim"]
         assert c["bound_model"].startswith("first-order")
     assert "translate" in r.stdout and "turn" in r.stdout
     assert r.returncode == (0 if (certs["verdict"] == "certified").all() else 1)
@@ -270,7 +270,7 @@ def test_a_physics_certification_of_a_hundred_thousand_samples_is_refused_at_onc
     text = EXAMPLE.read_text().replace("part: biplus_stable.yaml",
                                        f"part: {ROOT / 'examples' / 'biplus_stable.yaml'}")
     cfg.write_text(text + "model: mujoco\n" if "\nmodel:" not in text
-                   else text.replace("model: quasistatic", "model: mujoco"))
+                   else text.replace("model: limit_surface", "model: mujoco"))
     r = nudge_here("certify", cfg, "--n-samples", "100000", "--out", tmp_path / "out")
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()

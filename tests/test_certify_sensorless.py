@@ -23,6 +23,7 @@ execution: {{start_xy: 5.0e-4, start_theta: 0.01, fence_angle: 0.002, distance_a
 eps: {{pos_eps_m: 0.003, theta_eps_rad: 0.05}}
 n_samples: 16
 seed: 3
+model: quasistatic          # the digest below was taken under it (before the default changed)
 tasks:
   - {{name: turn, start: [0, 0, 0], goal: [0.10, 0.05, 60deg]}}
 """

@@ -441,3 +441,36 @@ def test_node_motions_equal_the_cold_solve_batched_or_not(starved, monkeypatch):
         for f in ("v", "omega", "slip", "force"):
             np.testing.assert_allclose(np.asarray(getattr(got, f)), np.asarray(getattr(cold, f)),
                                        atol=1e-9 if not starved else 1e-15, rtol=1e-7 if not starved else 1e-13)
+
+
+@pytest.mark.slow
+def test_a_mixed_support_batch_split_by_point_count_equals_the_whole(monkeypatch):
+    """``support: any`` under the exact limit surface: the replay splits the batch
+    on the host into rigid corners and tripods (few points) and the 24-25 feet
+    pads (robustness.replay.FEW_POINTS) and puts the outcomes back in sample
+    order; every sample ends where the whole batch's replay puts it (to the
+    solver's tolerance), on the same edge, with the same verdict."""
+    import robustness.replay as rp
+    from planning import plan_pose
+    from robustness import ExecutionTolerance, FrictionRange, Sampler, evaluate
+
+    plan = plan_pose(RECT * 2.0, (0.0, 0.0, 0.0), (0.05, 0.02, 1.2))
+    sampler = Sampler(friction=FrictionRange(mu_f=(0.4, 0.9), support="any"),
+                      execution=ExecutionTolerance(start_theta=0.02, fence_angle=0.01))
+    runs = {}
+    for split in (True, False):
+        monkeypatch.setattr(rp, "SPLIT_MIN_SAMPLES", 16 if split else 10 ** 9)
+        if split:   # both groups present, padded to whole blocks
+            groups = rp._split_by_points(("limit_surface", ks.ANY_COMPONENTS), rp.PushSamples(
+                *(None,) * 8, family=np.asarray([0, 1, 2, 3] * 10), points=np.zeros((40, 4, 2))),
+                40, 4)
+            assert [g[0][1] for g in groups] == [("rigid", "tripod"), ("uniform", "ring")]
+            assert sorted(np.concatenate([g[1] for g in groups])) == list(range(40))
+        runs[split] = evaluate(plan, sampler, 40, jax.random.key(3), model="limit_surface",
+                               summary=False, bound=False).columns
+    a, b = runs[True], runs[False]
+    for k in ("final_x_m", "final_y_m", "final_theta_rad", "slip_m"):
+        np.testing.assert_allclose(a[k], b[k], atol=1e-7)
+    for k in ("success", "failure_mode", "final_edge_a", "final_edge_b"):
+        assert np.array_equal(np.asarray(a[k]), np.asarray(b[k])), k
+    assert 0 < np.mean(a["success"]) < 1   # the verdicts compared are not all alike

@@ -31,7 +31,7 @@ def _config(tmp_path, model: str) -> pathlib.Path:
     cfg.write_text(EXAMPLE.read_text()
                    .replace("part: biplus_stable.yaml",
                             f"part: {ROOT / 'examples' / 'biplus_stable.yaml'}")
-                   .replace("model: quasistatic", f"model: {model}"))
+                   .replace("model: limit_surface", f"model: {model}"))
     return cfg
 
 

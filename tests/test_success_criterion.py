@@ -21,8 +21,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 LAYERS = ("kernels", "planning", "robustness", "sweeps")
 PE, TE = 2e-3, 0.03
 CRIT = SuccessCriterion(pos_eps_m=PE, theta_eps_rad=TE, slip_fraction=0.25)
-PUSH = types.SimpleNamespace(pushes=())
-TUMBLE = types.SimpleNamespace(tumbles=(), eps=4e-4)
+PUSH = types.SimpleNamespace(kind="push", pushes=())
+TUMBLE = types.SimpleNamespace(kind="tumble", tumbles=(), eps=4e-4)
 
 
 # --------------------------------------------------------------------------

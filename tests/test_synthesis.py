@@ -162,7 +162,7 @@ def _config(tmp_path, extra=""):
 def test_certify_synthesize_end_to_end(tmp_path):
     cfg = _config(tmp_path, "synthesize:\n  n_samples: 300\n  margins_deg: [3, 20]\n"
                             "  safety_factors: [1.15, 2.0]\n  strategies: [search]\n"
-                            "  per_setting: 2\n  enabled: false\n")
+                            "  per_setting: 2\n  enabled: false\n  confirm_samples: 6\n")
     out = tmp_path / "out"
     r = nudge_here("certify", cfg, "--synthesize", "--out", out, "--quiet")
     assert r.returncode in (0, 1), r.stderr
@@ -183,6 +183,13 @@ def test_certify_synthesize_end_to_end(tmp_path):
         assert c["selection"].startswith("synthesized:") and "fresh draws" in c["selection"]
         assert "fresh draws" in c["note"]
         assert c["selection_ci_low"] == pytest.approx(ch["ci_low_one_sided"])
+        # the chosen plan rolled out in MuJoCo beside its certificate, said in the note
+        assert c["physics_n_samples"] == 6 and 0 <= c["physics_n_success"] <= 6
+        assert c["physics_agrees"] in (True, False)
+        assert "MuJoCo on 6 fresh draws" in c["note"]
+        assert ("DISAGREE" in c["note"]) == (not c["physics_agrees"])
+    report = (out / "report.html").read_text()
+    assert "<th class=\"l\">MuJoCo</th>" in report and "/6 " in report
     turn = certs[certs.task == "turn"].iloc[0]
     assert turn["selection_ci_low"] > turn["default_selection_ci_low"] + 0.3
     assert "synthesized:" in r.stdout

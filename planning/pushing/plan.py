@@ -10,7 +10,12 @@ Edges and vertices are indices into the caller's own vertex list.
 from __future__ import annotations
 
 import dataclasses
-from typing import Optional
+import warnings
+from typing import ClassVar, Optional
+
+import numpy as np
+
+from kernels import PartWarning, make_polygon
 
 PLAN_CLASSES = ("translation", "cw", "ccw", "singular-cw", "singular-ccw")
 PUSH_KINDS = ("translate", "reorient")
@@ -115,7 +120,13 @@ class PushPlan:
       workspace: ``(xmin, xmax, ymin, ymax)`` (m) the plan stays inside, or ``None``.
       max_reorients, extra_steps: the search's effort budget and depth.
       turns: extra full turns of the main reorient run (0 or 1).
+
+    The plan interface (:mod:`planning.kinds`): ``kind`` ``"push"``,
+    :attr:`n_steps`, :attr:`verdict`, :meth:`nominal_part`, :meth:`draw_shape`.
     """
+
+    #: the plan's kind: its key in the evaluation's dispatch table (:mod:`planning.kinds`)
+    kind: ClassVar[str] = "push"
 
     vertices: tuple[tuple[float, float], ...]
     com: tuple[float, float]
@@ -145,6 +156,30 @@ class PushPlan:
     def n_pushes(self) -> int:
         """Number of pushes."""
         return len(self.pushes)
+
+    @property
+    def n_steps(self) -> int:
+        """The plan's steps (its pushes): the plan interface."""
+        return len(self.pushes)
+
+    @property
+    def verdict(self) -> str:
+        """``"solved"``: the planner returns only plans its exact replay verified
+        (the plan interface; a tumble plan's verdict can be another)."""
+        return "solved"
+
+    def nominal_part(self):
+        """The nominal part, a :class:`kernels.Polygon` of the plan's vertices and
+        centre of mass (nominal hull order; a part warning is not repeated)."""
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", PartWarning)
+            return make_polygon(np.asarray(self.vertices), np.asarray(self.com))
+
+    def draw_shape(self) -> dict:
+        """What a sampler draws for one sample of this plan: the keywords
+        ``n_vertices``, ``dim`` (2), ``n_pushes`` of
+        :meth:`robustness.Sampler.sample` and of its columns."""
+        return dict(n_vertices=len(self.vertices), dim=2, n_pushes=len(self.pushes))
 
     @property
     def n_reorients(self) -> int:

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Optional
+from typing import ClassVar, Optional
 
 import jax
 import jax.numpy as jnp
@@ -88,7 +88,15 @@ class SensorlessPlan:
       pose_plan: the known-start :class:`PushPlan` of the pose phase.
       funnel: the :class:`Funnel`.
       checked: ``(headings, positions, reached)`` of the grid replay that verified it.
+
+    The plan interface (:mod:`planning.kinds`): ``kind`` ``"sensorless"`` (its own
+    kind, not ``"push"``: it has no single start pose; the Monte-Carlo evaluation
+    has no entry for it yet, :data:`robustness.kinds.NOT_EVALUATED`),
+    :attr:`n_steps`, :attr:`verdict`, :meth:`nominal_part`, :meth:`draw_shape`.
     """
+
+    #: the plan's kind: its key in the evaluation's dispatch table (:mod:`planning.kinds`)
+    kind: ClassVar[str] = "sensorless"
 
     pushes: tuple[FencePush, ...]
     region: tuple[float, float, float, float]
@@ -140,6 +148,26 @@ class SensorlessPlan:
     @property
     def safety_factor(self) -> float:
         return self.pose_plan.safety_factor
+
+    @property
+    def n_steps(self) -> int:
+        """The plan's steps (every push of the three phases): the plan interface."""
+        return len(self.pushes)
+
+    @property
+    def verdict(self) -> str:
+        """``"solved"``: returned only after the grid replay reached the goal from
+        every start (the plan interface)."""
+        return "solved"
+
+    def nominal_part(self):
+        """The nominal part (:class:`kernels.Polygon`), that of the pose phase's plan."""
+        return self.pose_plan.nominal_part()
+
+    def draw_shape(self) -> dict:
+        """What a sampler would draw for one sample: the part's vertices (2-d) and
+        one set of push errors per push of the three phases."""
+        return dict(n_vertices=len(self.pose_plan.vertices), dim=2, n_pushes=len(self.pushes))
 
     def count(self, phase: str) -> int:
         return sum(p.phase == phase for p in self.pushes)

@@ -12,10 +12,14 @@ the part can check a plan with :func:`kernels.tumble.replay`.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
-from typing import Optional
+import warnings
+from typing import ClassVar, Optional
 
-from kernels import angle_distance
+import numpy as np
+
+from kernels import PartWarning, angle_distance, make_polyhedron
 
 VERDICTS = ("solved", "not_solvable", "budget_exhausted")
 REACHABLE_CLASSES = ("discrete", "dense", "dense_lines")
@@ -24,6 +28,13 @@ BOUND_KEYS = ("Delta_D", "Delta_beta", "Delta_gen", "E", "U_max", "Delta_theta_f
 
 __all__ = ["Tumble", "TumblePlan", "config_error", "reaches", "VERDICTS", "REACHABLE_CLASSES",
            "BOUND_KEYS"]
+
+
+@functools.lru_cache(maxsize=64)
+def _nominal_polyhedron(vertices: tuple, com: tuple, tau_v):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PartWarning)
+        return make_polyhedron(np.asarray(vertices), np.asarray(com), tau_v=tau_v)
 
 
 def config_error(c1, c2) -> float:
@@ -112,7 +123,13 @@ class TumblePlan:
         6: worst case over every part within tau_v) hold; None for tau_v = 0.
       effort_used: operations the planner spent (see
         :mod:`planning.tumbling.effort`).
+
+    The plan interface (:mod:`planning.kinds`): ``kind`` ``"tumble"``,
+    :attr:`n_steps`, ``verdict`` (a field), :meth:`nominal_part`, :meth:`draw_shape`.
     """
+
+    #: the plan's kind: its key in the evaluation's dispatch table (:mod:`planning.kinds`)
+    kind: ClassVar[str] = "tumble"
 
     vertices: tuple[tuple[float, float, float], ...]
     com: tuple[float, float, float]
@@ -136,6 +153,24 @@ class TumblePlan:
     @property
     def n_tumbles(self) -> int:
         return len(self.tumbles)
+
+    @property
+    def n_steps(self) -> int:
+        """The plan's steps (its tumbles): the plan interface."""
+        return len(self.tumbles)
+
+    def nominal_part(self):
+        """The nominal part, a :class:`kernels.Polyhedron` with its faces as the
+        planner merged them at the plan's ``tau_v``; built once per part (a Qhull
+        call and the face merging cost a few ms)."""
+        return _nominal_polyhedron(tuple(map(tuple, np.asarray(self.vertices, np.float64).tolist())),
+                                   tuple(np.asarray(self.com, np.float64).tolist()), self.tau_v)
+
+    def draw_shape(self) -> dict:
+        """What a sampler draws for one sample of this plan: the keywords
+        ``n_vertices``, ``dim`` (3), ``n_tumbles`` of
+        :meth:`robustness.Sampler.sample` and of its columns."""
+        return dict(n_vertices=len(self.vertices), dim=3, n_tumbles=self.n_tumbles)
 
     @property
     def faces(self) -> tuple[int, ...]:

@@ -23,13 +23,12 @@ coming down, or misses it.
 from __future__ import annotations
 
 import dataclasses
-import warnings
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg, polygon_hull_changed, rot2_np
+from kernels import polygon_hull_changed, rot2_np
 from robustness.physics import geometry as geo
 from robustness.physics.monitor import fence_frame, vertices_world
 from robustness.physics.schedule import Phase, Schedule, steps_for, transit_steps, unwrap_near
@@ -77,9 +76,7 @@ _hull_changed = jax.jit(jax.vmap(polygon_hull_changed, in_axes=(0, 0, None)))
 def nominal_polygon(plan):
     """The plan's part as a :class:`kernels.polygon.Polygon` and the planned
     hull edge of each push."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pg.PartWarning)
-        poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    poly = plan.nominal_part()   # the plan interface
     return poly, [poly.caller_edge_to_hull(p.edge) for p in plan.pushes]
 
 

@@ -51,7 +51,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import warnings
 
 import jax
 import jax.numpy as jnp
@@ -89,13 +88,9 @@ def face_pose(origin: np.ndarray, rot: np.ndarray, config) -> tuple:
 
 
 def nominal_polyhedron(plan):
-    """The plan's part as a :class:`kernels.polyhedron.Polyhedron`."""
-    from kernels import PartWarning, make_polyhedron
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PartWarning)
-        return make_polyhedron(np.asarray(plan.vertices), np.asarray(plan.com),
-                               tau_v=plan.tau_v)  # the plan's faces
+    """The plan's part as a :class:`kernels.polyhedron.Polyhedron` (the plan's faces:
+    :meth:`planning.TumblePlan.nominal_part`)."""
+    return plan.nominal_part()
 
 
 @dataclasses.dataclass

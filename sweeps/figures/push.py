@@ -17,7 +17,6 @@ No I/O here beyond ``savefig`` of the path given.
 from __future__ import annotations
 
 import math
-import warnings
 from typing import Optional
 
 import matplotlib
@@ -29,7 +28,7 @@ import numpy as np  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch, Polygon as PolyPatch  # noqa: E402
 
-from kernels import polygon as pg, rot2_np  # noqa: E402
+from kernels import rot2_np  # noqa: E402
 from planning import (PushOptions, PushPart, PushPlan, PushStability, SensorlessPlan,  # noqa: E402
                       prepare_part, stability)
 from sweeps.figures.plan_steps import mark_steps  # noqa: E402
@@ -89,9 +88,7 @@ def plot_plan(plan: PushPlan, path, title: Optional[str] = None, name: Optional[
         the start and the goal (the hull, which the fence touches, stays the
         outline drawn).
     """
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pg.PartWarning)
-        poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    poly = plan.nominal_part()
     body = poly.body
     hull = poly.hull_index
     extent = float(np.max(np.linalg.norm(body[:, None] - body[None], axis=-1)))
