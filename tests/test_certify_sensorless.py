@@ -72,14 +72,14 @@ def test_example_certifies_from_the_start_set(tmp_path):
     certs = pd.read_parquet(out / "certificates").sort_values("task").reset_index(drop=True)
     assert certs["task"].tolist() == ["any_heading", "heading_interval"]
     assert (certs["verdict"] == "certified").all(), certs["claim"].tolist()
-    assert (certs["n_samples"] == 60).all() and (certs["model"] == "quasistatic").all()
+    assert (certs["n_samples"] == 60).all() and (certs["model"] == "limit_surface").all()
     any_claim, interval_claim = certs["claim"]
     assert any_claim.startswith("from any heading in [-180, 180] deg and any position in "
                                 "[0, 0.04] x [0, 0.04] m: P(success) >= "), any_claim
     assert interval_claim.startswith("from any heading in [-20, 40] deg and any position in "
                                      "[0, 0.04] x [0, 0.04] m: "), interval_claim
     for c in certs["claim"]:
-        assert "95% confidence" in c and "60 samples of the quasistatic model" in c
+        assert "95% confidence" in c and "60 samples of the limit_surface model" in c
         assert "start heading and position (uniform)" in c and "start pose" not in c
     assert "from any heading in [-180, 180] deg" in r.stdout
     # the plans: sensorless, three phases, the reference start (region centre, interval middle)
@@ -97,7 +97,7 @@ def test_example_certifies_from_the_start_set(tmp_path):
     s = pd.read_parquet(out / "samples")
     for task, half in (("any_heading", math.pi), ("heading_interval", math.radians(30.0))):
         t = s[s["task"] == task]
-        assert len(t) == 60 and t["success"].all()
+        assert len(t) == 60 and t["success"].mean() >= 0.95   # certified at 0.9 / 95%
         dx, dy, dth = (t[c].to_numpy() for c in ("start_dx_m", "start_dy_m", "start_dtheta_rad"))
         assert np.all(np.abs(dx) <= 0.02) and np.all(np.abs(dy) <= 0.02)
         assert np.all(np.abs(dth) <= half)
