@@ -3,8 +3,9 @@
 
 Run by hand from the repository root (no assertions)::
 
-    python bench/synthesis.py                       # ~10 min on 2 cores
-    python bench/synthesis.py --mujoco-samples 0    # the quasi-static model only
+    python bench/synthesis.py                       # ~20 min on 2 cores
+    python bench/synthesis.py --mujoco-samples 0    # the kinematic model only
+    python bench/synthesis.py --model quasistatic   # the fast approximation chooses
 
 Tasks: the two tasks of ``examples/certify_triangle.yaml`` (a translation and
 a 60-degree turn, their positions scaled by the part's size against the
@@ -15,11 +16,13 @@ uniform in [0.5, 0.8] (support ``any``).  For each task:
 * the default plan (the configured planner, ``plan_pose``) and the synthesized
   one (``synthesize``: the default grid, at most 64 candidates, 1,000 selection
   draws of ``selection_key``);
-* both evaluated on the same ``--fresh`` FRESH quasi-static draws (not the
+* synthesized and evaluated under ``--model`` (default: the default model,
+  ``robustness.DEFAULT_MODEL``, the exact limit surface);
+* both evaluated on the same ``--fresh`` FRESH draws of that model (not the
   selection's): the one-sided Clopper-Pearson lower bound of success at 95 %;
-* both rolled out in MuJoCo (C engine, ``--mujoco-samples`` fresh draws): the
-  success rate (tens of samples: a check that the choice holds in physics,
-  not a certificate);
+* both rolled out in MuJoCo (C engine, ``--mujoco-samples`` fresh draws, 48 by
+  default): the success rate and its standard error (a check that the choice
+  holds in physics, not a certificate);
 * the push distance ratio (synthesized / default) and the synthesis time
   (candidates + scoring, warm; with ``--physics-samples N`` the selection's
   tie is broken in MuJoCo on N draws, ``robustness.physics_tiebreak``, and its
@@ -29,12 +32,14 @@ Then one task timed alone: 64 candidates x 1,000 samples (candidate generation
 and the one compiled scoring call, warm), and the tolerance design of its
 synthesized plan, 6 axes (warm).
 
-The last line is ``RESULT gain_qs=G gain_mujoco=M length_ratio=L
-seconds_per_task=S`` (``gain_qs``: the median over tasks of the synthesized
-minus the default plan's lower bound on the fresh quasi-static draws;
-``gain_mujoco``: the median difference of the MuJoCo success rates;
-``length_ratio``: the median distance ratio; ``seconds_per_task``: the median
-synthesis time) with ``tasks_not_worse_qs``, ``tasks_not_worse_mujoco``,
+The last line is ``RESULT model=... gain_model=G gain_mujoco=M length_ratio=L
+seconds_per_task=S`` (``gain_model``: the median over tasks of the synthesized
+minus the default plan's lower bound on the fresh draws of the model;
+``gain_mujoco``: the mean over tasks of the difference of the MuJoCo success
+rates; ``length_ratio``: the median distance ratio; ``seconds_per_task``: the
+median synthesis time) with ``tasks_not_worse_model``, ``tasks_not_worse_mujoco``,
+``tasks_worse_2se_mujoco`` (tasks whose synthesized plan does worse in MuJoCo
+than the default by more than two standard errors of the difference),
 ``one_task_s`` and ``design_s``.
 """
 from __future__ import annotations
@@ -75,15 +80,17 @@ def main() -> int:
     import numpy as np
 
     from planning import plan_pose
-    from robustness import (SuccessCriterion, evaluate, one_sided_lower, physics_tiebreak,
-                            selection_key, synthesize)
+    from robustness import (DEFAULT_MODEL, SuccessCriterion, evaluate, one_sided_lower,
+                            physics_tiebreak, selection_key, synthesize)
     from robustness import tolerance_design as td
     from sweeps.executors import enable_compilation_cache
     from sweeps.study import load_part_ref
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--fresh", type=int, default=2000, help="fresh quasi-static draws per plan")
-    ap.add_argument("--mujoco-samples", type=int, default=16, help="MuJoCo rollouts per plan")
+    ap.add_argument("--model", default=DEFAULT_MODEL, choices=("limit_surface", "quasistatic"),
+                    help="the kinematic model that synthesizes and evaluates")
+    ap.add_argument("--fresh", type=int, default=2000, help="fresh draws of the model per plan")
+    ap.add_argument("--mujoco-samples", type=int, default=48, help="MuJoCo rollouts per plan")
     ap.add_argument("--physics-samples", type=int, default=0,
                     help="break the selection's tie in MuJoCo on this many draws "
                          "(robustness.physics_tiebreak, 4 candidates); 0: the kinematics alone")
@@ -92,6 +99,7 @@ def main() -> int:
     enable_compilation_cache()
     sampler = _sampler()
     eps = dict(criterion=SuccessCriterion(pos_eps_m=0.003, theta_eps_rad=0.05))
+    model = args.model
     tri = load_part_ref("biplus_stable", ROOT / "examples")
     ref = _size(tri.vertices)
     tasks = (("translate", (0.08, 0.03, 0.0)), ("turn", (0.10, 0.05, np.pi / 3)))
@@ -107,10 +115,10 @@ def main() -> int:
             key = jax.random.fold_in(jax.random.key(0), 10 * PARTS.index(name) + ti)
             default = plan_pose(part.vertices, (0.0, 0.0, 0.0), goal, part.com)
             synthesize(part.vertices, (0, 0, 0), goal, part.com, sampler=sampler, n=1000,
-                       key=selection_key(key), **eps)                      # warm-up
+                       key=selection_key(key), model=model, **eps)         # warm-up
             t0 = time.perf_counter()
             syn = synthesize(part.vertices, (0, 0, 0), goal, part.com, sampler=sampler, n=1000,
-                             key=selection_key(key), **eps)
+                             key=selection_key(key), model=model, **eps)
             if args.physics_samples:
                 syn = physics_tiebreak(syn, sampler, args.physics_samples,
                                        jax.random.fold_in(selection_key(key), 1), **eps)
@@ -118,7 +126,7 @@ def main() -> int:
             fresh = jax.random.fold_in(key, 1)
             lows = []
             for plan in (default, syn.plan):
-                ev = evaluate(plan, sampler, args.fresh, fresh, **eps, summary=False)
+                ev = evaluate(plan, sampler, args.fresh, fresh, model=model, **eps, summary=False)
                 lows.append(one_sided_lower(int(np.sum(ev.columns["success"])), args.fresh, 0.95))
             mj = [float("nan"), float("nan")]
             if args.mujoco_samples:
@@ -140,11 +148,12 @@ def main() -> int:
     key = jax.random.key(7)
     t0 = time.perf_counter()
     syn = synthesize(part.vertices, (0, 0, 0), goal, part.com, sampler=sampler, n=1000,
-                     key=selection_key(key), limit=64, **eps)
+                     key=selection_key(key), limit=64, model=model, **eps)
     one = time.perf_counter() - t0
 
     def design():
-        judge = td.Judge(syn.plan, 1000, td.design_key(key), p=0.9, confidence=0.95, **eps)
+        judge = td.Judge(syn.plan, 1000, td.design_key(key), p=0.9, confidence=0.95,
+                         model=model, **eps)
         ds = [td.loosest(judge, sampler, a) for a in td.PUSH_AXES]
         td.sensitivity(judge, sampler, td.PUSH_AXES)
         td.joint_design(judge, sampler, ds, jax.random.fold_in(td.design_key(key), 1))
@@ -159,15 +168,21 @@ def main() -> int:
           f"samples: {design_s:.2f} s (warm)")
     gq = [r["low"][1] - r["low"][0] for r in rows]
     gm = [r["mj"][1] - r["mj"][0] for r in rows]
+    n_mj = max(args.mujoco_samples, 1)
+    se = [((r["mj"][0] * (1 - r["mj"][0]) + r["mj"][1] * (1 - r["mj"][1])) / n_mj) ** 0.5
+          for r in rows]
     worse_q = sum(g >= -1e-12 for g in gq)
     worse_m = sum(g >= -1e-12 for g in gm if g == g)
+    worse_2se = sum(g < -2 * s for g, s in zip(gm, se) if g == g)
     med = lambda xs: statistics.median(xs) if xs else float("nan")  # noqa: E731
-    print(f"\nRESULT gain_qs={med(gq):.4f} gain_mujoco={med([g for g in gm if g == g]):.4f} "
+    mean = lambda xs: statistics.fmean(xs) if xs else float("nan")  # noqa: E731
+    print(f"\nRESULT model={model} gain_model={med(gq):.4f} "
+          f"gain_mujoco={mean([g for g in gm if g == g]):.4f} "
           f"length_ratio={med([r['ratio'] for r in rows]):.3f} "
           f"seconds_per_task={med([r['s'] for r in rows]):.2f} "
-          f"tasks_not_worse_qs={worse_q}/{len(rows)} "
-          f"tasks_not_worse_mujoco={worse_m}/{sum(g == g for g in gm)} one_task_s={one:.2f} "
-          f"design_s={design_s:.2f}")
+          f"tasks_not_worse_model={worse_q}/{len(rows)} "
+          f"tasks_not_worse_mujoco={worse_m}/{sum(g == g for g in gm)} "
+          f"tasks_worse_2se_mujoco={worse_2se} one_task_s={one:.2f} design_s={design_s:.2f}")
     return 0
 
 

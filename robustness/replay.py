@@ -200,7 +200,10 @@ def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0):
 FEW_POINTS = 8
 #: ... when the batch has more samples than this (below it, one compiled call
 #: costs less than a second compilation would save)
-SPLIT_MIN_SAMPLES = 256
+SPLIT_MIN_SAMPLES = 64
+#: each group is padded to whole calls of this many samples (one compiled shape
+#: per group, whatever the sample count)
+SPLIT_CALL = 64
 
 
 def _split_by_points(model, rows, n: int, n_corners: int):
@@ -228,9 +231,9 @@ def _run_split(fn, nom, rows, n: int, chunk: int, model, n_corners: int,
                sample_axis: int = 0):
     """:func:`_run_chunks` of a push batch, with a limit-surface batch of
     several support families split by point count (:func:`_split_by_points`):
-    each group padded to whole blocks of :data:`LIMIT_SURFACE_BLOCK` and run a
-    block per call (one compilation per group whatever the sample count), the
-    outcomes put back in sample order."""
+    each group padded to whole calls of :data:`SPLIT_CALL` samples (one
+    compilation per group whatever the sample count), the outcomes put back in
+    sample order."""
     groups = _split_by_points(model, rows, n, n_corners)
     if groups is None:
         return _run_chunks(fn, nom, rows, n, chunk, model, sample_axis=sample_axis)
@@ -240,8 +243,8 @@ def _run_split(fn, nom, rows, n: int, chunk: int, model, n_corners: int,
     out = None
     for static, idx in groups:
         k = len(idx)
-        sel = np.concatenate([idx, np.full(-k % LIMIT_SURFACE_BLOCK, idx[0])])
-        res = _run_chunks(fn, nom, tm(lambda x: x[sel], rows), len(sel), LIMIT_SURFACE_BLOCK,
+        sel = np.concatenate([idx, np.full(-k % SPLIT_CALL, idx[0])])
+        res = _run_chunks(fn, nom, tm(lambda x: x[sel], rows), len(sel), SPLIT_CALL,
                           static, sample_axis=sample_axis)
         if out is None:
             out = tm(lambda x: np.zeros(x.shape[:sample_axis] + (n,) + x.shape[sample_axis + 1:],
