@@ -86,6 +86,7 @@ def _write(tmp_path, text):
 BASE = f"""part: {EXAMPLE.parent / 'biplus_stable.yaml'}
 tolerances: {{tau_v: 1e-5}}
 eps: {{pos_eps_m: 0.002, theta_eps_rad: 0.03}}
+model: quasistatic      # the command's machinery (the example runs the default model)
 tasks:
   - {{name: a, start: [0, 0, 0], goal: [0.05, 0.0, 30deg]}}
 """
