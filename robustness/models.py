@@ -5,8 +5,8 @@
   support points (its family's corners or feet and their loads,
   :mod:`kernels.quasistatic_points`); it predicts the slip a part on 3-4
   corners shows in MuJoCo where the ellipsoid of the same ``c`` predicts none.
-  Some 2,000 samples/s of a 7-push plan on rigid corners, 250-350 on ``any``
-  (2 CPU cores; :data:`THROUGHPUT` for whole studies).
+  Some 2,200 samples/s of a 7-push plan on rigid corners, 460 on ``any``
+  (2 CPU cores, ``bench/robustness.py``; :data:`THROUGHPUT` for whole studies).
 * ``"quasistatic"``: the fast approximation, the same pushing model on the
   ellipsoidal limit surface of one ratio ``c`` (:mod:`kernels.quasistatic`:
   sticking / sliding fence contact): 100-1,000 times faster, and wrong where
