@@ -57,7 +57,9 @@ def decision_model(model: str, kind: str) -> str:
 #: 7-push plan: 175 and 60 samples/s of the replay alone); after its warm-started
 #: node solves (December 2026, measured while the machine ran other work)
 #: ``limit_surface_rigid=364 limit_surface_any=52.4``, taken as 300 and 50 (the
-#: replay alone: 2,050-2,200 and 165 samples/s).  (The table before
+#: replay alone: 2,050-2,200 and 165 samples/s); after ``any``'s batches were split
+#: by point count (December 2026, quiet machine) ``limit_surface_rigid=1e+03
+#: limit_surface_any=336``, taken as 800 and 250 (the replay alone: 2,200 and 458).  (The table before
 #: December 2026 took a cold whole run for the extra samples' time: quasistatic 800,
 #: limit_surface 8 and 0.85, 6-90 times too slow.)  Families not measured (tripod,
 #: uniform, ring) take the ``"*"`` row.  Tumble rows: the same bench's ``tumble-``
@@ -66,14 +68,14 @@ def decision_model(model: str, kind: str) -> str:
 THROUGHPUT = {
     ("push", "exact", "*"): 80_000.0,
     ("push", "quasistatic", "*"): 5_000.0,
-    ("push", "limit_surface", "rigid"): 300.0,
-    ("push", "limit_surface", "*"): 50.0,
+    ("push", "limit_surface", "rigid"): 800.0,
+    ("push", "limit_surface", "*"): 250.0,
     ("push", "mujoco", "rigid"): 6.0,
     ("push", "mujoco", "*"): 1.9,
     # a sensorless plan replays its pushes as a push plan does (not measured apart)
     ("sensorless", "exact", "*"): 80_000.0,
     ("sensorless", "quasistatic", "*"): 5_000.0,
-    ("sensorless", "limit_surface", "*"): 50.0,
+    ("sensorless", "limit_surface", "*"): 250.0,
     ("tumble", "exact", "*"): 100_000.0,
     ("tumble", "mujoco", "*"): 1.0,
 }
