@@ -257,13 +257,20 @@ def _run_split(fn, nom, rows, n: int, chunk: int, model, n_corners: int,
 # --------------------------------------------------------------------------
 # Push plans
 # --------------------------------------------------------------------------
-def _push_one(nom: PushNominal, q: PushSamples, model: str) -> PushReplay:
-    dt = nom.V0.dtype
+def perturbed_polygon(nom, q):
+    """A sample's perturbed part (one sample; traced): ``(geometry, hull changed)``,
+    the nominal vertices ``nom.V0`` and centre of mass ``nom.com0`` plus the
+    sample's offsets ``q.dv``, ``q.dc`` (m, part frame), the geometry in the
+    centre-of-mass frame over the nominal hull ``nom.hull``."""
     V = nom.V0 + q.dv
     com = nom.com0 + q.dc
-    hi = nom.hull
-    geom = pg.polygon_geometry(V[hi] - com[None, :])
-    changed = polygon_hull_changed(V, com, hi)
+    return (pg.polygon_geometry(V[nom.hull] - com[None, :]),
+            polygon_hull_changed(V, com, nom.hull))
+
+
+def _push_one(nom: PushNominal, q: PushSamples, model: str) -> PushReplay:
+    dt = nom.V0.dtype
+    geom, changed = perturbed_polygon(nom, q)
     start, so = nom.start, q.start
     th0 = start[2] + so[2]
     pose0 = jnp.concatenate([start[:2] + so[:2] + rot2(th0) @ q.dc, th0[None]])

@@ -54,7 +54,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg, polygon_hull_changed, rot2, wrap_angle_np
+from kernels import polygon as pg, rot2, wrap_angle_np
 
 #: ``jax.random.fold_in(key, START_STREAM)`` draws a sensorless sample's start
 START_STREAM = 0x5E0540
@@ -107,14 +107,10 @@ class FenceNominal:
 
 def _fence_one(nom: FenceNominal, q, start, model):
     """One sample: the fence-line pushes from ``start`` (module docstring)."""
-    from robustness.replay import PushReplay
+    from robustness.replay import PushReplay, perturbed_polygon
 
     dt = nom.V0.dtype
-    V = nom.V0 + q.dv
-    com = nom.com0 + q.dc
-    hi = nom.hull
-    geom = pg.polygon_geometry(V[hi] - com[None, :])
-    changed = polygon_hull_changed(V, com, hi)
+    geom, changed = perturbed_polygon(nom, q)
     th0 = start[2]
     pose0 = jnp.concatenate([start[:2] + rot2(th0) @ q.dc, th0[None]])
     if isinstance(model, tuple):
