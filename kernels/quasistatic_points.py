@@ -48,12 +48,26 @@ samples/s, a 30-foot ring or pad 60 -> 160; the motions equal the cold
 solve's (final poses 4e-12 m apart).  A landing on an edge that holds
 translates to the end of the push in the same loop trip.
 
+Profiled (issue 38; same plan, 1,024 samples): each push is one loop trip
+(a pivot, its landing and the fold), and the node solves are four fifths of
+the time (1 us a node on rigid corners, 14 us on 30 feet), the warm sliding
+steps half of a node; the cold fallback 9 % on rigid corners and a third on
+``any``; neither the loops' trip overhead (unrolled: 4 %) nor the layout
+(the support axis leading, no ``vmap``: 1.27x on one line solve) was worth
+a change.  So: ``PANELS`` 16 -> 8 (1.7-2x) and rational warm sliding steps
+(1.25x): rigid corners 2,200 -> 5,300 samples/s, ``any`` 465 -> 970.
+
 Accuracy: against a fine fixed-step integration of the same motion (the
-tests), ~1e-7 of the part's size where the contact never switches and
-~1e-5 where it does (a kink of the integrand inside a panel); on an
+tests, 2e-7 m), ~1e-7 of the part's size where the contact never switches
+and ~1e-5 where it does (a kink of the integrand inside a panel); on an
 ellipsoid-like support (many points on a ring) the result approaches
-:mod:`kernels.quasistatic`'s.  The ellipsoid's closed form is still some
-100 times faster (about 150,000 samples/s of the same plan).
+:mod:`kernels.quasistatic`'s.  Against 64 panels, random plans of 6 pushes of
+5-50 mm (96 a case, fence friction 0.3/0.8/1.5), final position: 8 panels
+median 2e-9-1.3e-5 m, worst 4e-5-4.2e-4 m (16 panels: median 2e-10-3.7e-6,
+worst 8.5e-6-3.2e-4) over the nice-stable, biplus and unistable parts on
+rigid corners and a uniform pad, the landed edges all the same; 6 panels
+miss the fine integration's 2e-7 m.  The ellipsoid's closed form is still
+some 40-100 times faster (100,000-200,000 samples/s of the same plan).
 
 Assumptions and limits: quasi-static, normal push, fence longer than the part,
 one support coefficient (it cancels), loads fixed during the push (no load
@@ -70,8 +84,9 @@ from kernels.polygon import PolygonGeometry
 from kernels.quasistatic import (SimOutcome, _half_between, _half_to,
                                  pivot_contact, push_start, scan_pushes)
 
-#: quadrature panels per phase (3 PANELS motion solves)
-PANELS = 16
+#: quadrature panels per phase (3 PANELS motion solves; accuracy against 64
+#: panels in the module docstring)
+PANELS = 8
 
 
 def phase_cap(n: int) -> int:
@@ -130,7 +145,7 @@ def predict(prev: Warm, cur: Warm, two) -> Warm:
     (else ``cur`` is the start)."""
     slid = two & (prev.sigma == cur.sigma)
     return Warm(omega=jnp.where(two, 2.0 * cur.omega - prev.omega, cur.omega),
-                g=jnp.where(slid, 2.0 * cur.g - prev.g, cur.g),
+                tau=jnp.where(slid, 2.0 * cur.tau - prev.tau, cur.tau),
                 w=jnp.where(slid, 2.0 * cur.w - prev.w, cur.w), sigma=cur.sigma)
 
 
@@ -150,7 +165,7 @@ def warm_nodes(points, weights, r, d_b, mu, base=None):
         # a node that did not converge still passes on its iterate (nearer than
         # the last start: a first node that needs more steps than a warm one
         # would otherwise fail the whole phase); a non-finite one the last start
-        keep = jnp.isfinite(nxt.omega) & jnp.isfinite(nxt.g) & jnp.isfinite(nxt.w)
+        keep = jnp.isfinite(nxt.omega) & jnp.isfinite(nxt.tau) & jnp.isfinite(nxt.w)
         nxt = jax.tree_util.tree_map(lambda a, b: jnp.where(keep, a, b), nxt, cur)
         return (cur, nxt), (m, ok)
 
