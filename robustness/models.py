@@ -59,7 +59,10 @@ def decision_model(model: str, kind: str) -> str:
 #: ``limit_surface_rigid=364 limit_surface_any=52.4``, taken as 300 and 50 (the
 #: replay alone: 2,050-2,200 and 165 samples/s); after ``any``'s batches were split
 #: by point count (December 2026, quiet machine) ``limit_surface_rigid=1e+03
-#: limit_surface_any=336``, taken as 800 and 250 (the replay alone: 2,200 and 458).  (The table before
+#: limit_surface_any=336``, taken as 800 and 250 (the replay alone: 2,200 and 458); after 8
+#: panels and rational warm sliding steps (December 2026, quiet machine)
+#: ``limit_surface_rigid=2.61e+03 limit_surface_any=514``, taken as 2,000 and 400 (the
+#: replay alone: 4,800 and 970).  (The table before
 #: December 2026 took a cold whole run for the extra samples' time: quasistatic 800,
 #: limit_surface 8 and 0.85, 6-90 times too slow.)  Families not measured (tripod,
 #: uniform, ring) take the ``"*"`` row.  Tumble rows: the same bench's ``tumble-``
@@ -68,14 +71,14 @@ def decision_model(model: str, kind: str) -> str:
 THROUGHPUT = {
     ("push", "exact", "*"): 80_000.0,
     ("push", "quasistatic", "*"): 5_000.0,
-    ("push", "limit_surface", "rigid"): 800.0,
-    ("push", "limit_surface", "*"): 250.0,
+    ("push", "limit_surface", "rigid"): 2_000.0,
+    ("push", "limit_surface", "*"): 400.0,
     ("push", "mujoco", "rigid"): 6.0,
     ("push", "mujoco", "*"): 1.9,
     # a sensorless plan replays its pushes as a push plan does (not measured apart)
     ("sensorless", "exact", "*"): 80_000.0,
     ("sensorless", "quasistatic", "*"): 5_000.0,
-    ("sensorless", "limit_surface", "*"): 250.0,
+    ("sensorless", "limit_surface", "*"): 400.0,
     ("tumble", "exact", "*"): 100_000.0,
     ("tumble", "mujoco", "*"): 1.0,
 }
