@@ -36,6 +36,11 @@ vertices):
   ``mc_ok_mu0.8=0.448 mc_ok_mu1.5=0.450``, where the exact grid replay of the
   nominal part reaches the goal from every start.  Sensorless plans that rely on
   sticking and on long travels are fragile under tolerances: certify them.
+  The same counts at both frictions (biplus-stable 21/100, slip 79) are not a
+  friction left out: the fence slip of those samples falls from 17-25 mm at 0.8
+  to 7-9 mm at 1.5 (position errors 9-10 -> 4-6 mm; most are ``any``'s small
+  supports, c 4-5 mm), still past the 3 mm goal; at fence friction 100 all
+  100 succeed (checked 2026-12-06).
 
 * **MuJoCo** (``--mujoco PARTS``, default rectangle and nice_stable;
   ``--mujoco-starts`` random starts each, ~30 s a start on 2 cores): the plan

@@ -76,14 +76,8 @@ sliding conditions, and says whether they converged (the sticking step at
 rounding, the sliding conditions at ``sqrt(eps)``, or an optimal kink); where
 they did, the motion is the cold solve's to convergence, where they did not the
 caller solves cold (:func:`kernels.quasistatic_points.node_motions`).  The
-warm sliding steps (:func:`_slip_conditions`) take the unknowns as the slip and
-the rotation rate per metre of advance (``v_r = d + tau t``), in which both
-conditions are rational (the cold solve's angles ``g`` and ``atan(m)`` cost
-four transcendental functions an evaluation): profiled on the nice-stable
-pentagon's 7-push plan on rigid corners, those steps were half the time of a
-warm node (0.45 us of 1 us; 2 CPU cores), and this form takes a quarter off a
-node.  The contact-independent half of the kink test (:func:`kink_base`) is
-computed once per support.
+contact-independent half of the kink test (:func:`kink_base`) is computed once
+per support.
 
 Every rate is per metre of fence travel (``<v_r, d> = 1``).  A rotation sense
 is never reversed by friction: ``sign(w) = sign(r x d)`` (``D'(0) = -(r x d)``
@@ -340,53 +334,6 @@ def _polish(q, weights, d, scale, sigma, m, g, w, iters):
     return g, w, F
 
 
-def _slip_conditions(q, weights, d, scale, sigma, m, tau, w):
-    """The smooth sliding point's two conditions at ``(tau, w)``, the twist
-    with ``v_r = d + tau t`` turning at ``w`` (per metre of advance; module
-    docstring): ``D'(w) / scale`` and the fence force's component across the
-    cone's edge ``<f, t - sigma m d>`` (zero: ``f`` along ``e``), with their
-    Jacobian in ``(tau, w)`` and ``|f|``.  Rational in the unknowns (no
-    angles): the warm path's Newton steps (:func:`_polish_slip`)."""
-    tiny = jnp.finfo(q.dtype).tiny
-    t = _perp(d)
-    a = d + tau * t + w * q                                # (S, 2) support velocities
-    n = jnp.sqrt(jnp.maximum(jnp.sum(a * a, -1), tiny))
-    u = a / n[:, None]
-    ne = t - sigma * m * d
-    uq, ut, un = jnp.sum(u * q, -1), u @ t, u @ ne
-    qq, qt, qn = jnp.sum(q * q, -1), q @ t, q @ ne
-    wn = weights / n
-    # (I - u u^T) / n applied to da/dtau = t and da/dw = q, projected on q and ne
-    F = jnp.stack([jnp.sum(weights * uq) / scale, jnp.sum(weights * un)])
-    J = jnp.stack([jnp.stack([jnp.sum(wn * (qt - uq * ut)), jnp.sum(wn * (qq - uq * uq))]) / scale,
-                   jnp.stack([jnp.sum(wn * (ne @ t - un * ut)), jnp.sum(wn * (qn - un * uq))])])
-    f = jnp.sum(weights[:, None] * u, 0)
-    return F, J, jnp.sqrt(jnp.dot(f, f))
-
-
-def _polish_slip(q, weights, d, scale, sigma, m, tau, w, iters):
-    """``iters`` Newton steps on :func:`_slip_conditions` from ``(tau, w)``,
-    each accepted only where it lowers their residual.  Returns ``(tau, w,
-    residual (2,): D'(w) / scale and the sine of the angle between the force
-    and the cone's edge)``."""
-    def conditions(tau, w):
-        return _slip_conditions(q, weights, d, scale, sigma, m, tau, w)
-
-    def step(_, x):
-        tau, w, F, J, fn = x
-        dt, dw = _solve2(J, F)
-        t2, w2 = tau - dt, w - dw
-        F2, J2, fn2 = conditions(t2, w2)
-        ok = (jnp.sum(F2 * F2) < jnp.sum(F * F)) & jnp.isfinite(t2) & jnp.isfinite(w2)
-        pick = lambda a, b: jnp.where(ok, a, b)  # noqa: E731
-        return pick(t2, tau), pick(w2, w), pick(F2, F), pick(J2, J), pick(fn2, fn)
-
-    F, J, fn = conditions(tau, w)
-    tau, w, F, _, fn = jax.lax.fori_loop(0, iters, step, (tau, w, F, J, fn))
-    edge = jnp.sqrt(1.0 + m * m)
-    return tau, w, jnp.stack([F[0], F[1] / jnp.maximum(fn * edge, jnp.finfo(q.dtype).tiny)])
-
-
 def _slide(points, weights, r, d, q, e, sigma, m, size, half, w_stick):
     """The smooth point minimising ``D`` on the plane ``<v_r, e> = 1`` (module
     docstring): ``(V with |v_r| = 1, its D on the plane)``."""
@@ -530,23 +477,20 @@ def push_motion(points, weights, r, d, mu_f) -> Motion:
 @dataclasses.dataclass(frozen=True)
 class Warm:
     """Where :func:`warm_motion` starts: the previous motion's solution (a JAX
-    pytree).  ``omega``: its sticking rate (rad/m); ``tau``, ``w``: its sliding
-    twist as the contact's slip and the rotation rate per metre of advance
-    (``v_r = d + tau t``; m/m, rad/m); ``sigma``: the side of the cone it slid
-    on (+-1, 0: none)."""
+    pytree).  ``omega``: its sticking rate (rad/m); ``g``, ``w``: its sliding
+    twist as the direction of ``v_r`` from ``d`` (rad) and the rotation rate at
+    ``|v_r| = 1`` (rad/m); ``sigma``: the side of the cone it slid on (+-1, 0: none)."""
 
     omega: jax.Array
-    tau: jax.Array
+    g: jax.Array
     w: jax.Array
     sigma: jax.Array
 
 
 def _warm_of(V_u, d, r, om, sigma, sliding):
     vr = V_u[:2] + V_u[2] * _perp(r)
-    a = jnp.dot(vr, d)
-    a = jnp.where(a > 0, a, jnp.nan)        # a twist that does not advance: no start
-    return Warm(omega=om, tau=jnp.dot(vr, _perp(d)) / a, w=V_u[2] / a,
-                sigma=jnp.where(sliding, sigma, 0.0))
+    g = jnp.arctan2(jnp.dot(vr, _perp(d)), jnp.dot(vr, d))
+    return Warm(omega=om, g=g, w=V_u[2], sigma=jnp.where(sliding, sigma, 0.0))
 
 
 #: sticking line-solve iterations from a warm start: ``(few, many)`` for a
@@ -569,7 +513,7 @@ def first_start(points, weights, r, d) -> "Warm":
     q = _perp(points - jnp.asarray(r, dtype))
     om = _weiszfeld(q, jnp.asarray(weights, dtype), jnp.asarray(d, dtype))
     zero = jnp.zeros((), dtype)
-    return Warm(omega=om, tau=zero, w=zero, sigma=zero)
+    return Warm(omega=om, g=zero, w=zero, sigma=zero)
 
 
 def warm_motion(points, weights, r, d, mu_f, start: Warm, base=None):
@@ -580,7 +524,7 @@ def warm_motion(points, weights, r, d, mu_f, start: Warm, base=None):
 
     The sticking rate takes ``WARM_STICK_ITERATIONS`` safeguarded line-solve
     steps from ``start.omega``; the smooth sliding point ``WARM_SLIDE_ITERATIONS``
-    two-dimensional Newton steps from ``(start.tau, start.w)`` (from the sticking
+    two-dimensional Newton steps from ``(start.g, start.w)`` (from the sticking
     twist when the start did not slide on the same side).  The result is the
     cold solve's wherever it says ``converged``: the line solve's last step at
     ``0.1 sqrt(eps)`` in ``atan(w L)``, and, sliding with no optimal kink, both
@@ -604,15 +548,12 @@ def warm_motion(points, weights, r, d, mu_f, start: Warm, base=None):
     V_st, f, sliding, sigma, m, e = _mode(points, weights, r, d, mu, om)
     kinks = _kinks(points, weights, r, d, e, size, base)
     same = start.sigma == sigma
-    tau0 = jnp.where(same, start.tau, 0.0)
+    g0 = jnp.where(same, start.g, 0.0)
     w0 = jnp.where(same, start.w, om)
     scale = jnp.maximum(jnp.sum(weights * jnp.sqrt(jnp.sum(q * q, -1))), tiny)
-    tau, w, F = _polish_slip(q, weights, d, scale, sigma, m, tau0, w0, WARM_SLIDE_ITERATIONS)
-    vr = d + tau * _perp(d)
-    V_s = jnp.concatenate([vr - w * _perp(r), w[None]])
-    ce = 1.0 + sigma * m * tau                            # <v_r, e>
-    D_s = jnp.where(ce > 0, dissipation(points, weights, V_s) / jnp.where(ce > 0, ce, 1.0), jnp.inf)
-    inside = (tau * sigma <= 0) & jnp.isfinite(D_s)
+    g, w, F = _polish(q, weights, d, scale, sigma, m, g0, w0, WARM_SLIDE_ITERATIONS)
+    V_s, D_s = _smooth_twist(points, weights, d, e, _perp(r), g, w)
+    inside = (g * sigma <= 0) & (jnp.abs(g) < half) & jnp.isfinite(D_s)
     smooth = inside & (jnp.max(jnp.abs(F)) <= jnp.sqrt(eps))
     converged = stuck & (~sliding | jnp.any(kinks[0]) | smooth)
     motion, V_u = _motion(points, weights, r, d, V_st, f, sliding, e, kinks, V_s, D_s)

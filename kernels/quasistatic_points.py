@@ -54,8 +54,11 @@ the time (1 us a node on rigid corners, 14 us on 30 feet), the warm sliding
 steps half of a node; the cold fallback 9 % on rigid corners and a third on
 ``any``; neither the loops' trip overhead (unrolled: 4 %) nor the layout
 (the support axis leading, no ``vmap``: 1.27x on one line solve) was worth
-a change.  So: ``PANELS`` 16 -> 8 (1.7-2x) and rational warm sliding steps
-(1.25x): rigid corners 2,200 -> 5,300 samples/s, ``any`` 465 -> 970.
+a change.  So ``PANELS`` 16 -> 8: rigid corners 2,200 -> 4,200 samples/s,
+``any`` 465 -> 830.  Tried and dropped: the warm sliding steps in the slip and
+rotation per metre of advance (rational conditions, no angles; 1.25x more)
+converged on fewer nodes next to a kink (a smooth sliding point beside a turn
+about a support point: 6 nodes in a row against 3 in ``(g, w)``).
 
 Accuracy: against a fine fixed-step integration of the same motion (the
 tests, 2e-7 m), ~1e-7 of the part's size where the contact never switches
@@ -145,7 +148,7 @@ def predict(prev: Warm, cur: Warm, two) -> Warm:
     (else ``cur`` is the start)."""
     slid = two & (prev.sigma == cur.sigma)
     return Warm(omega=jnp.where(two, 2.0 * cur.omega - prev.omega, cur.omega),
-                tau=jnp.where(slid, 2.0 * cur.tau - prev.tau, cur.tau),
+                g=jnp.where(slid, 2.0 * cur.g - prev.g, cur.g),
                 w=jnp.where(slid, 2.0 * cur.w - prev.w, cur.w), sigma=cur.sigma)
 
 
@@ -165,7 +168,7 @@ def warm_nodes(points, weights, r, d_b, mu, base=None):
         # a node that did not converge still passes on its iterate (nearer than
         # the last start: a first node that needs more steps than a warm one
         # would otherwise fail the whole phase); a non-finite one the last start
-        keep = jnp.isfinite(nxt.omega) & jnp.isfinite(nxt.tau) & jnp.isfinite(nxt.w)
+        keep = jnp.isfinite(nxt.omega) & jnp.isfinite(nxt.g) & jnp.isfinite(nxt.w)
         nxt = jax.tree_util.tree_map(lambda a, b: jnp.where(keep, a, b), nxt, cur)
         return (cur, nxt), (m, ok)
 
