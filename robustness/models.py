@@ -60,9 +60,8 @@ def decision_model(model: str, kind: str) -> str:
 #: replay alone: 2,050-2,200 and 165 samples/s); after ``any``'s batches were split
 #: by point count (December 2026, quiet machine) ``limit_surface_rigid=1e+03
 #: limit_surface_any=336``, taken as 800 and 250 (the replay alone: 2,200 and 458); after 8
-#: panels and rational warm sliding steps (December 2026, quiet machine)
-#: ``limit_surface_rigid=2.61e+03 limit_surface_any=514``, taken as 2,000 and 400 (the
-#: replay alone: 4,800 and 970).  (The table before
+#: quadrature panels (December 2026, quiet machine) ``limit_surface_rigid=2.48e+03
+#: limit_surface_any=489``, taken as 2,000 and 400 (the replay alone: 3,900 and 760).  (The table before
 #: December 2026 took a cold whole run for the extra samples' time: quasistatic 800,
 #: limit_surface 8 and 0.85, 6-90 times too slow.)  Families not measured (tripod,
 #: uniform, ring) take the ``"*"`` row.  Tumble rows: the same bench's ``tumble-``
