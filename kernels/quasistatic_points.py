@@ -55,10 +55,11 @@ steps half of a node; the cold fallback 9 % on rigid corners and a third on
 ``any``; neither the loops' trip overhead (unrolled: 4 %) nor the layout
 (the support axis leading, no ``vmap``: 1.27x on one line solve) was worth
 a change.  So ``PANELS`` 16 -> 8: rigid corners 2,200 -> 3,900-4,200
-samples/s, ``any`` 465 -> 760-830.  Tried and dropped: the warm sliding steps in the slip and
-rotation per metre of advance (rational conditions, no angles; 1.25x more)
-converged on fewer nodes next to a kink (a smooth sliding point beside a turn
-about a support point: 6 nodes in a row against 3 in ``(g, w)``).
+samples/s, ``any`` 465 -> 760-830.  Tried and dropped: the warm sliding
+steps in the slip and rotation per metre of advance (rational conditions, no
+angles; 1.25x more) converged on fewer nodes next to a kink (a smooth sliding
+point beside a turn about a support point: 6 nodes in a row against 3 in
+``(g, w)``).
 
 Accuracy: against a fine fixed-step integration of the same motion (the
 tests, 2e-7 m), ~1e-7 of the part's size where the contact never switches

@@ -5,11 +5,11 @@
   support points (its family's corners or feet and their loads,
   :mod:`kernels.quasistatic_points`); it predicts the slip a part on 3-4
   corners shows in MuJoCo where the ellipsoid of the same ``c`` predicts none.
-  Some 2,200 samples/s of a 7-push plan on rigid corners, 460 on ``any``
+  Some 3,900 samples/s of a 7-push plan on rigid corners, 760 on ``any``
   (2 CPU cores, ``bench/robustness.py``; :data:`THROUGHPUT` for whole studies).
 * ``"quasistatic"``: the fast approximation, the same pushing model on the
   ellipsoidal limit surface of one ratio ``c`` (:mod:`kernels.quasistatic`:
-  sticking / sliding fence contact): 100-1,000 times faster, and wrong where
+  sticking / sliding fence contact): 40-200 times faster, and wrong where
   a part rests on a few corners.
 * ``"exact"``: the papers' kinematics (push: :mod:`kernels.push`; tumble:
   :mod:`kernels.tumble`, the only non-physical model of a tumble).
