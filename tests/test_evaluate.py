@@ -446,3 +446,32 @@ def test_edge_pairs_are_the_hull_edges_vertex_pairs():
     want = [poly.edge_vertices(int(e)) if e >= 0 else (-1, -1) for e in edges]
     assert list(zip(a.tolist(), b.tolist())) == want
     assert a.dtype == np.int64 and b.dtype == np.int64
+
+
+@pytest.mark.slow
+@pytest.mark.float64
+def test_threaded_chunks_are_the_serial_ones(plan, monkeypatch):
+    """A batch of several compiled calls gives the same outcomes, bit for bit and in
+    float64, whether its calls run on one thread or several (the worker threads see
+    the caller's scoped x64, not their own default), and a limit-surface batch the
+    same whatever its calls' size."""
+    from kernels import polygon as pg
+
+    body = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com)).body
+    draws = TOL.sample(jax.random.key(3), 40, body=body, dtype=jnp.float64,
+                       n_vertices=len(plan.vertices), dim=2, n_pushes=len(plan.pushes))
+    runs = {}
+    for threads in ("1", "3"):
+        monkeypatch.setenv("NUDGE_REPLAY_THREADS", threads)
+        assert batches.replay_threads() == int(threads)
+        _, _, r = batches.run_push(plan, draws, "quasistatic", jnp.float64, 8)   # 5 calls
+        runs[threads] = np.stack([r.x, r.y, r.theta], axis=1)
+        assert runs[threads].dtype == np.float64
+    assert np.all(np.isfinite(runs["1"])) and np.array_equal(runs["1"], runs["3"])
+    ls = {}
+    for call in (16, 64):   # 3 calls of 16 (the last padded) on 3 threads / one call of 64
+        monkeypatch.setattr(batches, "LIMIT_SURFACE_CALL", call)
+        _, _, r = batches.run_push(plan, draws, "limit_surface", jnp.float64, 4096)
+        ls[call] = np.stack([r.x, r.y, r.theta], axis=1)
+    assert ls[16].dtype == np.float64 and np.all(np.isfinite(ls[16]))
+    assert np.array_equal(ls[16], ls[64])
