@@ -57,7 +57,7 @@ from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sam
 from robustness.physics import PhysicsSettings, rollout_push_plan  # noqa: E402
 from robustness.physics import push as push_mod  # noqa: E402
 from robustness.physics import scene  # noqa: E402
-from robustness.physics.c_engine import cpu_threads  # noqa: E402
+from robustness.cpus import cpu_threads  # noqa: E402
 from robustness.physics.pushing import FenceStrokes, nominal_polygon, push_parts  # noqa: E402
 from robustness.physics.settings import SOFT_IMPRATIO  # noqa: E402
 from sweeps.partfile import load_part  # noqa: E402

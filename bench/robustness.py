@@ -48,8 +48,9 @@ asked for in issue 11 were not taken).
    7-push default plan (start ``(0, 0, 0)``, goal ``PS_GOAL``), tolerances as
    in ``bench/throughput.py``'s study, support ``rigid`` (3-4 loaded corners)
    and ``any`` (every family, the pads of 25 and 24 feet included); the
-   replay kernel (``robustness.replay.run_push``) in float64, and float32's
-   final poses against float64's.
+   replay kernel (``robustness.replay.run_push``, its calls of at most
+   ``LIMIT_SURFACE_CALL`` samples on every core, as evaluate() runs it) in
+   float64, and float32's final poses against float64's.
 
 The last line is
 ``RESULT push_samples_per_s=N tumble_steps_per_s=M tumble_eval_samples_per_s=K

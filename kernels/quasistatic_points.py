@@ -55,7 +55,9 @@ steps half of a node; the cold fallback 9 % on rigid corners and a third on
 ``any``; neither the loops' trip overhead (unrolled: 4 %) nor the layout
 (the support axis leading, no ``vmap``: 1.27x on one line solve) was worth
 a change.  So ``PANELS`` 16 -> 8: rigid corners 2,200 -> 3,900-4,200
-samples/s, ``any`` 465 -> 760-830.  Tried and dropped: the warm sliding
+samples/s, ``any`` 465 -> 760-830; with a batch's calls on both cores
+(:mod:`robustness.replay`, calls of at most 512 samples) 7,700 and 1,300.
+Tried and dropped: the warm sliding
 steps in the slip and rotation per metre of advance (rational conditions, no
 angles; 1.25x more) converged on fewer nodes next to a kink (a smooth sliding
 point beside a turn about a support point: 6 nodes in a row against 3 in
@@ -71,7 +73,7 @@ median 2e-9-1.3e-5 m, worst 4e-5-4.2e-4 m (16 panels: median 2e-10-3.7e-6,
 worst 8.5e-6-3.2e-4) over the nice-stable, biplus and unistable parts on
 rigid corners and a uniform pad, the landed edges all the same; 6 panels
 miss the fine integration's 2e-7 m.  The ellipsoid's closed form is still
-some 40-200 times faster (100,000-200,000 samples/s of the same plan).
+some 30-140 times faster (180,000-230,000 samples/s of the same plan).
 
 Assumptions and limits: quasi-static, normal push, fence longer than the part,
 one support coefficient (it cancels), loads fixed during the push (no load

@@ -5,11 +5,11 @@
   support points (its family's corners or feet and their loads,
   :mod:`kernels.quasistatic_points`); it predicts the slip a part on 3-4
   corners shows in MuJoCo where the ellipsoid of the same ``c`` predicts none.
-  Some 3,900 samples/s of a 7-push plan on rigid corners, 760 on ``any``
+  Some 7,700 samples/s of a 7-push plan on rigid corners, 1,300 on ``any``
   (2 CPU cores, ``bench/robustness.py``; :data:`THROUGHPUT` for whole studies).
 * ``"quasistatic"``: the fast approximation, the same pushing model on the
   ellipsoidal limit surface of one ratio ``c`` (:mod:`kernels.quasistatic`:
-  sticking / sliding fence contact): 40-200 times faster, and wrong where
+  sticking / sliding fence contact): 30-140 times faster, and wrong where
   a part rests on a few corners.
 * ``"exact"``: the papers' kinematics (push: :mod:`kernels.push`; tumble:
   :mod:`kernels.tumble`, the only non-physical model of a tumble).
@@ -61,7 +61,9 @@ def decision_model(model: str, kind: str) -> str:
 #: by point count (December 2026, quiet machine) ``limit_surface_rigid=1e+03
 #: limit_surface_any=336``, taken as 800 and 250 (the replay alone: 2,200 and 458); after 8
 #: quadrature panels (December 2026, quiet machine) ``limit_surface_rigid=2.48e+03
-#: limit_surface_any=489``, taken as 2,000 and 400 (the replay alone: 3,900 and 760).  (The table before
+#: limit_surface_any=489``, taken as 2,000 and 400 (the replay alone: 3,900 and 760); with a
+#: batch's calls on both cores (December 2026, quiet machine) ``limit_surface_rigid=4.29e+03
+#: limit_surface_any=656``, taken as 4,000 and 600 (the replay alone: 7,700 and 1,300).  (The table before
 #: December 2026 took a cold whole run for the extra samples' time: quasistatic 800,
 #: limit_surface 8 and 0.85, 6-90 times too slow.)  Families not measured (tripod,
 #: uniform, ring) take the ``"*"`` row.  Tumble rows: the same bench's ``tumble-``
@@ -70,14 +72,14 @@ def decision_model(model: str, kind: str) -> str:
 THROUGHPUT = {
     ("push", "exact", "*"): 80_000.0,
     ("push", "quasistatic", "*"): 5_000.0,
-    ("push", "limit_surface", "rigid"): 2_000.0,
-    ("push", "limit_surface", "*"): 400.0,
+    ("push", "limit_surface", "rigid"): 4_000.0,
+    ("push", "limit_surface", "*"): 600.0,
     ("push", "mujoco", "rigid"): 6.0,
     ("push", "mujoco", "*"): 1.9,
     # a sensorless plan replays its pushes as a push plan does (not measured apart)
     ("sensorless", "exact", "*"): 80_000.0,
     ("sensorless", "quasistatic", "*"): 5_000.0,
-    ("sensorless", "limit_surface", "*"): 400.0,
+    ("sensorless", "limit_surface", "*"): 600.0,
     ("tumble", "exact", "*"): 100_000.0,
     ("tumble", "mujoco", "*"): 1.0,
 }

@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Optional
@@ -19,6 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import polygon as pg, polygon_hull_changed, rot2, wrap_angle
+from robustness.cpus import cpu_threads
 from robustness.hulls import polyhedron_combinatorics_changed
 
 
@@ -171,30 +171,17 @@ def _pad_axis(x, k: int, axis: int = 1):
     return jnp.pad(x, widths)
 
 
-def replay_threads() -> int:
-    """Compiled calls run at once by one process: ``NUDGE_REPLAY_THREADS`` if
-    set (a Dask worker sets its ``threads_per_worker``), else the CPUs this
-    process may use.  XLA runs one call's vmapped loops on one core, so the
-    chunks of a batch run on this many threads (the nice-stable pentagon's
-    7-push plan under ``limit_surface``, 4,096 samples, 2 cores: 4,300 ->
-    8,100-8,400 samples/s).  The outcomes do not depend on it: a batch's calls
-    are the same whatever runs them."""
-    env = os.environ.get("NUDGE_REPLAY_THREADS", "").strip()
-    if env:
-        return max(1, int(env))
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-
-
+#: thread pools by size (made on first use, kept for the process)
 _POOL: dict = {}
 
 
 def _map_calls(call, items):
-    """``[call(x) for x in items]``, run on :func:`replay_threads` threads when
-    there are several (serially inside one of those threads: no nested wait),
-    each under the caller's ``jax_enable_x64`` (a thread-local setting: the
+    """``[call(x) for x in items]``, run on :func:`robustness.cpus.cpu_threads`
+    threads when there are several (serially inside one of those threads: no
+    nested wait), each under the caller's ``jax_enable_x64`` (a thread-local setting: the
     calls see the caller's float width).  An interrupt cancels the calls not
     started."""
-    k = min(len(items), replay_threads())
+    k = min(len(items), cpu_threads())
     if k <= 1 or threading.current_thread().name.startswith("nudge-replay"):
         return [call(x) for x in items]
     pool = _POOL.get(k)
@@ -218,7 +205,8 @@ def _map_calls(call, items):
 def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0):
     """``fn(nom, rows_chunk, *args)`` over chunks of the per-sample pytree
     ``rows`` (each padded by repeating its first sample; the calls run on
-    :func:`replay_threads` threads); returns the outcome pytree with numpy
+    :func:`robustness.cpus.cpu_threads` threads: XLA runs one call's vmapped
+    loops on one core; the outcomes are the same whatever runs them); returns the outcome pytree with numpy
     arrays of n rows (along the outcomes' ``sample_axis``)."""
     tm = jax.tree_util.tree_map
     if n == chunk or (n < chunk and _bucket(n, 8) == n):   # one call, no padding: as they are
@@ -374,9 +362,9 @@ BLOCK = 512   # samples per block inside a compiled call
 #: unblocked: 1,480 samples/s at 256, 670 at 512, 520 at 2,048; 2 CPU cores)
 LIMIT_SURFACE_BLOCK = 256
 #: the most samples in one compiled limit-surface call: a batch of more runs
-#: as several calls on :func:`replay_threads` threads (4,096 samples of the
-#: plan above: 1 call 4,300 samples/s, 4 calls of 1,024 on 2 threads 7,800,
-#: 8 of 512 8,100-8,400, 16 of 256 7,200)
+#: as several calls on :func:`robustness.cpus.cpu_threads` threads (4,096
+#: samples of the plan above, 2 cores: 1 call 4,300 samples/s; on 2 threads
+#: 4 calls of 1,024 7,800, 8 of 512 8,100-8,400, 16 of 256 7,200)
 LIMIT_SURFACE_CALL = 512
 
 

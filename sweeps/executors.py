@@ -219,8 +219,8 @@ class DaskExecutor:
         from distributed import Client, LocalCluster
 
         d = cache_dir()
-        # each worker runs its compiled replays on its own threads only (robustness.replay_threads)
-        env = {"JAX_PLATFORMS": "cpu", "NUDGE_REPLAY_THREADS": str(self.threads)}
+        # a worker's compiled replays and MuJoCo rollouts run on its own threads only (cpu_threads)
+        env = {"JAX_PLATFORMS": "cpu", "NUDGE_THREADS": str(self.threads)}
         if d:  # worker processes inherit the environment, and JAX reads its flags from it
             env.update(JAX_COMPILATION_CACHE_DIR=d, JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0")
         # set for the workers only: put back on exit (a caller's later subprocesses do not inherit them)

@@ -456,14 +456,15 @@ def test_threaded_chunks_are_the_serial_ones(plan, monkeypatch):
     the caller's scoped x64, not their own default), and a limit-surface batch the
     same whatever its calls' size."""
     from kernels import polygon as pg
+    from robustness.cpus import cpu_threads
 
     body = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com)).body
     draws = TOL.sample(jax.random.key(3), 40, body=body, dtype=jnp.float64,
                        n_vertices=len(plan.vertices), dim=2, n_pushes=len(plan.pushes))
     runs = {}
     for threads in ("1", "3"):
-        monkeypatch.setenv("NUDGE_REPLAY_THREADS", threads)
-        assert batches.replay_threads() == int(threads)
+        monkeypatch.setenv("NUDGE_THREADS", threads)
+        assert cpu_threads() == int(threads)
         _, _, r = batches.run_push(plan, draws, "quasistatic", jnp.float64, 8)   # 5 calls
         runs[threads] = np.stack([r.x, r.y, r.theta], axis=1)
         assert runs[threads].dtype == np.float64

@@ -491,13 +491,13 @@ def test_the_cache_is_scoped_to_the_run(tmp_path, monkeypatch):
     with LocalExecutor():
         assert jax.config.jax_compilation_cache_dir == str(tmp_path)
     assert jax.config.jax_compilation_cache_dir == before
-    monkeypatch.delenv("NUDGE_REPLAY_THREADS", raising=False)
-    env.pop("NUDGE_REPLAY_THREADS", None)
+    monkeypatch.delenv("NUDGE_THREADS", raising=False)
+    env.pop("NUDGE_THREADS", None)
     with DaskExecutor(workers=1, threads_per_worker=1):
         assert os.environ["JAX_COMPILATION_CACHE_DIR"] == str(tmp_path)
-        assert os.environ["NUDGE_REPLAY_THREADS"] == "1"   # a worker's replays: its own thread
+        assert os.environ["NUDGE_THREADS"] == "1"   # a worker's replays: its own thread
     ours = ("JAX_COMPILATION_CACHE_DIR", "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "JAX_PLATFORMS",
-            "NUDGE_REPLAY_THREADS")
+            "NUDGE_THREADS")
     assert {k: os.environ.get(k) for k in ours} == {k: env.get(k) for k in ours}
 
 

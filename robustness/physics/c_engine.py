@@ -9,19 +9,11 @@ over from one call to the next, as in MJX here).
 """
 from __future__ import annotations
 
-import os
-
 import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-
-def cpu_threads() -> int:
-    """CPU cores this process may run on."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover - not Linux
-        return max(1, os.cpu_count() or 1)
+from robustness.cpus import cpu_threads
 
 
 class CEngine:
@@ -29,7 +21,7 @@ class CEngine:
 
     Args:
       models: the per-sample models (same sizes).
-      threads: worker threads (0: one per available core; never more than
+      threads: worker threads (0: :func:`robustness.cpus.cpu_threads`; never more than
         the number of models).
     """
 
