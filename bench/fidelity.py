@@ -42,6 +42,26 @@ seeded random walk of 4 tumbles from ``(0, 0, 0, 0)``, planned with
 ``plan_tumble`` (eps 1 mm), rolled out with pads of friction 1.5; the
 fraction of plans that land every planned face.
 
+``--thickness-mm T``: the scenes' parts ``T`` mm thick instead of the
+scene's 3 mm, their mass kept (the fence pushes at half the thickness: the
+moment of the push about the support, which the planar models do not have).
+Measured 2026-12-06 (CPU, ``--supports rigid --kinds default --no-tumbles
+--no-mjx``, 36 runs, 99 s): at 3 mm ``ls_agreement_rigid=0.917
+qs_agreement_rigid=0.639``; at 0.5 mm 0.833 and 0.500, the thin parts'
+own failures (``incomplete_reorientation``: a 0.5 mm plate under a fence 0.2
+mm above the table lands no edge flush) replacing the thick ones'.  On the
+rectangle, whose centre of mass lies on the diagonal joining two of the three
+corners it rests on, the push height is what the planar model misses: its
+physics slip per push at fence friction 0.5 / 0.8 falls from 2.05 / 0.71 mm
+to 0.80 / 0.07 mm (the limit-surface model: 0.59 / 0.00); on the rectangle's
+7-push turn of ``bench/synthesis.py`` (rigid corners, fence friction 0.65,
+6 draws) MuJoCo slips 0.3-0.6 mm on each of its five short turning pushes in
+the four draws where the model sticks (0.8-0.9 mm in the two where both
+slip), and ends 2.0-4.4 mm from the goal; at 0.5 mm
+thickness and the same mass it ends 0.2-0.3 mm from the model on all six
+(the biplus-stable and uni-stable parts' slip hardly changes with the
+thickness).
+
 Last line: ``RESULT push_ok=F qs_agreement=A qs_agreement_rigid=R ls_agreement=L
 ls_agreement_rigid=LR c_vs_mjx_mm=M tumble_faces_ok=T`` (push_ok over the default
 plans, the agreements over every run and over the runs on rigid support).
@@ -332,8 +352,16 @@ def main():
                     help="plan kinds")
     ap.add_argument("--no-tumbles", action="store_true", help="pushes only")
     ap.add_argument("--no-mjx", action="store_true", help="skip the C vs MJX push")
+    ap.add_argument("--thickness-mm", type=float,
+                    help="the parts' thickness in the scene (the fence pushes at half of it), "
+                         "their mass kept (the density scaled); default: the scene's 3 mm")
     args = ap.parse_args()
     args.settings = PhysicsSettings()
+    if args.thickness_mm:
+        base = args.settings
+        t = args.thickness_mm * 1e-3
+        args.settings = dataclasses.replace(base, part_thickness=t, part_density=base.part_density
+                                            * base.part_thickness / t)
     t0 = time.perf_counter()
     print("push plans (3 fence frictions each):")
     rows, skipped = run_pushes(args)
