@@ -65,6 +65,18 @@ rectangle's default turn poor (0.21) where MuJoCo succeeds 48/48.  It wins
 one in physics the ellipsoid could not judge (biplus-stable's turn, 0 ->
 0.85), and on the long plans (9-18 pushes, 0.5-0.7 m) MuJoCo fails both
 plans where the model gives 0.9985.
+
+Again with a batch's compiled calls on both cores (``robustness.replay``),
+``--mujoco-samples 0``, quiet machine: the same choices (CP lows as above),
+seconds per task 10.5, 4.5, 8.6, 4.0, 29.5, 10.3, 78.1, 77.9 (were 14.8, 7.7,
+16.5, 7.6, 69.8, 17.2, 137.9, 155.2)::
+
+    RESULT model=limit_surface gain_model=0.1261 gain_mujoco=nan length_ratio=1.099
+    seconds_per_task=10.42 tasks_not_worse_model=8/8 tasks_not_worse_mujoco=0/0
+    tasks_worse_2se_mujoco=0 one_task_s=10.07 design_s=71.37
+
+(the one task: biplus-stable's turn, 8 candidates x 1,000 samples; the design:
+6 axes, 65 evaluations of 1,000 samples).
 """
 from __future__ import annotations
 

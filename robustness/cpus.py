@@ -11,7 +11,10 @@ def cpu_threads() -> int:
     run on."""
     env = os.environ.get("NUDGE_THREADS", "").strip()
     if env:
-        return max(1, int(env))
+        if not env.isdigit() or int(env) < 1:
+            raise ValueError(f"NUDGE_THREADS: expected a whole number >= 1, got {env!r}; "
+                             "unset it to use every core")
+        return int(env)
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not Linux

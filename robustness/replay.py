@@ -178,9 +178,9 @@ _POOL: dict = {}
 def _map_calls(call, items):
     """``[call(x) for x in items]``, run on :func:`robustness.cpus.cpu_threads`
     threads when there are several (serially inside one of those threads: no
-    nested wait), each under the caller's ``jax_enable_x64`` (a thread-local setting: the
-    calls see the caller's float width).  An interrupt cancels the calls not
-    started."""
+    nested wait), each under the caller's ``jax_enable_x64`` (a thread-local
+    setting: the calls see the caller's float width).  An interrupt cancels
+    the calls not started."""
     k = min(len(items), cpu_threads())
     if k <= 1 or threading.current_thread().name.startswith("nudge-replay"):
         return [call(x) for x in items]
@@ -206,8 +206,9 @@ def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0):
     """``fn(nom, rows_chunk, *args)`` over chunks of the per-sample pytree
     ``rows`` (each padded by repeating its first sample; the calls run on
     :func:`robustness.cpus.cpu_threads` threads: XLA runs one call's vmapped
-    loops on one core; the outcomes are the same whatever runs them); returns the outcome pytree with numpy
-    arrays of n rows (along the outcomes' ``sample_axis``)."""
+    loops on one core; the outcomes are the same whatever runs them); returns
+    the outcome pytree with numpy arrays of n rows (along the outcomes'
+    ``sample_axis``)."""
     tm = jax.tree_util.tree_map
     if n == chunk or (n < chunk and _bucket(n, 8) == n):   # one call, no padding: as they are
         return tm(np.asarray, fn(nom, rows, *args))

@@ -279,7 +279,13 @@ def run_main(main: Callable[[], int], supervised: bool = False) -> None:
     (``NUDGE_DEBUG=1`` re-raises it for the traceback).
 
     ``supervised``: the console entry points run ``main`` in a child process
-    (:func:`supervise`), so that a death by signal is one line too."""
+    (:func:`supervise`), so that a death by signal is one line too.  A bad
+    ``$NUDGE_THREADS`` is refused first (``robustness.cpu_threads`` reads it
+    where the work is; this line says so before any)."""
+    threads = os.environ.get("NUDGE_THREADS", "").strip()
+    if threads and (not threads.isdigit() or int(threads) < 1):
+        sys.exit(fail(f"NUDGE_THREADS: expected a whole number >= 1, got {threads!r}; unset it "
+                      "to use every core"))
     if supervised:
         rc = supervise()
         if rc is not None:

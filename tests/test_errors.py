@@ -118,3 +118,18 @@ def test_a_yaml_syntax_error_in_a_config_is_one_line_exit_2(tmp_path, command):
     assert r.returncode == 2 and len(lines) == 1, r.stderr
     assert lines[0].startswith("error: ") and "YAML syntax error" in lines[0] and str(p) in lines[0]
     assert not (tmp_path / "out").exists()
+
+
+def test_a_bad_thread_count_is_refused_before_any_work(capsys, monkeypatch):
+    """``$NUDGE_THREADS`` that is no whole number >= 1: exit 2, one line naming it,
+    before the command runs (here and through the console script)."""
+    from tests.commandline import nudge
+
+    ran = []
+    monkeypatch.setenv("NUDGE_THREADS", "two")
+    code, err = _run(lambda: ran.append(1) or 0, capsys)
+    assert code == 2 and not ran
+    assert err == "error: NUDGE_THREADS: expected a whole number >= 1, got 'two'; unset it to " \
+                  "use every core\n"
+    r = nudge("sweep", "margins.yaml", "--dry-run", env={"NUDGE_THREADS": "0"})
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "NUDGE_THREADS" in r.stderr

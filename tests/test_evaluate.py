@@ -476,3 +476,16 @@ def test_threaded_chunks_are_the_serial_ones(plan, monkeypatch):
         ls[call] = np.stack([r.x, r.y, r.theta], axis=1)
     assert ls[16].dtype == np.float64 and np.all(np.isfinite(ls[16]))
     assert np.array_equal(ls[16], ls[64])
+
+
+def test_a_bad_thread_count_is_named(monkeypatch):
+    from robustness.cpus import cpu_threads
+
+    monkeypatch.setenv("NUDGE_THREADS", "two")
+    with pytest.raises(ValueError, match="NUDGE_THREADS: expected a whole number"):
+        cpu_threads()
+    monkeypatch.setenv("NUDGE_THREADS", "0")
+    with pytest.raises(ValueError, match="NUDGE_THREADS"):
+        cpu_threads()
+    monkeypatch.delenv("NUDGE_THREADS")
+    assert cpu_threads() >= 1

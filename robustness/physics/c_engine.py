@@ -21,8 +21,8 @@ class CEngine:
 
     Args:
       models: the per-sample models (same sizes).
-      threads: worker threads (0: :func:`robustness.cpus.cpu_threads`; never more than
-        the number of models).
+      threads: worker threads (0: :func:`robustness.cpus.cpu_threads`; never
+        more than the number of models).
     """
 
     name = "c"
