@@ -154,13 +154,15 @@ def _bucket(k: int, minimum: int) -> int:
     return 1 << max(int(minimum) - 1, int(k) - 1, 0).bit_length()
 
 
-def _chunks(n: int, chunk: int):
+def _chunks(n: int, chunk: int, whole: bool = False):
     """``(lo, hi, size)`` of each compiled call: full chunks of ``chunk``
-    samples, then the rest padded to a power of two (>= 8, <= chunk)."""
+    samples, then the rest padded to a power of two (>= 8, <= chunk), or to a
+    whole chunk when ``whole`` (one compiled shape)."""
     out = []
     for lo in range(0, n, chunk):
         hi = min(n, lo + chunk)
-        out.append((lo, hi, chunk if hi - lo == chunk else min(chunk, _bucket(hi - lo, 8))))
+        full = hi - lo == chunk or whole
+        out.append((lo, hi, chunk if full else min(chunk, _bucket(hi - lo, 8))))
     return out
 
 
@@ -202,13 +204,14 @@ def _map_calls(call, items):
         raise
 
 
-def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0):
+def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0,
+                whole: bool = False):
     """``fn(nom, rows_chunk, *args)`` over chunks of the per-sample pytree
     ``rows`` (each padded by repeating its first sample; the calls run on
     :func:`robustness.cpus.cpu_threads` threads: XLA runs one call's vmapped
     loops on one core; the outcomes are the same whatever runs them); returns
     the outcome pytree with numpy arrays of n rows (along the outcomes'
-    ``sample_axis``)."""
+    ``sample_axis``).  ``whole``: the last chunk padded to a whole one."""
     tm = jax.tree_util.tree_map
     if n == chunk or (n < chunk and _bucket(n, 8) == n):   # one call, no padding: as they are
         return tm(np.asarray, fn(nom, rows, *args))
@@ -216,7 +219,7 @@ def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0):
     # sliced on the host: numpy slices are views, where eager jax slices of the
     # (n, L, 3) slips cost a third of a 200-tumble evaluation
     rows = tm(np.asarray, rows)
-    for lo, hi, size in _chunks(n, chunk):
+    for lo, hi, size in _chunks(n, chunk, whole):
         def cut(x, lo=lo, hi=hi, size=size):
             x = x[lo:hi]
             if size > hi - lo:
@@ -274,9 +277,8 @@ def _run_split(fn, nom, rows, n: int, chunk: int, model, n_corners: int,
     sample order."""
     groups = _split_by_points(model, rows, n, n_corners)
     if groups is None:
-        if isinstance(model, tuple):
-            chunk = min(chunk, LIMIT_SURFACE_CALL)
-        return _run_chunks(fn, nom, rows, n, chunk, model, sample_axis=sample_axis)
+        chunk, whole = limit_surface_calls(model, n, chunk)
+        return _run_chunks(fn, nom, rows, n, chunk, model, sample_axis=sample_axis, whole=whole)
     tm = jax.tree_util.tree_map
     rows = tm(np.asarray, rows)
     lead = (slice(None),) * sample_axis
@@ -367,6 +369,18 @@ LIMIT_SURFACE_BLOCK = 256
 #: samples of the plan above, 2 cores: 1 call 4,300 samples/s; on 2 threads
 #: 4 calls of 1,024 7,800, 8 of 512 8,100-8,400, 16 of 256 7,200)
 LIMIT_SURFACE_CALL = 512
+
+
+def limit_surface_calls(model, n: int, chunk: int) -> tuple:
+    """``(chunk, whole)`` for :func:`_run_chunks` of a batch of ``n`` samples
+    under the static ``model``: a limit-surface batch of more than
+    :data:`LIMIT_SURFACE_CALL` samples runs in whole calls of that many (on
+    every core, one compiled shape whatever ``n``); others as asked."""
+    if isinstance(model, tuple):
+        call = min(chunk, LIMIT_SURFACE_CALL)
+        if n > call:
+            return call, True
+    return chunk, False
 
 
 def _block(model) -> int:

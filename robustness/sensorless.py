@@ -165,7 +165,8 @@ def run_sensorless(plan, draws, starts, model, dtype, chunk):
     m, m, rad); returns ``(poly, allowed, PushReplay)``: the nominal polygon,
     each push's allowed hull edges (a list of sets) and the per-sample outcomes
     (numpy; ``edges`` / ``complete`` (n, P))."""
-    from robustness.replay import _bucket, _push_samples_of, _run_chunks, _static_model
+    from robustness.replay import (_bucket, _push_samples_of, _run_chunks, _static_model,
+                                   limit_surface_calls)
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pg.PartWarning)
@@ -184,7 +185,9 @@ def run_sensorless(plan, draws, starts, model, dtype, chunk):
                        active=jnp.asarray(np.arange(Pp) < P),
                        hull=jnp.asarray(np.asarray(poly.hull_index, np.int32)))
     rows = (_push_samples_of(draws, Pp, mp, dtype), jnp.asarray(starts, dtype))
-    res = _run_chunks(_fence_batch, nom, rows, draws.n, chunk, _static_model(model, draws))
+    static = _static_model(model, draws)
+    call, whole = limit_surface_calls(static, draws.n, chunk)
+    res = _run_chunks(_fence_batch, nom, rows, draws.n, call, static, whole=whole)
     res = dataclasses.replace(res, edges=res.edges[:, :P], complete=res.complete[:, :P])
     allowed = [{poly.caller_edge_to_hull(e) for e in p.edges} for p in plan.pushes]
     return poly, allowed, res

@@ -469,8 +469,11 @@ def test_threaded_chunks_are_the_serial_ones(plan, monkeypatch):
         runs[threads] = np.stack([r.x, r.y, r.theta], axis=1)
         assert runs[threads].dtype == np.float64
     assert np.all(np.isfinite(runs["1"])) and np.array_equal(runs["1"], runs["3"])
+    assert batches.limit_surface_calls(("limit_surface", ("rigid",)), 600, 4096) == (512, True)
+    assert batches._chunks(600, 512, True) == [(0, 512, 512), (512, 600, 512)]  # one shape
+    assert batches.limit_surface_calls("quasistatic", 600, 4096) == (4096, False)
     ls = {}
-    for call in (16, 64):   # 3 calls of 16 (the last padded) on 3 threads / one call of 64
+    for call in (16, 64):   # 3 whole calls of 16 on 3 threads / one call of 64
         monkeypatch.setattr(batches, "LIMIT_SURFACE_CALL", call)
         _, _, r = batches.run_push(plan, draws, "limit_surface", jnp.float64, 4096)
         ls[call] = np.stack([r.x, r.y, r.theta], axis=1)
