@@ -280,8 +280,9 @@ def run_main(main: Callable[[], int], supervised: bool = False) -> None:
 
     ``supervised``: the console entry points run ``main`` in a child process
     (:func:`supervise`), so that a death by signal is one line too.  A bad
-    ``$NUDGE_THREADS`` is refused first (``robustness.cpu_threads`` reads it
-    where the work is; this line says so before any)."""
+    ``$NUDGE_THREADS`` is refused before any work, with the line
+    ``robustness.cpus.cpu_threads`` would raise where the work reads it (the
+    check is repeated here so that a command fails before it imports JAX)."""
     threads = os.environ.get("NUDGE_THREADS", "").strip()
     if threads and (not threads.isdigit() or int(threads) < 1):
         sys.exit(fail(f"NUDGE_THREADS: expected a whole number >= 1, got {threads!r}; unset it "
