@@ -51,7 +51,9 @@ qs_agreement_rigid=0.639``; at 0.5 mm 0.833 and 0.500, the thin parts'
 own failures (``incomplete_reorientation``: a 0.5 mm plate under a fence 0.2
 mm above the table lands no edge flush) replacing the thick ones'.  On the
 rectangle, whose centre of mass lies on the diagonal joining two of the three
-corners it rests on, the push height is what the planar model misses: its
+corners it rests on, the difference with the planar model follows the
+thickness (most likely the push's height, which can rock the part onto its
+fourth corner; not yet checked by a model with that term): its
 physics slip per push at fence friction 0.5 / 0.8 falls from 2.05 / 0.71 mm
 to 0.80 / 0.07 mm (the limit-surface model: 0.59 / 0.00); on the rectangle's
 7-push turn of ``bench/synthesis.py`` (rigid corners, fence friction 0.65,
