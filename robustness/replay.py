@@ -211,9 +211,10 @@ def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0,
     :func:`robustness.cpus.cpu_threads` threads: XLA runs one call's vmapped
     loops on one core; the outcomes are the same whatever runs them); returns
     the outcome pytree with numpy arrays of n rows (along the outcomes'
-    ``sample_axis``).  ``whole``: the last chunk padded to a whole one."""
+    ``sample_axis``).  ``whole``: every call ``chunk`` samples (the last
+    padded), one compiled shape."""
     tm = jax.tree_util.tree_map
-    if n == chunk or (n < chunk and _bucket(n, 8) == n):   # one call, no padding: as they are
+    if n == chunk or (n < chunk and not whole and _bucket(n, 8) == n):   # one call, as they are
         return tm(np.asarray, fn(nom, rows, *args))
     sizes, cuts = [], []
     # sliced on the host: numpy slices are views, where eager jax slices of the
@@ -284,15 +285,13 @@ def _run_split(fn, nom, rows, n: int, chunk: int, model, n_corners: int,
     lead = (slice(None),) * sample_axis
     out = None
     for static, idx in groups:
-        k = len(idx)
-        sel = np.concatenate([idx, np.full(-k % SPLIT_CALL, idx[0])])
-        res = _run_chunks(fn, nom, tm(lambda x: x[sel], rows), len(sel), SPLIT_CALL,
-                          static, sample_axis=sample_axis)
+        res = _run_chunks(fn, nom, tm(lambda x: x[idx], rows), len(idx), SPLIT_CALL,
+                          static, sample_axis=sample_axis, whole=True)
         if out is None:
             out = tm(lambda x: np.zeros(x.shape[:sample_axis] + (n,) + x.shape[sample_axis + 1:],
                                         x.dtype), res)
         for o, r in zip(jax.tree_util.tree_leaves(out), jax.tree_util.tree_leaves(res)):
-            o[lead + (idx,)] = r[lead + (slice(0, k),)]
+            o[lead + (idx,)] = r
     return out
 
 
