@@ -53,7 +53,8 @@ sys.path.append(os.path.dirname(__file__))
 import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 
-from planning import WorkspaceError, plan_pose, plan_pose_batch, prepare_part  # noqa: E402
+from planning import (PushOptions, WorkspaceError, plan_pose, plan_pose_batch,  # noqa: E402
+                      prepare_part)
 from planning.pushing.workspace import part_extent  # noqa: E402
 from push_planning import bundled_polygons, near_goals  # noqa: E402
 from robustness import Draws, FrictionRange, Sampler, evaluate  # noqa: E402
@@ -94,7 +95,8 @@ def workspace_rows(parts, starts, goals):
         body = prepare_part(verts, com).body
         fits = np.array([inside_pose(body, g, WORKSPACE) for g in goals])
         t0 = time.perf_counter()
-        b = plan_pose_batch(verts, starts[fits], goals[fits], com=com, workspace=WORKSPACE)
+        b = plan_pose_batch(verts, starts[fits], goals[fits], com=com,
+                            options=PushOptions(workspace=WORKSPACE))
         secs = time.perf_counter() - t0
         free = plan_pose_batch(verts, starts[fits], goals[fits], com=com)
         ok_in = np.array([bool(b.ok[i]) and inside(b, WORKSPACE, i) for i in range(len(b))])
@@ -102,7 +104,8 @@ def workspace_rows(parts, starts, goals):
         scales = []   # the failed goals: the least scale of the workspace the planner's error names
         for i in np.flatnonzero(~b.ok):
             try:
-                plan_pose(verts, starts[fits][i], goals[fits][i], com=com, workspace=WORKSPACE)
+                plan_pose(verts, starts[fits][i], goals[fits][i], com=com,
+                          options=PushOptions(workspace=WORKSPACE))
                 scales.append(1.0)
             except WorkspaceError as err:
                 scales.append(err.scale)
@@ -123,10 +126,11 @@ def slip_rows(parts, starts, goals, n_mc, seed):
     rows = []
     for name, (verts, com, cls) in parts.items():
         c = support_range(verts, com)
-        kw = dict(com=com, support={"c": list(c)})
         base = plan_pose_batch(verts, starts, goals, com=com)
-        sup = plan_pose_batch(verts, starts, goals, **kw)
-        slip = plan_pose_batch(verts, starts, goals, min_fence_mu=MU_LO, **kw)
+        sup = plan_pose_batch(verts, starts, goals, com,
+                              options=PushOptions(support={"c": list(c)}))
+        slip = plan_pose_batch(verts, starts, goals, com,
+                               options=PushOptions(support={"c": list(c)}, min_fence_mu=MU_LO))
         both = sup.ok & slip.ok
         rel = slip.total_distance[both] / sup.total_distance[both]
         sampler = Sampler(friction=FrictionRange(mu_f=MU_F, c=c))

@@ -36,7 +36,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from planning import plan_pose, plan_pose_batch, prepare_part  # noqa: E402
+from planning import PushOptions, plan_pose, plan_pose_batch, prepare_part  # noqa: E402
 from sweeps.partfile import load_part  # noqa: E402
 from timing import best_of  # noqa: E402
 
@@ -86,7 +86,7 @@ def length_ratios(n_goals: int):
     straight = np.hypot(goals[:, 0], goals[:, 1])
     for name, (verts, com, cls) in bundled_polygons().items():
         for strategy in ("search", "paper"):
-            b = plan_pose_batch(verts, starts, goals, com=com, strategy=strategy)
+            b = plan_pose_batch(verts, starts, goals, com=com, options=PushOptions(strategy=strategy))
             ratio = b.total_distance / straight
             rows.append(dict(part=name, cls=cls, strategy=strategy, ok=float(b.ok.mean()),
                              median=float(np.median(ratio)), p90=float(np.quantile(ratio, 0.9)),
@@ -113,20 +113,20 @@ def main(argv=None) -> None:
     for strategy in ("paper", "search"):
         t0 = time.perf_counter()
         plan_pose_batch(PENTAGON, starts[: args.chunk], goals[: args.chunk], chunk=args.chunk,
-                        strategy=strategy)
+                        options=PushOptions(strategy=strategy))
         compile_s[strategy] = time.perf_counter() - t0
     for rep in range(args.repeat):   # interleaved: both see the same machine load
         for strategy in ("paper", "search"):
             runs = []
-            t = best_of(lambda: runs.append(plan_pose_batch(PENTAGON, starts, goals, chunk=args.chunk,
-                                                            strategy=strategy)), 1)
+            t = best_of(lambda: runs.append(plan_pose_batch(
+                PENTAGON, starts, goals, chunk=args.chunk, options=PushOptions(strategy=strategy))), 1)
             rates[strategy] = max(rates.get(strategy, 0.0), args.plans / t)
             batches[strategy] = runs[-1]
     batch = batches["search"]
 
     # references on the first `ref` problems of the same set
     t0 = time.perf_counter()
-    cv = [plan_pose(PENTAGON, starts[i], goals[i], solver="cvxpy") for i in range(args.ref)]
+    cv = [plan_pose(PENTAGON, starts[i], goals[i], options=PushOptions(solver="cvxpy")) for i in range(args.ref)]
     cvxpy_rate = args.ref / (time.perf_counter() - t0)
     plan_pose(PENTAGON, starts[0], goals[0])  # warm the replay's compilation
     t0 = time.perf_counter()

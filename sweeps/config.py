@@ -135,12 +135,12 @@ class Planner(Strict):
         if w is not None and not (w[0] < w[1] and w[2] < w[3]):
             raise ValueError(f"workspace: expected [xmin, xmax, ymin, ymax] with xmin < xmax and "
                              f"ymin < ymax (m), got {list(w)}")
+        self.push_options()   # the planner's own checks (planning.PushOptions), before any work
         return self
 
     def push_options(self):
-        """The :class:`planning.PushOptions` these settings give."""
-        from planning import PushOptions
-
+        """The :class:`planning.PushOptions` these settings give (the section
+        validates into it: a setting it refuses is refused by the config)."""
         return PushOptions(margin_deg=self.margin_deg, safety_factor=self.safety_factor,
                            objective=self.objective, strategy=self.strategy,
                            support=(self.support if self.support_c is None

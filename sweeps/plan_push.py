@@ -251,17 +251,13 @@ def main(argv: Optional[Sequence[str]] = None, prog: str = "nudge plan-push") ->
         warnings.simplefilter("always")
         plausible.mute(shown)   # the warnings shown above, once
         try:
-            support = args.support if args.support_c is None else {"c": list(args.support_c)}
-            prepared = prepare_part(part.vertices, part.com, args.margin_deg, args.safety_factor,
-                                    support=support, min_fence_mu=args.min_fence_mu)
+            options = _push_options(args)
+            prepared = prepare_part(part.vertices, part.com, options.margin_deg,
+                                    options.safety_factor, support=options.support,
+                                    min_fence_mu=options.min_fence_mu)
             plan = None
             if start is not None:
-                plan = plan_pose(part.vertices, start, goal, com=part.com,
-                                 margin_deg=args.margin_deg, safety_factor=args.safety_factor,
-                                 objective=args.objective, solver=args.solver,
-                                 strategy=args.strategy, support=support,
-                                 min_fence_mu=args.min_fence_mu, workspace=args.workspace,
-                                 max_reorients=args.max_reorients, extra_steps=args.extra_steps)
+                plan = plan_pose(part.vertices, start, goal, com=part.com, options=options)
         except PartError as exc:
             report_warnings(caught)
             return fail(f"{part.path}: {exc}")
@@ -344,6 +340,19 @@ def _sensorless_args(args):
     return region, heading
 
 
+def _push_options(args):
+    """The :class:`planning.PushOptions` of the flags (a bad value: a ValueError
+    naming the option, turned into a flag's name by :func:`_flag_names`)."""
+    from planning import PushOptions
+
+    support = args.support if args.support_c is None else {"c": list(args.support_c)}
+    return PushOptions(margin_deg=args.margin_deg, safety_factor=args.safety_factor,
+                       objective=args.objective, solver=args.solver, strategy=args.strategy,
+                       support=support, min_fence_mu=args.min_fence_mu,
+                       workspace=None if args.workspace is None else tuple(args.workspace),
+                       max_reorients=args.max_reorients, extra_steps=args.extra_steps)
+
+
 def _run_sensorless(args, part, goal, sensorless) -> int:
     """``--start any``: plan, check and print a sensorless plan."""
     from sweeps import plausible
@@ -352,17 +361,14 @@ def _run_sensorless(args, part, goal, sensorless) -> int:
     if shown is None:
         return Exit.INPUT
     from kernels import PartError
-    from planning import PlanningError, PushOptions, plan_sensorless
+    from planning import PlanningError, plan_sensorless
 
     region, heading = sensorless
-    options = PushOptions(margin_deg=args.margin_deg, safety_factor=args.safety_factor,
-                          objective=args.objective, solver=args.solver, strategy=args.strategy,
-                          workspace=None if args.workspace is None else tuple(args.workspace),
-                          max_reorients=args.max_reorients, extra_steps=args.extra_steps)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         plausible.mute(shown)
         try:
+            options = _push_options(args)
             plan = plan_sensorless(part.vertices, goal, region, heading, com=part.com,
                                    options=options, max_stroke=args.max_stroke)
         except PartError as exc:

@@ -80,22 +80,30 @@ def test_push_defaults_have_one_home():
     for f in ("margin_deg", "safety_factor", "objective", "solver", "strategy", "max_reorients",
               "extra_steps", "min_fence_mu", "workspace"):
         assert getattr(args, f) == getattr(d, f), f
+    # and the values they build are the defaults whole
+    from sweeps.plan_push import _push_options
+
+    assert p.push_options() == d == _push_options(args)
 
 
-def test_plan_pose_takes_options_or_keywords_not_both():
+def test_plan_pose_takes_one_options_value_that_travels():
+    """The planner's options are one value: plan_pose takes it, the plan carries
+    it (plan.options plans the same plan again), anything else is refused."""
     import numpy as np
     import pytest
 
     from planning import PushOptions, plan_pose
 
     rect = np.array([[0, 0], [0.04, 0], [0.04, 0.02], [0, 0.02]], float)
-    a = plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0), margin_deg=9.0, strategy="paper")
-    b = plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0),
-                  options=PushOptions(margin_deg=9.0, strategy="paper"))
-    assert a.to_dict() == b.to_dict()
-    with pytest.raises(ValueError, match="options: give the planner's options as PushOptions or "
-                                         "as keywords, not both \\(margin_deg given"):
-        plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0), margin_deg=9.0, options=PushOptions())
+    options = PushOptions(margin_deg=9.0, strategy="paper", support="rigid", min_fence_mu=0.8)
+    a = plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0), options=options)
+    assert a.options == options and a.margin_deg == 9.0 and a.support == "rigid"
+    assert plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0), None, a.options).to_dict() == a.to_dict()
+    c = plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0),
+                  options=PushOptions(support={"c": [0.01, 0.02]}))
+    assert c.options.support.c == (0.01, 0.02) and c.options == PushOptions(support=(0.01, 0.02))
+    with pytest.raises(ValueError, match="^options: expected a planning.PushOptions, got dict"):
+        plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0), options={"margin_deg": 9.0})
 
 
 def test_within_prefixes_every_line_and_keeps_the_type():

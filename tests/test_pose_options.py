@@ -14,8 +14,9 @@ import pytest
 from kernels import polygon as pg
 from planning.pushing import batch as pb
 from planning.pushing import planner as pp
+from planning.pushing.options import PushOptions
 from tests import strategies as S
-from tests.test_pose_planner import (_agree, _fixed_parts, _pairs, _plan, _plan_or_budget, _size,
+from tests.test_pose_planner import (_agree, _batch, _fixed_parts, _pairs, _plan, _plan_or_budget, _size,
                                      check_plan)
 from oracles import push_numpy as oracle
 
@@ -48,7 +49,7 @@ def test_batch_agrees_with_single_with_options(name, options):
             singles.append(_plan(pts, s, g, com=com, **kw))
         except pp.PlanningError:
             singles.append(None)
-    batch = pb.plan_pose_batch(pts, starts, goals, com=com, chunk=64, **kw)
+    batch = _batch(pts, starts, goals, com=com, chunk=64, **kw)
     assert [p is not None for p in singles] == batch.ok.tolist()
     assert batch.ok.mean() > 0.25
     if "workspace" in kw:
@@ -76,7 +77,8 @@ def test_safety_factor_one_from_an_unwrapped_start(goal):
     strategy (where it was found) and the default one."""
     start = [0.01, 0.02, 6.2590]
     for kw in ({}, {"strategy": "paper"}):
-        plan = pp.plan_pose(RECT_40_20, start, goal, margin_deg=10, safety_factor=1.0, **kw)
+        plan = pp.plan_pose(RECT_40_20, start, goal,
+                            options=PushOptions(margin_deg=10, safety_factor=1.0, **kw))
         check_plan(plan, RECT_40_20, None, start, goal, margin_deg=10, safety=1.0)
 
 
@@ -84,19 +86,20 @@ def test_safety_factor_one_from_an_unwrapped_start(goal):
 def test_safety_factor_one():
     """safety_factor = 1 is allowed (>= 1) and gives valid plans, one and many at once."""
     start, goal = [0.0, 0.0, 0.0], [0.1, 0.2, 2.5]
-    plan = pp.plan_pose(RECT, start, goal, safety_factor=1.0)
+    plan = pp.plan_pose(RECT, start, goal, options=PushOptions(safety_factor=1.0))
     check_plan(plan, RECT, None, start, goal, safety=1.0)
     rng = np.random.default_rng(5)
     starts = np.c_[rng.uniform(-0.2, 0.2, (64, 2)), rng.uniform(-8, 8, 64)]
     goals = np.c_[rng.uniform(-0.2, 0.2, (64, 2)), rng.uniform(-math.pi, math.pi, 64)]
-    batch = pb.plan_pose_batch(RECT, starts, goals, margin_deg=10, safety_factor=1.0, chunk=64)
+    batch = pb.plan_pose_batch(RECT, starts, goals, chunk=64,
+                               options=PushOptions(margin_deg=10, safety_factor=1.0))
     assert batch.ok.all()
 
 
 def test_margin_zero_is_rejected():
     """margin_deg = 0 would need infinite pushes from the divergent orientation."""
     with pytest.raises(ValueError, match="^margin_deg"):
-        pp.plan_pose(RECT, [0.0, 0.0, 0.0], [0.1, 0.2, 2.5], margin_deg=0.0)
+        pp.plan_pose(RECT, [0.0, 0.0, 0.0], [0.1, 0.2, 2.5], options=PushOptions(margin_deg=0.0))
 
 
 # --------------------------------------------------------------------------
@@ -152,7 +155,8 @@ def test_effort_budget_error_says_so():
     """A part whose step angles cannot make a turn within max_reorients gets a
     PlanningError that names the budget."""
     with pytest.raises(pp.PlanningError, match="max_reorients=2"):
-        pp.plan_pose(RECT, [0.0, 0.0, 0.0], [0.1, 0.2, 3.0], max_reorients=2, strategy="paper")
+        pp.plan_pose(RECT, [0.0, 0.0, 0.0], [0.1, 0.2, 3.0],
+                     options=PushOptions(max_reorients=2, strategy="paper"))
 
 
 @pytest.mark.slow
@@ -373,7 +377,7 @@ def test_plans_float64_cannot_replay_are_not_plans(monkeypatch):
     part = pp.prepare_part(pts, com, 1.0, 1.0)
     assert plan.total_distance < 1e3 < part.longest_plan < 1e4
     check_plan(plan, pts, com, start, goal, margin_deg=1.0, safety=1.0)
-    batch = pb.plan_pose_batch(pts, start[None], goal[None], **kw)
+    batch = _batch(pts, start[None], goal[None], **kw)
     _agree(batch, [plan], "sliver")
     monkeypatch.setattr(PushPart, "longest_plan", property(lambda self: 1e-3 * self.size))
     with pytest.raises(pp.PlanningError, match=r"the shortest candidate pushes [\d.e+]+ m in all, .* more "
@@ -383,6 +387,6 @@ def test_plans_float64_cannot_replay_are_not_plans(monkeypatch):
     assert len(str(err.value)) <= 300
     pb._plan_fns.cache_clear()          # the batch's compiled planners hold the limit
     try:
-        assert not pb.plan_pose_batch(pts, start[None], goal[None], **kw).ok[0]
+        assert not _batch(pts, start[None], goal[None], **kw).ok[0]
     finally:
         pb._plan_fns.cache_clear()

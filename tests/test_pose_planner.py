@@ -17,6 +17,7 @@ from kernels import polygon as pg
 from planning.pushing import pose_lp, sequences as sq
 from planning.pushing import batch as pb
 from planning.pushing import planner as pp
+from planning.pushing.options import PushOptions
 from planning.pushing.plan import PLAN_CLASSES, Push, PushPlan
 from tests import strategies as S
 from oracles import push_numpy as oracle
@@ -38,10 +39,16 @@ def _rot(t):
     return np.array([[c, -s], [s, c]])
 
 
-def _plan(vertices, start, goal, **kw):
+def _plan(vertices, start, goal, com=None, **options):
+    """plan_pose with the planner's options as keywords (a PushOptions)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pg.PartWarning)
-        return pp.plan_pose(vertices, start, goal, **kw)
+        return pp.plan_pose(vertices, start, goal, com, PushOptions(**options))
+
+
+def _batch(vertices, starts, goals, com=None, chunk=1024, **options):
+    """plan_pose_batch with the planner's options as keywords (a PushOptions)."""
+    return pb.plan_pose_batch(vertices, starts, goals, com, PushOptions(**options), chunk)
 
 
 def _size(body) -> float:
@@ -293,8 +300,8 @@ def test_batch_agrees_with_single(name, objective, strategy):
     starts, goals = _agree_pairs(name)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", pg.PartWarning)
-        batch = pb.plan_pose_batch(pts, starts, goals, com=com, objective=objective, chunk=64,
-                                   strategy=strategy)
+        batch = pb.plan_pose_batch(pts, starts, goals, com=com, chunk=64,
+                                   options=PushOptions(objective=objective, strategy=strategy))
     singles = _single_plans(name, objective, strategy)
     _agree(batch, singles, (name, objective, strategy))
     # spot-check the batch's plans with the oracle too
@@ -599,12 +606,12 @@ GOOD = dict(vertices=SQUARE, start=[0.0, 0.0, 0.0], goal=[0.1, 0.2, 1.0])
 def test_bad_input_names_the_field(change, exc, field):
     kw = {**GOOD, **change}
     with pytest.raises(exc, match=f"^{field}"):
-        pp.plan_pose(kw.pop("vertices"), kw.pop("start"), kw.pop("goal"), **kw)
+        _plan(kw.pop("vertices"), kw.pop("start"), kw.pop("goal"), **kw)
 
 
 def test_batch_bad_input():
     with pytest.raises(ValueError, match="objective"):
-        pb.plan_pose_batch(SQUARE, [[0, 0, 0]], [[1, 0, 0]], objective="time")
+        pb.plan_pose_batch(SQUARE, [[0, 0, 0]], [[1, 0, 0]], options=PushOptions(objective="time"))
     with pytest.raises(ValueError, match="starts/goals"):
         pb.plan_pose_batch(SQUARE, [[0, 0, 0], [0, 0, 1]], [[1, 0, 0]])
     with pytest.raises(ValueError, match="^starts"):

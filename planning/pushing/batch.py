@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import wrap_angle, float64, replay_pushes
-from planning.pushing.options import DEFAULTS, PushOptions, resolve
+from planning.pushing.options import DEFAULTS, PushOptions, options_of
 from planning.pushing import batch_kernel as bk, planner as pp, sequences as sq, workspace as wsp
 from planning.pushing.part import ANG_TOL, PlanningError, PushPart, check_pose, prepare_part
 from planning.pushing.plan import Push, PushPlan
@@ -195,14 +195,8 @@ def _padded(arr: np.ndarray, size: int) -> np.ndarray:
 
 
 @float64
-def plan_pose_batch(vertices, starts, goals, com=None, margin_deg: float = DEFAULTS.margin_deg,
-                    safety_factor: float = DEFAULTS.safety_factor,
-                    objective: str = DEFAULTS.objective, chunk: Optional[int] = 1024, *,
-                    strategy: str = DEFAULTS.strategy, support=DEFAULTS.support,
-                    min_fence_mu: Optional[float] = DEFAULTS.min_fence_mu,
-                    workspace=DEFAULTS.workspace, max_reorients: int = DEFAULTS.max_reorients,
-                    extra_steps: int = DEFAULTS.extra_steps,
-                    options: Optional[PushOptions] = None) -> PushPlanBatch:
+def plan_pose_batch(vertices, starts, goals, com=None, options: Optional[PushOptions] = None,
+                    chunk: Optional[int] = 1024) -> PushPlanBatch:
     """Plan many start/goal pairs of one part at once (JAX, float64).
 
     Same rules, options and results as :func:`plan_pose` (closed-form LP).
@@ -212,9 +206,8 @@ def plan_pose_batch(vertices, starts, goals, com=None, margin_deg: float = DEFAU
     block replays only as many pushes as its longest plan).
 
     Args:
-      vertices, com, margin_deg, safety_factor, objective, strategy, support,
-        min_fence_mu, workspace, max_reorients, extra_steps, options: as
-        :func:`plan_pose` (``options.solver`` must be the closed form).
+      vertices, com, options: as :func:`plan_pose` (``options.solver`` must be
+        the closed form).
       starts, goals: (B, 3) poses ``(x, y, theta)`` (m, m, rad), world frame.
       chunk: pairs per compiled call (bounds memory; the last block is padded
         so one compilation serves every block).
@@ -223,9 +216,7 @@ def plan_pose_batch(vertices, starts, goals, com=None, margin_deg: float = DEFAU
       A :class:`PushPlanBatch`; ``ok[b]`` says whether plan ``b`` was found
       and verified (``plan(b)`` raises for one that was not).
     """
-    o = resolve(options, margin_deg=margin_deg, safety_factor=safety_factor, objective=objective,
-                strategy=strategy, support=support, min_fence_mu=min_fence_mu,
-                workspace=workspace, max_reorients=max_reorients, extra_steps=extra_steps)
+    o = options_of(options)
     if o.solver != DEFAULTS.solver:
         raise ValueError(f"options.solver: the batched planner solves every LP in closed form, "
                          f"got {o.solver!r}")

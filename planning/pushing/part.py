@@ -31,8 +31,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import PLAN_SUPPORTS, PLANNED_FAMILIES, polygon as pg, reorient as ro, float64
-from planning.pushing.options import DEFAULTS
+from kernels import PLANNED_FAMILIES, polygon as pg, reorient as ro, float64
+from planning.pushing.options import DEFAULTS, PlanSupport
+from planning.pushing.options import check_number as _check_number
 
 POS_TOL = 1e-9   # x part size: a plan must reach the goal position this closely (replayed)
 ANG_TOL = 1e-9   # rad: and the goal orientation
@@ -42,7 +43,6 @@ SAME_ORIENTATION = 1e-12  # rad: start and goal orientations this close admit a 
 #: it a hair short (a zero-slack push of exactly the minimum distance otherwise
 #: stops short whenever rounding makes its start angle smaller)
 REORIENT_GUARD = 1e-10
-OBJECTIVES = ("distance", "pushes")
 DISTANCE_RULES = ("peshkin", "quasi-static")
 
 
@@ -187,20 +187,6 @@ def guarded_start(beta2, alpha, xp=np):
     return beta2 - alpha - xp.minimum(REORIENT_GUARD, 0.5 * (beta2 - alpha))
 
 
-def _check_number(value, field: str, lo=None, hi=None, lo_open=False, hint="") -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{field}: expected a number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"{field}: must be finite, got {v}")
-    if lo is not None and (v < lo or (lo_open and v == lo)):
-        raise ValueError(f"{field}: must be {'>' if lo_open else '>='} {lo}, got {v}{hint}")
-    if hi is not None and v >= hi:
-        raise ValueError(f"{field}: must be < {hi}, got {v}{hint}")
-    return v
-
-
 def check_pose(pose, field: str) -> np.ndarray:
     """Validate a pose ``(x, y, theta)``; returns a float64 array."""
     try:
@@ -215,35 +201,14 @@ def check_pose(pose, field: str) -> np.ndarray:
 
 
 def check_support(support):
-    """Validate ``support``: ``None`` or ``"any"`` (Peshkin's distances, valid
-    for every support), a family name of :data:`kernels.PLANNED_FAMILIES`
-    (``"rigid"``, ``"uniform"``, ``"ring"``: distances valid for every ``c``
-    that family gives the part, :func:`kernels.family_c_range`), or
-    ``{"c": [lo, hi]}`` / ``(lo, hi)``: the range (m) of the limit-surface ratio
-    ``c = m_max / f_max`` of the support
-    (:func:`kernels.quasistatic.limit_surface_ratio`).
+    """Validate ``support`` (:meth:`PlanSupport.of`: ``None`` / ``"any"``, a
+    family name of :data:`kernels.PLANNED_FAMILIES`, ``{"c": [lo, hi]}`` /
+    ``(lo, hi)`` in m, or a :class:`~planning.pushing.options.PlanSupport`).
 
     Returns ``(family, c_range)``: ``("any", None)``, ``(family, None)`` (the
     range comes from the part) or ``("c", (lo, hi))``."""
-    if support is None:
-        return "any", None
-    if isinstance(support, str):
-        if support not in PLAN_SUPPORTS:
-            raise ValueError(f"support: expected one of {', '.join(PLAN_SUPPORTS)} or "
-                             f"{{'c': [lo, hi]}} (m), got {support!r}")
-        return support, None
-    rng = support.get("c") if isinstance(support, dict) else support
-    if isinstance(support, dict) and set(support) - {"c"}:
-        raise ValueError(f"support: unknown keys {sorted(set(support) - {'c'})}; expected "
-                         "{'c': [lo, hi]} (limit-surface ratio range, m)")
-    try:
-        lo, hi = (float(x) for x in rng)
-    except (TypeError, ValueError):
-        raise ValueError(f"support: expected {{'c': [lo, hi]}} (limit-surface ratio range, m), "
-                         f"got {support!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi)) or not 0.0 < lo <= hi:
-        raise ValueError(f"support: c range must satisfy 0 < lo <= hi (m), got [{lo}, {hi}]")
-    return "c", (lo, hi)
+    s = PlanSupport.of(support)
+    return s.family, s.c
 
 
 def _tables(part_geom, body, margin, safety, support_c, min_mu):

@@ -16,10 +16,10 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from kernels import PartWarning, make_polygon
+from planning.pushing.options import STRATEGIES, PlanSupport, PushOptions
 
 PLAN_CLASSES = ("translation", "cw", "ccw", "singular-cw", "singular-ccw")
 PUSH_KINDS = ("translate", "reorient")
-STRATEGIES = ("search", "paper")
 DISTANCE_RULES = ("peshkin", "quasi-static")
 
 
@@ -180,6 +180,18 @@ class PushPlan:
         ``n_vertices``, ``dim`` (2), ``n_pushes`` of
         :meth:`robustness.Sampler.sample` and of its columns."""
         return dict(n_vertices=len(self.vertices), dim=2, n_pushes=len(self.pushes))
+
+    @property
+    def options(self) -> PushOptions:
+        """The :class:`~planning.PushOptions` this plan was made with:
+        ``plan_pose(vertices, start, goal, com, plan.options)`` plans it again
+        (the LP solver is not recorded; the closed form is named)."""
+        support = (PlanSupport("c", self.support_c) if self.support == "c"
+                   else PlanSupport(self.support))
+        return PushOptions(margin_deg=self.margin_deg, safety_factor=self.safety_factor,
+                           objective=self.objective, strategy=self.strategy, support=support,
+                           min_fence_mu=self.min_fence_mu, workspace=self.workspace,
+                           max_reorients=self.max_reorients, extra_steps=self.extra_steps)
 
     @property
     def n_reorients(self) -> int:

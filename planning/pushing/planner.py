@@ -29,13 +29,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import angle_distance, wrap_angle_np, float64, replay_pushes
-from planning.pushing.options import DEFAULTS, PushOptions, resolve
+from planning.pushing.options import OBJECTIVES, PushOptions, check_workspace, options_of
 from planning.pushing import pose_lp, sequences as sq, workspace as wsp
-from planning.pushing.part import (ANG_TOL, OBJECTIVES, SAME_ORIENTATION, PlanningError, PushPart,
+from planning.pushing.part import (ANG_TOL, SAME_ORIENTATION, PlanningError, PushPart,
                                    WorkspaceError, check_pose, prepare_part)
 from planning.pushing.plan import Push, PushPlan
 
-SOLVERS = ("closed_form", "cvxpy")
 
 
 # --------------------------------------------------------------------------
@@ -57,7 +56,7 @@ def check_settings(objective, strategy, max_reorients, extra_steps, workspace) -
     if objective not in OBJECTIVES:
         raise ValueError(f"objective: expected one of {OBJECTIVES}, got {objective!r}")
     strategy, max_reorients, extra_steps = sq.check_search(strategy, max_reorients, extra_steps)
-    return Settings(objective, strategy, max_reorients, extra_steps, wsp.check_workspace(workspace))
+    return Settings(objective, strategy, max_reorients, extra_steps, check_workspace(workspace))
 
 
 # --------------------------------------------------------------------------
@@ -178,56 +177,49 @@ def verify(part: PushPart, start, goal, directions, distances, edges):
 # Single problem (numpy reference, closed form or cvxpy)
 # --------------------------------------------------------------------------
 @float64
-def plan_pose(vertices, start, goal, com=None, margin_deg: float = DEFAULTS.margin_deg,
-              safety_factor: float = DEFAULTS.safety_factor, objective: str = DEFAULTS.objective,
-              solver: str = DEFAULTS.solver, *, strategy: str = DEFAULTS.strategy,
-              support=DEFAULTS.support, min_fence_mu: Optional[float] = DEFAULTS.min_fence_mu,
-              workspace=DEFAULTS.workspace, max_reorients: int = DEFAULTS.max_reorients,
-              extra_steps: int = DEFAULTS.extra_steps,
-              options: Optional[PushOptions] = None) -> PushPlan:
+def plan_pose(vertices, start, goal, com=None, options: Optional[PushOptions] = None) -> PushPlan:
     """Plan normal fence pushes taking the part from ``start`` to ``goal``.
 
     Args:
       vertices: (m, 2) part vertices (m, part frame), any order.
       start, goal: poses ``(x, y, theta)`` (m, m, rad), world frame.
       com: centre of mass (m, part frame), default the area centroid.
-      margin_deg: margin angle (degrees) taken off each maximum reorient angle.
-      safety_factor: multiplier of the reorient distance rule (paper 1.15).
-      objective: ``"distance"`` (total push distance, the paper's LP) or
-        ``"pushes"`` (fewest pushes, then shortest: the paper's MILP idea).
-      solver: ``"closed_form"`` or ``"cvxpy"`` (reference) for each LP.
-      strategy: ``"search"`` (default: the reorientation sequences of
-        :mod:`planning.pushing.sequences`) or ``"paper"`` (Akella & Mason's).
-      support: optional ``{"c": [lo, hi]}`` (m): the range of the support's
-        limit-surface ratio; each reorient push then gets the shortest distance
-        that completes it for every ``c`` in the range under the quasi-static
-        model (times the safety factor) instead of Peshkin's distance.
-      min_fence_mu: optional lower bound of the fence friction coefficient
-        (needs ``support``): only reorient pushes whose fence contact sticks
-        throughout for every ``c`` in the range are used.
-      workspace: optional ``(xmin, xmax, ymin, ymax)`` (m, world): every pose
-        of the plan and the part swept during every push stay inside.
-      max_reorients: the effort budget: no plan has more reorient pushes.
-      extra_steps: the search tries ``n_min .. n_min + extra_steps`` steps per run
-        (uni-stable parts also 2, 3 and 4 times ``extra_steps`` more;
-        :mod:`planning.pushing.sequences`).
-      options: the same options as one :class:`~planning.PushOptions` value
-        (instead of the keywords; the defaults are ``planning.pushing.options.DEFAULTS``).
+      options: the planner's :class:`~planning.PushOptions` (default
+        :data:`planning.pushing.options.DEFAULTS`):
+
+        * ``margin_deg``: margin angle (degrees) taken off each maximum reorient
+          angle; ``safety_factor``: multiplier of the reorient distance rule
+          (paper 1.15).
+        * ``objective``: ``"distance"`` (total push distance, the paper's LP) or
+          ``"pushes"`` (fewest pushes, then shortest: the paper's MILP idea);
+          ``solver``: ``"closed_form"`` or ``"cvxpy"`` (reference) for each LP.
+        * ``strategy``: ``"search"`` (the reorientation sequences of
+          :mod:`planning.pushing.sequences`) or ``"paper"`` (Akella & Mason's).
+        * ``support``: what the distances assume (:class:`PlanSupport`): ``any``
+          (Peshkin's distance), a family or a ``c`` range (m): each reorient
+          push then gets the shortest distance that completes it for every
+          ``c`` in the range under the quasi-static model (times the safety
+          factor).
+        * ``min_fence_mu``: optional lower bound of the fence friction
+          coefficient (needs a support): only reorient pushes whose fence
+          contact sticks throughout for every ``c`` in the range are used.
+        * ``workspace``: optional ``(xmin, xmax, ymin, ymax)`` (m, world): every
+          pose of the plan and the part swept during every push stay inside.
+        * ``max_reorients``: no plan has more reorient pushes; ``extra_steps``:
+          the search tries ``n_min .. n_min + extra_steps`` steps per run
+          (uni-stable parts also 2, 3 and 4 times ``extra_steps`` more).
 
     Returns:
       A :class:`~planning.pushing.plan.PushPlan` whose exact replay reaches the
-      goal within 1e-9 of the part's size and 1e-9 rad.
+      goal within 1e-9 of the part's size and 1e-9 rad; ``plan.options`` are
+      ``options``.
 
     Raises:
       ValueError / PartError: bad input, naming the field.
       PlanningError: no candidate is feasible (within the effort budget or the
         workspace: the message says which), or the replay disagrees.
     """
-    o = resolve(options, margin_deg=margin_deg, safety_factor=safety_factor, objective=objective,
-                solver=solver, strategy=strategy, support=support, min_fence_mu=min_fence_mu,
-                workspace=workspace, max_reorients=max_reorients, extra_steps=extra_steps)
-    if o.solver not in SOLVERS:
-        raise ValueError(f"solver: expected one of {SOLVERS}, got {o.solver!r}")
+    o = options_of(options)
     settings = check_settings(o.objective, o.strategy, o.max_reorients, o.extra_steps, o.workspace)
     start = check_pose(start, "start")
     goal = check_pose(goal, "goal")

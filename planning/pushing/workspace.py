@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Optional
 
 import numpy as np
 
@@ -41,22 +40,6 @@ from planning.pushing.part import PlanningError
 # while the part turns (the rotation may complete a rounding later): the LP rows
 # and the check of a finished plan use the same length.
 SWEEP_GUARD = 1e-9
-
-
-def check_workspace(workspace) -> Optional[tuple[float, float, float, float]]:
-    """Validate ``workspace = (xmin, xmax, ymin, ymax)`` (m); returns floats or None."""
-    if workspace is None:
-        return None
-    try:
-        vals = tuple(float(x) for x in workspace)
-    except (TypeError, ValueError):
-        raise ValueError(f"workspace: expected (xmin, xmax, ymin, ymax) in metres, got {workspace!r}") from None
-    if len(vals) != 4 or not all(math.isfinite(v) for v in vals):
-        raise ValueError(f"workspace: expected four finite numbers (xmin, xmax, ymin, ymax) in metres, "
-                         f"got {workspace!r}")
-    if not (vals[0] < vals[1] and vals[2] < vals[3]):
-        raise ValueError(f"workspace: need xmin < xmax and ymin < ymax, got {list(vals)}")
-    return vals
 
 
 def part_extent(body: np.ndarray, theta: float) -> np.ndarray:
