@@ -35,7 +35,11 @@ from kernels.support import (SUPPORT_FAMILIES, corner_weights, equilibrium_weigh
                              family_c_range, family_point_count, family_support, tripod_fit)
 
 # used by the layers above (the one boundary: tests/test_layers.py)
-from kernels import polygon, reorient, support  # noqa: F401  (modules other layers use)
+from kernels.polygon import (BIPLUS_STABLE, CCW, CW, MARGINAL_FOOT, NICE_STABLE, OBJECT_CLASS_NAMES,
+                             UNI_STABLE, as_points, max_reorient_table, object_class,
+                             peshkin_length, peshkin_length_np, pivot_constants_np, step_angle)
+from kernels.reorient import model_gain, sticking_angle_limit
+from kernels.support import CODES, TRIPOD_MIN_FRACTION, family_points
 from kernels.errors import warn_implausible_size
 from kernels.facets import extent, merge_distance
 from kernels.hulls import (polygon_hull_changed, polyhedron_hull_tables,
@@ -54,7 +58,10 @@ __all__ = [
     "simulate_push", "simulate_pushes", "Motion", "push_motion", "simulate_push_on_points",
     "simulate_pushes_on_points", "family_support", "family_point_count", "TumbleConfig", "make_config", "replay", "tumble",
     "SUPPORT_FAMILIES", "corner_weights", "equilibrium_weights", "family_c_range", "tripod_fit",
-    "polygon", "reorient", "support", "DEFAULT_MERGE_TOL", "NEARLY_FLAT_RAD", "ANY_COMPONENTS",
+    "BIPLUS_STABLE", "CCW", "CW", "MARGINAL_FOOT", "NICE_STABLE", "OBJECT_CLASS_NAMES", "UNI_STABLE",
+    "as_points", "max_reorient_table", "object_class", "peshkin_length", "peshkin_length_np",
+    "pivot_constants_np", "step_angle", "model_gain", "sticking_angle_limit", "CODES",
+    "TRIPOD_MIN_FRACTION", "family_points", "DEFAULT_MERGE_TOL", "NEARLY_FLAT_RAD", "ANY_COMPONENTS",
     "FAMILIES", "FAMILY", "FOOT_INSET",
     "PLAN_SUPPORTS", "PLANNED_FAMILIES", "REALISABLE_SUPPORTS", "VARYING_SUPPORTS", "TWO_PI",
     "angle_distance", "combinatorics_changed", "extent", "float64", "merge_distance", "mod_2pi",

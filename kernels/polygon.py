@@ -100,7 +100,9 @@ class Polygon:
         return {"vertices": self.vertices.tolist(), "com": self.com.tolist()}
 
 
-def _as_points(values, field: str, dim: int) -> np.ndarray:
+def as_points(values, field: str, dim: int) -> np.ndarray:
+    """``values`` as an (m, ``dim``) float64 array of finite points (m), else a
+    :class:`PartError` naming ``field``."""
     try:
         arr = np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -155,7 +157,7 @@ def make_polygon(vertices, com=None) -> Polygon:
         for coordinates in metres (:func:`kernels.errors.warn_implausible_size`:
         a part written in millimetres); it is still accepted as metres.
     """
-    pts = _as_points(vertices, "vertices", 2)
+    pts = as_points(vertices, "vertices", 2)
     m = len(pts)
     if m < 3:
         raise PartError(f"vertices: a polygon needs at least 3 vertices, got {m}")
@@ -184,7 +186,7 @@ def make_polygon(vertices, com=None) -> Polygon:
     if com is None:
         c = centroid
     else:
-        c = _as_points([com], "com", 2)[0] if np.ndim(com) == 1 else None
+        c = as_points([com], "com", 2)[0] if np.ndim(com) == 1 else None
         if c is None:
             raise PartError(f"com: expected [x, y], got shape {np.shape(com)}")
     # strictly inside: positive distance to every edge line

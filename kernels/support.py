@@ -116,9 +116,14 @@ REALISABLE_SUPPORTS = ((ANY,) if all(FAMILY[n].feet for n in ANY_COMPONENTS) els
 #: the supports whose ``c`` is drawn afresh for every sample of one part (a
 #: ``c_given`` family's too when its range has width)
 VARYING_SUPPORTS = (ANY,) + tuple(f.name for f in TABLE if f.varies)
-#: points of the uniform and ring families
+#: points of the uniform and ring families (besides the corners): what a count
+#: costs and how far from the continuous pad or rim it leaves a plan is measured
+#: by ``bench/support_points.py`` (its docstring has the figures)
 UNIFORM_FEET = 25
 RING_FEET = 24
+#: the uniform and ring families stand on the corners too (they keep the centre
+#: of mass inside the feet however far off-centre it is); read when traced
+FEET_AT_CORNERS = True
 #: how far (m) the uniform, ring and tripod feet stay inside the outline
 #: (at least the MuJoCo feet's radius, ``PhysicsSettings.foot_radius``)
 FOOT_INSET = 1.0e-3
@@ -127,10 +132,15 @@ TRIPOD_MIN_FRACTION = 0.5
 #: orientations tried when fitting a tripod inside the outline
 TRIPOD_TRIALS = 72
 
-# a fixed quasi-uniform sequence (Kronecker, generalised golden ratio in 3D)
 _PHI3 = 1.2207440846057596
-_KRONECKER = np.mod(0.5 + np.outer(np.arange(1, UNIFORM_FEET + 1),
-                                   [1 / _PHI3, 1 / _PHI3 ** 2, 1 / _PHI3 ** 3]), 1.0)
+
+
+@functools.lru_cache(maxsize=None)
+def kronecker_points(n: int) -> np.ndarray:
+    """(n, 3) a fixed quasi-uniform sequence in the unit cube (Kronecker, the
+    generalised golden ratio in 3D), float64."""
+    return np.mod(0.5 + np.outer(np.arange(1, n + 1), [1 / _PHI3, 1 / _PHI3 ** 2, 1 / _PHI3 ** 3]),
+                  1.0)
 
 
 def _edges(body):
@@ -156,22 +166,24 @@ def uniform_points(body, inset: float = FOOT_INSET):
     fixed Kronecker sequence mapped through the triangle fan from the origin
     (a triangle chosen by area, a point uniform in it), all moved ``inset``
     inside the outline (the corners keep the centre of mass inside the
-    points' hull however far off-centre it is)."""
+    points' hull however far off-centre it is; without them, ``UNIFORM_FEET``
+    points, when :data:`FEET_AT_CORNERS` is False)."""
     body = jnp.asarray(body)
-    u = jnp.asarray(_KRONECKER, body.dtype)
+    u = jnp.asarray(kronecker_points(UNIFORM_FEET), body.dtype)
     nxt = jnp.roll(body, -1, axis=0)
     area = jnp.maximum(0.5 * (body[:, 0] * nxt[:, 1] - body[:, 1] * nxt[:, 0]), 0.0)
     cdf = jnp.cumsum(area) / jnp.sum(area)
     tri = jnp.minimum(jnp.searchsorted(cdf, u[:, 0], side="right"), body.shape[0] - 1)
     a, b = jnp.sqrt(u[:, 1]), u[:, 2]          # uniform in the triangle (0, v_i, v_i+1)
     pts = (a * (1.0 - b))[:, None] * body[tri] + (a * b)[:, None] * nxt[tri]
-    return _inset(jnp.concatenate([body, pts]), body, inset)
+    return _inset(jnp.concatenate([body, pts]) if FEET_AT_CORNERS else pts, body, inset)
 
 
 def ring_points(body, inset: float = FOOT_INSET):
     """(h + RING_FEET, 2) points on the outline of the CCW polygon ``body``
     (h vertices, m): its corners and RING_FEET equally spaced by arc length
-    (half a spacing from vertex 0), all moved ``inset`` inside it."""
+    (half a spacing from vertex 0), all moved ``inset`` inside it (the
+    ``RING_FEET`` alone when :data:`FEET_AT_CORNERS` is False)."""
     body = jnp.asarray(body)
     nxt = jnp.roll(body, -1, axis=0)
     length = jnp.linalg.norm(nxt - body, axis=1)
@@ -179,7 +191,8 @@ def ring_points(body, inset: float = FOOT_INSET):
     s = (jnp.arange(RING_FEET, dtype=body.dtype) + 0.5) / RING_FEET * cum[-1]
     e = jnp.clip(jnp.searchsorted(cum, s, side="right") - 1, 0, body.shape[0] - 1)
     t = ((s - cum[e]) / jnp.maximum(length[e], 1e-300))[:, None]
-    return _inset(jnp.concatenate([body, body[e] * (1.0 - t) + nxt[e] * t]), body, inset)
+    rim = body[e] * (1.0 - t) + nxt[e] * t
+    return _inset(jnp.concatenate([body, rim]) if FEET_AT_CORNERS else rim, body, inset)
 
 
 def _tripod_dirs(rot):

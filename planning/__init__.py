@@ -39,8 +39,7 @@ from planning.tumbling.planner import analyze_polyhedron, plan_tumble, tumble_al
 from planning.kinds import PLAN_TYPES, Plan
 
 # used by the layers above (the one boundary: tests/test_layers.py)
-from planning.pushing import stability  # noqa: F401  (modules other layers use)
-from planning.pushing.stability import PushStability
+from planning.pushing.stability import PushStability, push_stability
 from planning.tumbling.development import development_poses, face_footprint, pose3
 from planning.tumbling.paper import paper_bounds
 from planning.tumbling.reachability import lattice_count_bound, radius_for_count, reduced_basis
@@ -52,7 +51,7 @@ __all__ = [
     "Tumble", "TumblePlan", "PLAN_TYPES", "Plan",
     "Funnel", "PushFunction", "exhaustive_length", "orient", "push_function", "FencePush",
     "SensorlessPlan", "plan_sensorless", "replay_sensorless", "start_grid",
-    "stability", "PushStability", "development_poses", "face_footprint", "lattice_count_bound",
+    "push_stability", "PushStability", "development_poses", "face_footprint", "lattice_count_bound",
     "paper_bounds", "plan_trajectory", "pose3", "quiet_polyhedron", "radius_for_count",
     "reduced_basis", "sample_reached_positions",
 ]

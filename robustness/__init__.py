@@ -46,7 +46,15 @@ from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTo
                                    SuccessCriterion)
 
 # used by the layers above (the one boundary: tests/test_layers.py)
-from robustness import failure_modes, tables, tolerance_design  # noqa: F401  (modules other layers use)
+from robustness.failure_modes import COLOURS as FAILURE_MODE_COLOURS, MODES as FAILURE_MODE_TABLE
+from robustness.tables import (CANDIDATES_SCHEMA, CERTIFICATES_SCHEMA, DESIGN_SCHEMA, PLANS_SCHEMA,
+                               SAMPLES_SCHEMA, SUMMARY_SCHEMA, TABLES as TABLE_SCHEMAS, arrow_table,
+                               rows_table, samples_columns, schema_for, with_design)
+from robustness.tolerance_design import (AXES as DESIGN_AXES, HEADROOM as DESIGN_HEADROOM,
+                                         Judge as DesignJudge, axes_for as design_axes_for,
+                                         design_key, design_samples_needed, drawing_line,
+                                         joint_design, loosest as loosest_tolerances,
+                                         sensitivity as tolerance_sensitivity)
 from robustness.compiled import release_executables
 from robustness.confirmation import NO_PHYSICS, PhysicsCheck, confirm_in_physics, confirmation_key
 from robustness.certificates import (Schedule, auto_schedule, decide, first_certifying, grow,
@@ -70,6 +78,11 @@ __all__ = [
     "evaluate", "Evaluation", "BoundViolation", "MODELS", "Bound", "SourceBound", "push_plan_bound",
     "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
     "one_sided_upper", "samples_needed", "certify", "Certificate", "summarise",
-    "tables", "tolerance_design", "failure_modes", "FAILURE_MODES", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
+    "FAILURE_MODES", "FAILURE_MODE_COLOURS", "FAILURE_MODE_TABLE", "CANDIDATES_SCHEMA",
+    "CERTIFICATES_SCHEMA", "DESIGN_SCHEMA", "PLANS_SCHEMA", "SAMPLES_SCHEMA", "SUMMARY_SCHEMA",
+    "TABLE_SCHEMAS", "arrow_table", "rows_table", "samples_columns", "schema_for", "with_design",
+    "DESIGN_AXES", "DESIGN_HEADROOM", "DesignJudge", "design_axes_for", "design_key",
+    "design_samples_needed", "drawing_line", "joint_design", "loosest_tolerances",
+    "tolerance_sensitivity", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
     "first_certifying", "grow", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "release_executables", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow", "is_sensorless", "start_set",
 ]

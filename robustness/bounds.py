@@ -61,14 +61,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg, rot2, float64, replay_pushes
+from kernels import float64, polygon_geometry, replay_pushes, rot2
 from planning import PushPlan, prepare_part
 from robustness.tolerances import ExecutionTolerance, GeometryTolerance
 
 
 def _final_pose(body0, start, ang0, dists, dV, dcom, dstart, dfence, ddist):
     body = body0 + dV - dcom[None, :]
-    geom = pg.polygon_geometry(body)
+    geom = polygon_geometry(body)
     th0 = start[2] + dstart[2]
     com_w = start[:2] + dstart[:2] + rot2(th0) @ dcom
     ang = ang0 + dfence

@@ -17,7 +17,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg, polygon_hull_changed, rot2, wrap_angle
+from kernels import polygon_geometry, polygon_hull_changed, rot2, wrap_angle
 from robustness.cpus import cpu_threads
 from robustness.hulls import polyhedron_combinatorics_changed
 
@@ -305,7 +305,7 @@ def perturbed_polygon(nom, q):
     centre-of-mass frame over the nominal hull ``nom.hull``."""
     V = nom.V0 + q.dv
     com = nom.com0 + q.dc
-    return (pg.polygon_geometry(V[nom.hull] - com[None, :]),
+    return (polygon_geometry(V[nom.hull] - com[None, :]),
             polygon_hull_changed(V, com, nom.hull))
 
 
@@ -448,13 +448,13 @@ def _static_model(model: str, draws):
     (only those are built in the compiled replay)."""
     if model != "limit_surface":
         return model
-    from kernels import support as ks
+    from kernels import FAMILIES
 
     f, fa = draws.params.friction, draws.in_axes.friction
     if fa.family is None:
-        return ("limit_surface", (ks.FAMILIES[int(np.asarray(f.family))],))
-    present = {ks.FAMILIES[int(k)] for k in np.unique(np.asarray(f.family))}
-    return ("limit_surface", tuple(x for x in ks.FAMILIES if x in present))
+        return ("limit_surface", (FAMILIES[int(np.asarray(f.family))],))
+    present = {FAMILIES[int(k)] for k in np.unique(np.asarray(f.family))}
+    return ("limit_surface", tuple(x for x in FAMILIES if x in present))
 
 
 #: the fewest pushes a limit-surface replay is compiled for: a padded push costs

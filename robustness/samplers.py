@@ -374,47 +374,49 @@ def _family_c(key, body, n: int, family: str, dtype):
     (their order picks the triangle), the uniform pad and the rim (one ``c``,
     unbatched), and under ``any`` a component per sample, in equal parts, whose
     tripod has ``c`` uniform in ``[TRIPOD_MIN_FRACTION, 1] x tripod_fit``."""
-    from kernels import support as ks, limit_surface_ratio
+    from kernels import (ANY_COMPONENTS, CODES, corner_weights, equilibrium_weights, FAMILIES,
+                         FAMILY, family_points, limit_surface_ratio, tripod_fit,
+                         TRIPOD_MIN_FRACTION)
 
     h = body.shape[0]
-    mixed = family not in ks.FAMILIES   # any: a component per sample
+    mixed = family not in FAMILIES   # any: a component per sample
     u = _draw(key, n, 2 + h, dict(comp=(0, 1, mixed), tri=(1, 2, mixed),
                                   lift=(2, 2 + h, mixed or family == "rigid")), dtype)
     lift = u["lift"]
 
     def fixed(name):
-        pts = ks.family_points(name, body)
-        return limit_surface_ratio(pts, ks.equilibrium_weights(pts)).astype(dtype)
+        pts = family_points(name, body)
+        return limit_surface_ratio(pts, equilibrium_weights(pts)).astype(dtype)
 
     def rigid():
-        w = jax.vmap(ks.corner_weights, in_axes=(None, 0))(body, lift)
+        w = jax.vmap(corner_weights, in_axes=(None, 0))(body, lift)
         return jax.vmap(limit_surface_ratio, in_axes=(None, 0))(body, w).astype(dtype)
 
     def tripod():   # under any: c uniform in [TRIPOD_MIN_FRACTION, 1] x tripod_fit
-        fit = ks.tripod_fit(body)
-        return (fit * (ks.TRIPOD_MIN_FRACTION + (1.0 - ks.TRIPOD_MIN_FRACTION)
+        fit = tripod_fit(body)
+        return (fit * (TRIPOD_MIN_FRACTION + (1.0 - TRIPOD_MIN_FRACTION)
                        * u["tri"][:, 0])).astype(dtype)
 
     zeros = jnp.zeros((h,), dtype)
     if family == "rigid":
-        return rigid(), 0, jnp.int32(ks.CODES["rigid"]), None, lift, 0
-    row = ks.FAMILY.get(family)   # None: the any mixture
+        return rigid(), 0, jnp.int32(CODES["rigid"]), None, lift, 0
+    row = FAMILY.get(family)   # None: the any mixture
     if row is not None and not row.varies and not row.c_given:   # the pad, the rim: the part's c
-        return fixed(family), None, jnp.int32(ks.CODES[family]), None, zeros, None
+        return fixed(family), None, jnp.int32(CODES[family]), None, zeros, None
     # any: the components of kernels.support.ANY_COMPONENTS in equal parts
-    comp = jnp.minimum((u["comp"][:, 0] * len(ks.ANY_COMPONENTS)).astype(jnp.int32),
-                       len(ks.ANY_COMPONENTS) - 1)
+    comp = jnp.minimum((u["comp"][:, 0] * len(ANY_COMPONENTS)).astype(jnp.int32),
+                       len(ANY_COMPONENTS) - 1)
     per_sample = {"rigid": rigid, "tripod": tripod}
     cs = jnp.stack([per_sample[f]() if f in per_sample else jnp.broadcast_to(fixed(f), (n,))
-                    for f in ks.ANY_COMPONENTS], axis=1)
+                    for f in ANY_COMPONENTS], axis=1)
     c = jnp.take_along_axis(cs, comp[:, None], axis=1)[:, 0]
-    codes = jnp.asarray([ks.CODES[f] for f in ks.ANY_COMPONENTS], jnp.int32)[comp]
+    codes = jnp.asarray([CODES[f] for f in ANY_COMPONENTS], jnp.int32)[comp]
     return c, 0, codes, 0, lift, 0
 
 
 def _sample_friction(key, body, n: int, st: Structure, val: dict, has_body: bool,
                      dtype=jnp.float64, keep_support: bool = True):
-    from kernels import support as ks
+    from kernels import CODES
 
     S, k, c_given = st.support_points, st.weight_concentration, st.c_given
     mu_f_const, mu_s_const, c_const, family = st.mu_f_const, st.mu_s_const, st.c_const, st.support
@@ -427,7 +429,7 @@ def _sample_friction(key, body, n: int, st: Structure, val: dict, has_body: bool
     mu_f, a_f = _range_from_u(u["mu_f"][:, 0], n, val["mu_f_lo"], val["mu_f_hi"], mu_f_const, dtype)
     mu_s, a_s = _range_from_u(u["mu_s"][:, 0], n, val["mu_s_lo"], val["mu_s_hi"], mu_s_const, dtype)
     h = body.shape[0]
-    code, a_code = jnp.int32(ks.CODES.get(family, ks.CODES["rigid"])), None
+    code, a_code = jnp.int32(CODES.get(family, CODES["rigid"])), None
     lift, a_lift = jnp.zeros((h,), dtype), None
     pts, a_p = jnp.zeros((S, 2), dtype), None
     w, a_w = jnp.full((S,), 1.0 / S, dtype), None

@@ -54,7 +54,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg, rot2, wrap_angle_np
+from kernels import make_polygon, PartWarning, rot2, wrap_angle_np
 
 #: ``jax.random.fold_in(key, START_STREAM)`` draws a sensorless sample's start
 START_STREAM = 0x5E0540
@@ -169,8 +169,8 @@ def run_sensorless(plan, draws, starts, model, dtype, chunk):
                                    limit_surface_calls)
 
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", pg.PartWarning)
-        poly = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+        warnings.simplefilter("ignore", PartWarning)
+        poly = make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
     P, m = len(plan.pushes), len(plan.vertices)
     Pp, mp = _bucket(P, 8), _bucket(m, 4)
     ang = np.zeros(Pp)

@@ -24,7 +24,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from robustness import STAT_COLUMNS, evaluate, model_for, summarise, tables
+from robustness import arrow_table, evaluate, model_for, samples_columns, STAT_COLUMNS, summarise
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,8 +78,8 @@ def sample_block(plan, cfg, physics, task: str, n: int, key, *, lo: int, run_id:
     ev = evaluate(plan, cfg.sampler(), n, key, cfg.eps, model or cfg.model, _dtype(cfg),
                   confidence=cfg.required.confidence, physics=physics, task=task,
                   summary=False)
-    data = {"run_id": run_id, **dict(columns), **tables.samples_columns(ev, lo)}
-    return Block(tables.arrow_table(data, schema, n),
+    data = {"run_id": run_id, **dict(columns), **samples_columns(ev, lo)}
+    return Block(arrow_table(data, schema, n),
                  {c: np.asarray(data[c]) for c in STAT_COLUMNS})
 
 

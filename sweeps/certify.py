@@ -133,8 +133,8 @@ def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> f
     a shortlist that the quasi-static model draws up), or the margin search's
     grid; the tolerance design's evaluations; plus a few seconds a task of
     planning and compilation."""
-    from robustness import (SHORTLIST, decision_model, kind_for_part, samples_per_second,
-                            tolerance_design as td)
+    from robustness import (decision_model, DESIGN_AXES, kind_for_part, samples_per_second,
+                            SHORTLIST)
 
     kind = kind_for_part(part.kind)
     support = cfg.friction.support
@@ -152,7 +152,7 @@ def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> f
         m = cfg.margin_search
         secs += n_tasks * m.n_samples * len(m.margins_deg) * len(m.safety_factors) / rate(cfg.model)
     if cfg.design is not None and cfg.design.enabled:
-        axes = len(cfg.design.axes or td.AXES[kind])
+        axes = len(cfg.design.axes or DESIGN_AXES[kind])
         evals = DESIGN_EVALUATIONS_PER_AXIS * axes + DESIGN_EVALUATIONS_BESIDES
         secs += n_tasks * evals * cfg.design.n_samples / rate(choose)
     return secs + 2.0 * n_tasks + 8.0
@@ -307,7 +307,7 @@ def run(cfg: CertifyConfig, text: str, part, tasks, out: pathlib.Path, run_id: s
 
 
 def _run(cfg, text, part, tasks, out, run_id, quiet):
-    from robustness import tables
+    from robustness import CERTIFICATES_SCHEMA, rows_table
     from sweeps.progress import StopFlag
     from sweeps.store import RunStore, manifest_for
 
@@ -336,8 +336,8 @@ def _run(cfg, text, part, tasks, out, run_id, quiet):
             if row is None:
                 continue
             row = {"run_id": store.run_id, **row}
-            schema = tables.CERTIFICATES_SCHEMA
-            path = store.write("certificates", 0, f"t{ti:04d}", tables.rows_table([row], schema), schema)
+            schema = CERTIFICATES_SCHEMA
+            path = store.write("certificates", 0, f"t{ti:04d}", rows_table([row], schema), schema)
             store.mark_done(key, [path])
             certs.append(row)
         if flag.stop:   # during the last task (its synthesis, blocks or design): no verdict, no report
@@ -357,9 +357,9 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     """Plan, sample (resumable blocks), summarise and decide one task; the certificate row."""
     import jax
 
-    from robustness import (tables, Schedule, auto_schedule, block_samples, decide, grow,
-                            is_sensorless, kind_for_part, model_for, no_plan, perturbed_sources,
-                            start_set)
+    from robustness import (auto_schedule, block_samples, decide, grow, is_sensorless,
+                            kind_for_part, model_for, no_plan, perturbed_sources, PLANS_SCHEMA,
+                            rows_table, Schedule, start_set)
     from sweeps.config import ConfigError
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
@@ -379,8 +379,8 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         plan = syn.plan
         _log(quiet, f"[{name}] {syn.describe()}")
     prow = {"run_id": store.run_id, **plan_row(part, name, start, goal, plan, reason)}
-    store.write("plans", 0, f"t{ti:04d}", tables.rows_table([prow], tables.PLANS_SCHEMA),
-                tables.PLANS_SCHEMA)
+    store.write("plans", 0, f"t{ti:04d}", rows_table([prow], PLANS_SCHEMA),
+                PLANS_SCHEMA)
     row = _task_row(cfg, part, name, start, goal, plan, syn)
     schedule = (auto_schedule(p, conf, cfg.max_samples) if cfg.n_samples == "auto"
                 else Schedule((int(cfg.n_samples),), conf))
@@ -457,13 +457,13 @@ def confirm_task(cfg, part, plan, summary, key):
 def design_task(cfg, part, plan, name, key, store, ti) -> str:
     """Tolerance design of one task's plan (:func:`sweeps.tasks.design_rows`);
     writes the task's ``design`` rows and returns the drawing line."""
-    from robustness import tables
+    from robustness import DESIGN_SCHEMA, rows_table
     from sweeps.tasks import design_rows
 
     rows, line = design_rows(cfg, part, plan, name, key)
     rows = [{"run_id": store.run_id, **r} for r in rows]
-    schema = tables.DESIGN_SCHEMA
-    store.write("design", 0, f"t{ti:04d}", tables.rows_table(rows, schema), schema)
+    schema = DESIGN_SCHEMA
+    store.write("design", 0, f"t{ti:04d}", rows_table(rows, schema), schema)
     return line
 
 
@@ -484,7 +484,7 @@ class Blocks:
         import jax
         import numpy as np
 
-        from robustness import tables
+        from robustness import SAMPLES_SCHEMA
         from sweeps.blocks import block_stats, block_stem, sample_block
 
         while self.n < total and not self.flag.stop:
@@ -504,10 +504,10 @@ class Blocks:
                     warnings.simplefilter("always")
                     b = sample_block(self.plan, self.cfg, self.cfg.physics_run(), self.name, m,
                                      jax.random.fold_in(self.key, len(self.stats)), lo=self.n,
-                                     run_id=self.store.run_id, schema=tables.SAMPLES_SCHEMA,
+                                     run_id=self.store.run_id, schema=SAMPLES_SCHEMA,
                                      model=self.model)
                 report_warnings(caught)
-                self.store.write("samples", 0, unit, b.table, tables.SAMPLES_SCHEMA)
+                self.store.write("samples", 0, unit, b.table, SAMPLES_SCHEMA)
                 self.store.mark_done(unit, [path], rows=b.n)
                 st = b.stats
             self.stats.append(st)
@@ -526,18 +526,18 @@ class Blocks:
 
 
 def _write_summary(store, ti, s: dict) -> None:
-    from robustness import tables
+    from robustness import rows_table, SUMMARY_SCHEMA
 
     row = {"run_id": store.run_id, **s}
-    store.write("summary", 0, f"t{ti:04d}", tables.rows_table([row], tables.SUMMARY_SCHEMA),
-                tables.SUMMARY_SCHEMA)
+    store.write("summary", 0, f"t{ti:04d}", rows_table([row], SUMMARY_SCHEMA),
+                SUMMARY_SCHEMA)
 
 
 def synthesize_task(cfg, part, name, start, goal, key, store, ti):
     """Robust synthesis of one push or tumble task (:func:`sweeps.tasks.synthesize_for`
     on the selection draws of ``key``, :func:`robustness.selection_key`); writes
     the task's ``candidates`` rows and returns the :class:`~robustness.Synthesis`."""
-    from robustness import tables
+    from robustness import CANDIDATES_SCHEMA, rows_table
     from sweeps.tasks import plan_json, synthesize_for
 
     with warnings.catch_warnings(record=True) as caught:
@@ -567,8 +567,8 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
                          n_success=int(s.n_success[i]), ci_low_one_sided=float(s.ci_low[i]),
                          confidence=s.confidence, objective=syn.objective,
                          chosen=i == syn.chosen, plan_json=plan_json(pl)))
-    schema = tables.CANDIDATES_SCHEMA
-    store.write("candidates", 0, f"t{ti:04d}", tables.rows_table(rows, schema), schema)
+    schema = CANDIDATES_SCHEMA
+    store.write("candidates", 0, f"t{ti:04d}", rows_table(rows, schema), schema)
     return syn
 
 

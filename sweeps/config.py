@@ -326,11 +326,11 @@ def _check_tripod(friction, part) -> None:
     import jax
     import numpy as np
 
-    from kernels import polygon as pg, FOOT_INSET, tripod_fit
+    from kernels import FOOT_INSET, make_polygon, tripod_fit
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        body = pg.make_polygon(part.vertices, part.com).body
+        body = make_polygon(part.vertices, part.com).body
     with jax.enable_x64(True):
         fit = float(tripod_fit(np.asarray(body, np.float64)))
     if friction.c[1] > fit:

@@ -249,13 +249,13 @@ def design_draws(design, required) -> list[Finding]:
     it would end in a design of zeros, after all its work."""
     if design is None or not design.enabled:
         return []
-    from robustness import tolerance_design
+    from robustness import DESIGN_HEADROOM, design_samples_needed
 
     p, conf = required.probability, required.confidence
-    need = tolerance_design.design_samples_needed(p, conf)
+    need = design_samples_needed(p, conf)
     if design.n_samples >= need:
         return []
-    strict = 1.0 - tolerance_design.HEADROOM * (1.0 - conf)
+    strict = 1.0 - DESIGN_HEADROOM * (1.0 - conf)
     return _error(f"design.n_samples: {design.n_samples} design draws cannot show P(success) >= "
                   f"{p:g} at the design's {strict * 100:.4g}% confidence (a tenth of the stated "
                   f"error rate: headroom for its verification on fresh draws) even with no "

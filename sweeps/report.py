@@ -66,9 +66,9 @@ axis's loosest value alone, the failures each removes).</p>
 def _modes_seen(summary: pd.DataFrame) -> list:
     """``[(name, description)]`` of the failure modes some sample of the summary
     had (success excluded), in table order."""
-    from robustness import failure_modes
+    from robustness import FAILURE_MODE_TABLE
 
-    return [(m.name, m.description) for m in failure_modes.MODES[1:]
+    return [(m.name, m.description) for m in FAILURE_MODE_TABLE[1:]
             if f"n_{m.name}" in summary and summary[f"n_{m.name}"].sum() > 0]
 
 

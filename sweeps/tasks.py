@@ -149,25 +149,26 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
     import jax
     import jax.numpy as jnp
 
-    from robustness import decision_model, tolerance_design as td
+    from robustness import (decision_model, design_axes_for, design_key, DesignJudge, drawing_line,
+                            joint_design, loosest_tolerances, tolerance_sensitivity)
 
     kind = plan.kind
     model = decision_model(cfg.model, kind)
     d = cfg.design
-    axes = tuple(a for a in (d.axes or td.axes_for(plan)) if a in td.axes_for(plan))
+    axes = tuple(a for a in (d.axes or design_axes_for(plan)) if a in design_axes_for(plan))
     p, conf = cfg.required.probability, cfg.required.confidence
-    dkey = td.design_key(key)
+    dkey = design_key(key)
     sampler = cfg.sampler()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        judge = td.Judge(plan, d.n_samples, dkey, p=p, confidence=conf, model=model,
+        judge = DesignJudge(plan, d.n_samples, dkey, p=p, confidence=conf, model=model,
                          dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
                          criterion=cfg.eps)
-        designs = [td.loosest(judge, sampler, a, rel_tol=d.rel_tol) for a in axes]
-        sens = {s.axis: s for s in td.sensitivity(judge, sampler, axes)}
-        joint = td.joint_design(judge, sampler, designs, jax.random.fold_in(dkey, 1))
+        designs = [loosest_tolerances(judge, sampler, a, rel_tol=d.rel_tol) for a in axes]
+        sens = {s.axis: s for s in tolerance_sensitivity(judge, sampler, axes)}
+        joint = joint_design(judge, sampler, designs, jax.random.fold_in(dkey, 1))
     base = joint.failure_rate_perfect
-    line = td.drawing_line(designs, joint, p, conf, model)
+    line = drawing_line(designs, joint, p, conf, model)
     if joint.none_certifies:
         from sweeps.remedies import beyond_tolerances
 

@@ -41,7 +41,7 @@ from typing import Optional
 
 import pyarrow as pa
 
-from robustness import tables, model_for
+from robustness import model_for, rows_table, schema_for, TABLE_SCHEMAS, with_design
 
 CONTEXTS: dict = {}
 
@@ -151,7 +151,7 @@ class Loaded:
         schema = self.schema(table)
         rows = [{"run_id": self.store.run_id, **cols, **r} for r in rows]
         stem = "tasks" if unit.task_index < 0 else f"t{unit.task_index:04d}"
-        return self.store.write(table, unit.config_id, stem, tables.rows_table(rows, schema),
+        return self.store.write(table, unit.config_id, stem, rows_table(rows, schema),
                                 schema)
 
     def columns(self, config_id: int) -> dict:
@@ -163,7 +163,7 @@ class Loaded:
     def schema(self, table: str) -> pa.Schema:
         """The schema of ``table`` with the study's swept columns."""
         if table not in self._schemas:
-            self._schemas[table] = tables.with_design(tables.schema_for(table), self.swept)
+            self._schemas[table] = with_design(schema_for(table), self.swept)
         return self._schemas[table]
 
 
@@ -222,7 +222,7 @@ def swept_fields(design) -> list[pa.Field]:
     (``param_<name>`` where that clashes with a table's column); int64 when
     every value is an integer, float64 for numbers, else string (JSON)."""
     fixed = set()
-    for s in tables.TABLES.values():
+    for s in TABLE_SCHEMAS.values():
         fixed.update(s.names)
     out = []
     for path in design.paths:
@@ -231,17 +231,17 @@ def swept_fields(design) -> list[pa.Field]:
             name = "param_" + name
         vals = [p[path] for p in design.points]
         if all(isinstance(v, int) and not isinstance(v, bool) for v in vals):
-            typ = tables.I64
+            typ = pa.int64()
         elif all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
-            typ = tables.F64
+            typ = pa.float64()
         else:
-            typ = tables.STR
+            typ = pa.string()
         out.append(pa.field(name, typ))
     return out
 
 
 def _column_value(v, typ):
-    if typ == tables.STR:
+    if typ == pa.string():
         return v if isinstance(v, str) else json.dumps(v)
     return v
 

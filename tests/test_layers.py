@@ -74,3 +74,14 @@ def test_every_exported_name_exists(package):
     mod = importlib.import_module(package)
     missing = [n for n in mod.__all__ if not hasattr(mod, n)]
     assert not missing and len(set(mod.__all__)) == len(mod.__all__), missing
+
+
+@pytest.mark.parametrize("package", BOUNDARIES)
+def test_doors_export_names_not_modules(package):
+    """A layer's door lists functions, values and types, never a whole module
+    (through which the layers above would reach its internals)."""
+    import types
+
+    mod = importlib.import_module(package)
+    modules = [n for n in mod.__all__ if isinstance(getattr(mod, n), types.ModuleType)]
+    assert not modules, f"{package}.__all__ exports modules: {modules}"

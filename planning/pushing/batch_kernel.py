@@ -30,7 +30,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg, TWO_PI, mod_2pi, rot2, rot2_np, wrap_angle, wrap_angle_near
+from kernels import (CCW, mod_2pi, peshkin_length, peshkin_length_np, rot2, rot2_np, TWO_PI,
+                     wrap_angle, wrap_angle_near)
 from planning.pushing import pose_lp, sequences as sq
 from planning.pushing.part import SAME_ORIENTATION, PushPart, guarded_start
 
@@ -83,7 +84,7 @@ def _host_table(part: PushPart, table: dict) -> dict:
     out["pivB"] = part.pivot[out["b"], sense]
     out["pivP"] = part.pivot[np.maximum(out["pre_e"], 0), opp]
     out["pivO"] = part.pivot[np.maximum(out["post_e"], 0), opp]
-    sgn = np.where(sense == pg.CCW, 1.0, -1.0)
+    sgn = np.where(sense == CCW, 1.0, -1.0)
     for name, ang_key, cnt_key, sg in (("P", "pre_ang", "pre_cnt", -sgn), ("O", "post_ang", "post_cnt", -sgn),
                                        ("F", "step", None, sgn)):
         src = "A" if name == "F" else name
@@ -100,8 +101,8 @@ def _need_np(g, b2, a):
     """The distance given (guarded) and the rule's least distance (m) of reorient
     steps of ``a`` rad (0: no step) with gains ``g`` and alignment angles ``b2``."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        need = pg.peshkin_length_np(g, guarded_start(b2, a), b2)
-        least = pg.peshkin_length_np(g, b2 - a, b2)
+        need = peshkin_length_np(g, guarded_start(b2, a), b2)
+        least = peshkin_length_np(g, b2 - a, b2)
     return np.where(a > 0, need, 0.0), np.where(a > 0, least, 0.0)
 
 
@@ -113,12 +114,12 @@ def _q_np(v, sa, need, om):
 
 def _need(g, b2, a):
     """JAX twin of :func:`_need_np`'s guarded distance (m)."""
-    return pg.peshkin_length(g, guarded_start(b2, a, jnp), b2)
+    return peshkin_length(g, guarded_start(b2, a, jnp), b2)
 
 
 def _least(g, b2, a):
     """The distance rule's least distance (m) of a reorient step of ``a`` rad."""
-    return pg.peshkin_length(g, b2 - a, b2)
+    return peshkin_length(g, b2 - a, b2)
 
 
 def _q(v, sa, need, om):
@@ -195,7 +196,7 @@ def plan_functions(part: PushPart, table: dict, objective: str, R: int, top_k=(4
         """Sequence, reorient distances and ``T''`` of one candidate (``simple``:
         static, the candidate is one run of equal steps on one edge)."""
         trans = c["trans"] == 1
-        sgn = jnp.where(c["sense"] == pg.CCW, 1.0, -1.0)
+        sgn = jnp.where(c["sense"] == CCW, 1.0, -1.0)
         delta = mod_2pi(sgn * (thetag - theta0))
         delta = jnp.where(delta == 0.0, TWO_PI, delta)
         base = delta + TWO_PI * c["turns"]

@@ -31,7 +31,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import PLANNED_FAMILIES, polygon as pg, reorient as ro, float64
+from kernels import (as_points, CCW, CW, float64, make_polygon, max_reorient_table, model_gain,
+                     object_class as classify_polygon, OBJECT_CLASS_NAMES, PartError, PartWarning,
+                     peshkin_length_np, pivot_constants_np, PLANNED_FAMILIES, Polygon,
+                     polygon_geometry, PolygonGeometry, step_angle, sticking_angle_limit)
 from planning.pushing.options import DEFAULTS, PlanSupport
 from planning.pushing.options import check_number as _check_number
 
@@ -95,8 +98,8 @@ class PushPart:
         every :func:`prepare_part`, although the part is cached).
     """
 
-    polygon: pg.Polygon
-    geom: pg.PolygonGeometry
+    polygon: Polygon
+    geom: PolygonGeometry
     stable: tuple[int, ...]
     max_reorient: np.ndarray
     step: np.ndarray
@@ -134,7 +137,7 @@ class PushPart:
 
     @property
     def class_name(self) -> str:
-        return pg.OBJECT_CLASS_NAMES[self.object_class]
+        return OBJECT_CLASS_NAMES[self.object_class]
 
     @property
     def omega(self) -> np.ndarray:
@@ -163,18 +166,18 @@ class PushPart:
         ``edge`` in ``sense`` under the distance rule, times the safety factor.
         Scalars give a float; arrays of one shape (``edge``, ``sense`` ints) an array."""
         b2 = self.beta2[edge, sense]
-        return pg.peshkin_length_np(self.gain[edge, sense], b2 - np.asarray(alpha, float), b2)
+        return peshkin_length_np(self.gain[edge, sense], b2 - np.asarray(alpha, float), b2)
 
     def reorient_need(self, edge, sense, alpha):
         """The distance (m) a plan gives a reorient of ``alpha`` rad at least:
         :meth:`reorient_min` of ``alpha`` plus ``REORIENT_GUARD``
         (:func:`guarded_start`).  Scalars or arrays, as :meth:`reorient_min`."""
         b2 = self.beta2[edge, sense]
-        return pg.peshkin_length_np(self.gain[edge, sense], guarded_start(b2, np.asarray(alpha, float)), b2)
+        return peshkin_length_np(self.gain[edge, sense], guarded_start(b2, np.asarray(alpha, float)), b2)
 
     def peshkin(self, edge: int, pivot: int, alpha: float) -> float:
         """:meth:`reorient_min` for the pivot ``pivot`` (kept for callers that name it)."""
-        sense = pg.CW if pivot == edge else pg.CCW
+        sense = CW if pivot == edge else CCW
         return self.reorient_min(edge, sense, alpha)
 
 
@@ -216,8 +219,8 @@ def _tables(part_geom, body, margin, safety, support_c, min_mu):
     n = len(body)
     stable = np.asarray(part_geom.stable)
     nu = np.asarray(part_geom.nu)
-    mx = np.asarray(pg.max_reorient_table(part_geom))
-    margin_step = np.asarray(pg.step_angle(jnp.asarray(mx), margin))
+    mx = np.asarray(max_reorient_table(part_geom))
+    margin_step = np.asarray(step_angle(jnp.asarray(mx), margin))
     radius = float(np.max(np.hypot(body[:, 0], body[:, 1])))
     rate_c = None if support_c is None else min(support_c[1], radius)
     pivot = np.zeros((n, 2), int)
@@ -226,18 +229,18 @@ def _tables(part_geom, body, margin, safety, support_c, min_mu):
     stick = np.full((n, 2), math.inf)
     step = np.zeros((n, 2))
     for e in range(n):
-        for sense in (pg.CW, pg.CCW):
-            piv = e if sense == pg.CW else (e + 1) % n
-            k, b2 = pg.pivot_constants_np(body, float(nu[e]), piv)
+        for sense in (CW, CCW):
+            piv = e if sense == CW else (e + 1) % n
+            k, b2 = pivot_constants_np(body, float(nu[e]), piv)
             rho = float(math.hypot(*body[piv]))
             if rate_c is not None:
-                k = ro.model_gain(rate_c, rho)
+                k = model_gain(rate_c, rho)
             pivot[e, sense], beta2[e, sense], gain[e, sense] = piv, b2, safety * k
             if not stable[e]:
                 continue
             st = float(margin_step[e, sense])
             if min_mu is not None:
-                stick[e, sense] = ro.sticking_angle_limit(rho, support_c[0], b2, min_mu)
+                stick[e, sense] = sticking_angle_limit(rho, support_c[0], b2, min_mu)
                 st = min(st, stick[e, sense] - 2.0 * REORIENT_GUARD)
             step[e, sense] = max(st, 0.0)
     return mx, step, pivot, beta2, gain, stick, rate_c
@@ -249,8 +252,8 @@ def _prepare_cached(vkey: bytes, vshape, ckey, margin_deg: float, safety_factor:
     vertices = np.frombuffer(vkey, dtype=np.float64).reshape(vshape)
     com = None if ckey is None else np.frombuffer(ckey, dtype=np.float64)
     with warnings.catch_warnings(record=True) as seen:
-        warnings.simplefilter("always", pg.PartWarning)
-        poly = pg.make_polygon(vertices, com)
+        warnings.simplefilter("always", PartWarning)
+        poly = make_polygon(vertices, com)
     if family in PLANNED_FAMILIES:   # every c the family gives this part
         from kernels import family_c_range
 
@@ -276,8 +279,8 @@ def _prepare_cached(vkey: bytes, vshape, ckey, margin_deg: float, safety_factor:
 
 @jax.jit
 def _part_geometry(body):
-    geom = pg.polygon_geometry(body)
-    return geom, pg.object_class(geom)
+    geom = polygon_geometry(body)
+    return geom, classify_polygon(geom)
 
 
 @float64
@@ -309,14 +312,14 @@ def prepare_part(vertices, com=None, margin_deg: float = DEFAULTS.margin_deg,
     family, support_c = check_support(support)
     if min_fence_mu is not None:
         min_fence_mu = _check_number(min_fence_mu, "min_fence_mu", 0.0)
-    v = pg._as_points(vertices, "vertices", 2)
+    v = as_points(vertices, "vertices", 2)
     ckey = None
     if com is not None:
         c = np.asarray(com, dtype=np.float64)
         if c.shape != (2,):
-            raise pg.PartError(f"com: expected [x, y], got shape {c.shape}")
+            raise PartError(f"com: expected [x, y], got shape {c.shape}")
         if not np.all(np.isfinite(c)):
-            raise pg.PartError("com: holds NaN or inf; give a finite centre of mass in metres")
+            raise PartError("com: holds NaN or inf; give a finite centre of mass in metres")
         ckey = c.tobytes()
     part = _prepare_cached(np.ascontiguousarray(v).tobytes(), v.shape, ckey, margin_deg,
                            safety_factor, family, support_c, min_fence_mu)

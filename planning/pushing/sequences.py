@@ -84,7 +84,7 @@ from typing import Optional
 
 import numpy as np
 
-from kernels import polygon as pg
+from kernels import BIPLUS_STABLE, CCW, CW, NICE_STABLE, UNI_STABLE
 from planning.pushing.part import PushPart
 from planning.pushing.plan import STRATEGIES
 
@@ -157,14 +157,14 @@ def candidate_table(part: PushPart, strategy: str = "search", extra_steps: int =
     ``strategy="paper"``) are tried only when no row of tier 0 is feasible."""
     rows = [_row(trans=1)]
     stable = list(part.stable)
-    usable = {(e, s): part.step[e, s] > 0.0 for e in stable for s in (pg.CW, pg.CCW)}
+    usable = {(e, s): part.step[e, s] > 0.0 for e in stable for s in (CW, CCW)}
     sidx = {e: i for i, e in enumerate(stable)}
     if strategy == "paper":
         return _as_arrays(rows + _paper_rows(part, stable, usable, sidx, handler_tier=1))
     rows += _search_rows(part, stable, usable, sidx, extra_steps)
     # the paper's candidates compete on cost (module docstring: its handlers stay a fallback
     # for nice-stable parts, where the paper's strategy never reaches them)
-    handlers = 1 if part.object_class == pg.NICE_STABLE else 0
+    handlers = 1 if part.object_class == NICE_STABLE else 0
     return _as_arrays(rows + _mark_twins(rows, _paper_rows(part, stable, usable, sidx, handlers)))
 
 
@@ -185,7 +185,7 @@ def _paper_rows(part: PushPart, stable, usable, sidx, handler_tier: int) -> list
     rows = []
     for sing in (0, 1):
         for e in stable:
-            for sense in (pg.CW, pg.CCW):
+            for sense in (CW, CCW):
                 if not usable[e, sense]:
                     continue
                 kw = dict(cls=(CLS_SING_CW if sing else CLS_CW) + sense, tier=handler_tier * sing,
@@ -204,7 +204,7 @@ def step_extras(object_class: int, extra_steps: int) -> tuple:
     ``0 .. extra_steps``, and for uni-stable parts also ``UNI_STEP_MULTIPLES``
     times ``extra_steps``."""
     extras = set(range(extra_steps + 1))
-    if object_class == pg.UNI_STABLE:
+    if object_class == UNI_STABLE:
         extras |= {m * extra_steps for m in UNI_STEP_MULTIPLES}
     return tuple(sorted(extras))
 
@@ -213,11 +213,11 @@ def _search_rows(part: PushPart, stable, usable, sidx, extra_steps: int) -> list
     """The search's own candidates (module docstring), all of tier 0."""
     rows = []
     cls = part.object_class
-    turns = (0,) if cls == pg.NICE_STABLE else (0, 1)
-    fracs = () if cls == pg.NICE_STABLE else EXCURSION_FRACTIONS
-    splits = SPLIT_FRACTIONS if cls == pg.BIPLUS_STABLE else ()
+    turns = (0,) if cls == NICE_STABLE else (0, 1)
+    fracs = () if cls == NICE_STABLE else EXCURSION_FRACTIONS
+    splits = SPLIT_FRACTIONS if cls == BIPLUS_STABLE else ()
     extras = step_extras(cls, extra_steps)
-    for sense in (pg.CW, pg.CCW):
+    for sense in (CW, CCW):
         opp = 1 - sense
         cheap = [e for e in stable if usable[e, opp]]
         excs = [(-1, 0.0, 0, -1, 0.0, 0)]
@@ -230,7 +230,7 @@ def _search_rows(part: PushPart, stable, usable, sidx, extra_steps: int) -> list
                 ang, cnt = _excursion(part, ex, opp, f)
                 excs.append((-1, 0.0, 0, ex, ang, cnt))
         main = [e for e in stable if usable[e, sense]]
-        if main and cls == pg.NICE_STABLE:
+        if main and cls == NICE_STABLE:
             best = min(_rate(part, e, sense) for e in main)
             main = [e for e in main if _rate(part, e, sense) <= RATE_PRUNE * best]
         pairs = [(a, a, 0.0) for a in main] + [(a, b, f) for a in main for b in main if a != b
@@ -241,7 +241,7 @@ def _search_rows(part: PushPart, stable, usable, sidx, extra_steps: int) -> list
                 for a, b, f in pairs:
                     step = min(part.step[a, sense], part.step[b, sense])
                     lasts = [(EQUAL, 0.0)] + ([(LAST, fr * step) for fr in LAST_FRACTIONS]
-                                              if cls == pg.UNI_STABLE and a == b and step > 0 else [])
+                                              if cls == UNI_STABLE and a == b and step > 0 else [])
                     for rule, last in lasts:
                         for extra in extras:
                             rows.append(_row(cls=(CLS_SING_CW if sing else CLS_CW) + sense, sense=sense,
@@ -263,7 +263,7 @@ def _as_arrays(rows: list) -> dict:
 def rotation_of(sense: int, theta0: float, thetag: float) -> float:
     """Rotation ``Delta`` (rad, in (0, 2 pi]) that takes ``theta0`` to ``thetag``
     turning in ``sense`` (a full turn when they are equal)."""
-    sgn = 1.0 if sense == pg.CCW else -1.0
+    sgn = 1.0 if sense == CCW else -1.0
     delta = float(np.remainder(sgn * (thetag - theta0), 2 * math.pi))
     return 2 * math.pi if delta == 0.0 else delta
 
@@ -329,7 +329,7 @@ def expand(table: dict, row: int, theta0: float, thetag: float,
         return None
     n, total, rest, delta = run
     sense = int(c["sense"])
-    sgn = 1.0 if sense == pg.CCW else -1.0
+    sgn = 1.0 if sense == CCW else -1.0
     opp = 1 - sense
     steps = []
     if c["pre_cnt"]:
@@ -345,7 +345,7 @@ def expand(table: dict, row: int, theta0: float, thetag: float,
         steps += [Step(int(c["a"]), sense, alpha)] * j + [Step(int(c["b"]), sense, alpha)] * (n - j)
     if c["post_cnt"]:
         steps += [Step(int(c["post_e"]), opp, float(c["post_ang"]) / int(c["post_cnt"]))] * int(c["post_cnt"])
-    incs = [(1.0 if s.sense == pg.CCW else -1.0) * s.alpha for s in steps]
+    incs = [(1.0 if s.sense == CCW else -1.0) * s.alpha for s in steps]
     thetas = theta0 + np.concatenate([[0.0], np.cumsum(incs)])
     thetas[-1] = theta0 + sgn * (delta + 2 * math.pi * int(c["turns"]))
     return steps, thetas

@@ -27,7 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon as pg, float64, replay_push
+from kernels import float64, MARGINAL_FOOT, replay_push
 from planning.pushing.options import DEFAULTS
 from planning.pushing.part import PushPart, prepare_part
 
@@ -147,7 +147,7 @@ def _stability(part: PushPart, n_grid: int) -> PushStability:
     c, s = np.cos(theta), np.sin(theta)
     rad = np.max(-(s[:, None] * body[None, :, 0] + c[:, None] * body[None, :, 1]), axis=1)
     foot, marginal_edge = np.asarray(geom.foot), np.asarray(geom.marginal)
-    tol = pg.MARGINAL_FOOT
+    tol = MARGINAL_FOOT
     div = []
     for k, v in enumerate(body):
         # the direction of vertex k strictly inside its normal cone: the feet on its two

@@ -54,17 +54,17 @@ def support_of(code: int, body: np.ndarray, c: float, lift: np.ndarray):
     import jax
     import jax.numpy as jnp
 
-    from kernels import support as ks
+    from kernels import corner_weights, equilibrium_weights, FAMILIES, FAMILY, family_points
 
-    family = ks.FAMILIES[int(code)]
+    family = FAMILIES[int(code)]
     with jax.enable_x64(True):
         b = jnp.asarray(body, jnp.float64)
         if family == "rigid":
-            return np.zeros((0, 2)), np.asarray(ks.corner_weights(b, jnp.asarray(lift)))
-        if not ks.FAMILY[family].feet:
+            return np.zeros((0, 2)), np.asarray(corner_weights(b, jnp.asarray(lift)))
+        if not FAMILY[family].feet:
             raise ValueError(POINTS_NOT_REALISABLE)
-        pts = ks.family_points(family, b, c)
-        return np.asarray(pts), np.asarray(ks.equilibrium_weights(pts))
+        pts = family_points(family, b, c)
+        return np.asarray(pts), np.asarray(equilibrium_weights(pts))
 
 
 def polygon_moments(body: np.ndarray):

@@ -29,8 +29,8 @@ from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch, Polygon as PolyPatch  # noqa: E402
 
 from kernels import rot2_np  # noqa: E402
-from planning import (PushOptions, PushPart, PushPlan, PushStability, SensorlessPlan,  # noqa: E402
-                      prepare_part, stability)
+from planning import (prepare_part, push_stability as planning_push_stability, PushOptions,
+                      PushPart, PushPlan, PushStability, SensorlessPlan)
 from sweeps.figures.plan_steps import mark_steps  # noqa: E402
 
 START_COLOR = "tab:blue"
@@ -208,7 +208,7 @@ def push_stability(part_or_vertices, margin_deg: float = PushOptions.margin_deg,
     :class:`~planning.PushPart`, a :class:`~sweeps.partfile.PartFile`, a
     :class:`kernels.polygon.Polygon` or an (m, 2) vertex array (metres)."""
     part, _ = _as_part(part_or_vertices, margin_deg, com)
-    return stability.push_stability(part, n_grid=n_grid)
+    return planning_push_stability(part, n_grid=n_grid)
 
 
 def _runs(values: np.ndarray):
@@ -282,7 +282,7 @@ def plot_psd(part_or_vertices, path, margin_deg: float = PushOptions.margin_deg,
             min_fence_mu=plan.min_fence_mu)
     part, file_name = _as_part(part_or_vertices, margin_deg, com)
     name = name or file_name
-    data = stability.push_stability(part, n_grid=n_grid)
+    data = planning_push_stability(part, n_grid=n_grid)
     deg = np.degrees(data.theta)
     stable = sorted(part.stable, key=lambda e: data.caller_edge(e))
     palette = plt.get_cmap("tab10") if len(stable) <= 10 else plt.get_cmap("tab20")

@@ -22,9 +22,9 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from robustness import clopper_pearson, FAILURE_MODES
-from robustness import failure_modes as _modes   # the name failure_modes is this module's figure
+from robustness import FAILURE_MODE_COLOURS   # the name failure_modes is this module's figure
 
-MODE_COLORS = _modes.COLOURS   # one home for every mode's name, colour and description
+MODE_COLORS = FAILURE_MODE_COLOURS   # one home for every mode's name, colour and description
 
 #: The smallest text in a figure, pt: tick labels and legends (titles and axis labels are larger)
 MIN_FONT_PT = 10.0
