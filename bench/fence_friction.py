@@ -216,7 +216,8 @@ def main():
     args = ap.parse_args()
     part = load_part(ROOT / "examples" / f"{args.part}.yaml")
     goal = fidelity._push_goals(args.goal + 1, 0)[args.goal]
-    plan = plan_pose(part.vertices, (0.0, 0.0, 0.0), goal, com=part.com, **fidelity.KINDS[args.kind])
+    plan = plan_pose(part.vertices, (0.0, 0.0, 0.0), goal, com=part.com,
+                     options=fidelity.KINDS[args.kind])
     if args.creep:
         return creep(args, plan)
     if plan.pushes[args.push].kind != "reorient":

@@ -52,8 +52,7 @@ own failures (``incomplete_reorientation``: a 0.5 mm plate under a fence 0.2
 mm above the table lands no edge flush) replacing the thick ones'.  On the
 rectangle, whose centre of mass lies on the diagonal joining two of the three
 corners it rests on, the difference with the planar model follows the
-thickness (most likely the push's height, which can rock the part onto its
-fourth corner; not yet checked by a model with that term): its
+thickness: its
 physics slip per push at fence friction 0.5 / 0.8 falls from 2.05 / 0.71 mm
 to 0.80 / 0.07 mm (the limit-surface model: 0.59 / 0.00); on the rectangle's
 7-push turn of ``bench/synthesis.py`` (rigid corners, fence friction 0.65,
@@ -62,7 +61,20 @@ the four draws where the model sticks (0.8-0.9 mm in the two where both
 slip), and ends 2.0-4.4 mm from the goal; at 0.5 mm
 thickness and the same mass it ends 0.2-0.3 mm from the model on all six
 (the biplus-stable and uni-stable parts' slip hardly changes with the
-thickness).
+thickness).  The rocking is not what differs, though: the support's contact
+forces read through the same rectangle plan (its default plan to
+(0.05, 0.02, 1.0), fence friction 0.8, support friction 0.5, one draw, every
+10th step) move from the rest diagonal (loads 0, 0.50, 0.01, 0.50) to
+0.14-0.16, 0.21, 0.01, 0.63-0.65 on average while the fence touches, alike
+at 3 mm and at 0.5 mm (the loads' spread alike too), where the slip per push
+is 0.34 and 0.03 mm: a load transfer growing with the push's height would
+differ tenfold; the fence touches with 3.1-3.2 contacts on average in
+both.  So the thickness acts through the fence's contact, not through the
+loads: a part that rocks moves its side face up and down at the fence, the
+more the higher the contact, and that vertical sliding takes its share of
+the fence's friction cone (``bench/fence_friction.py``'s
+``fence_vertical_w``); a planar model has neither the rocking nor the
+height (open).
 
 Last line: ``RESULT push_ok=F qs_agreement=A qs_agreement_rigid=R ls_agreement=L
 ls_agreement_rigid=LR c_vs_mjx_mm=M tumble_faces_ok=T`` (push_ok over the default
@@ -89,7 +101,7 @@ import numpy as np  # noqa: E402
 
 from kernels import polygon as pg  # noqa: E402
 from kernels.planar import wrap_angle_np  # noqa: E402
-from planning import plan_pose, plan_tumble  # noqa: E402
+from planning import PushOptions, plan_pose, plan_tumble  # noqa: E402
 from robustness import Draws, FrictionRange, Sampler, release_executables  # noqa: E402
 from robustness.replay import run_push as _run_push  # noqa: E402  (the evaluation's own kernels)
 from robustness.physics import PhysicsSettings, rollout_push_plan, rollout_tumble_plan  # noqa: E402
@@ -130,9 +142,9 @@ def _params(plan, seed, support):
     return Draws(dataclasses.replace(p3, friction=f), ax, 3)
 
 
-KINDS = {"default": {}, "rigid": {"support": "rigid"},
-         "slip": {"support": "rigid", "min_fence_mu": 0.5},
-         "c4-8": {"support": {"c": [0.004, 0.008]}}}
+KINDS = {"default": PushOptions(), "rigid": PushOptions(support="rigid"),
+         "slip": PushOptions(support="rigid", min_fence_mu=0.5),
+         "c4-8": PushOptions(support={"c": [0.004, 0.008]})}
 
 
 def _model_rows(plan, draws, model):
@@ -156,7 +168,7 @@ def run_pushes(args):
                 for gi, goal in enumerate(_push_goals(args.goals, args.seed)):
                     try:
                         plan = plan_pose(part.vertices, (0.0, 0.0, 0.0), goal, com=part.com,
-                                         **KINDS[kind])
+                                         options=KINDS[kind])
                     except PlanningError as exc:
                         skipped.append((support, kind, name, gi, f"no plan ({str(exc)[:60]})"))
                         continue

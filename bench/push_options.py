@@ -9,7 +9,7 @@ On every bundled polygon (``examples/*.yaml``), ``--goals`` seeded goals
 within 15 cm of a start at the origin (uniform in the disc, any orientation;
 margin 7 deg, safety factor 1.15: the setting of ``bench/push_planning.py``):
 
-* **workspace**: ``plan_pose_batch(..., workspace=(-0.15, 0.15, -0.15, 0.15))``
+* **workspace**: ``plan_pose_batch(..., options=PushOptions(workspace=(-0.15, 0.15, -0.15, 0.15)))``
   (30 x 30 cm around the start).  Goals whose goal pose itself does not hold the
   part inside are set aside and counted.  Every plan's poses are checked inside
   here independently (part extent at each replayed pose); ``ws_ok`` is the
