@@ -162,8 +162,8 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         judge = DesignJudge(plan, d.n_samples, dkey, p=p, confidence=conf, model=model,
-                         dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                         criterion=cfg.eps)
+                            dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
+                            criterion=cfg.eps)
         designs = [loosest_tolerances(judge, sampler, a, rel_tol=d.rel_tol) for a in axes]
         sens = {s.axis: s for s in tolerance_sensitivity(judge, sampler, axes)}
         joint = joint_design(judge, sampler, designs, jax.random.fold_in(dkey, 1))

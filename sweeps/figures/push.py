@@ -29,7 +29,7 @@ from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch, Polygon as PolyPatch  # noqa: E402
 
 from kernels import rot2_np  # noqa: E402
-from planning import (prepare_part, push_stability as planning_push_stability, PushOptions,
+from planning import (prepare_part, push_stability as planning_push_stability, PushOptions,  # noqa: E402
                       PushPart, PushPlan, PushStability, SensorlessPlan)
 from sweeps.figures.plan_steps import mark_steps  # noqa: E402
 

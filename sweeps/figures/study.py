@@ -21,8 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from robustness import clopper_pearson, FAILURE_MODES
-from robustness import FAILURE_MODE_COLOURS   # the name failure_modes is this module's figure
+from robustness import FAILURE_MODE_COLOURS, FAILURE_MODES, clopper_pearson
 
 MODE_COLORS = FAILURE_MODE_COLOURS   # one home for every mode's name, colour and description
 
