@@ -131,8 +131,8 @@ def main() -> int:
     import numpy as np
 
     from planning import plan_pose
-    from robustness import (SuccessCriterion, certify, clopper_pearson, evaluate, selection_key,
-                            synthesize)
+    from robustness import (Model, Requirement, Selection, SuccessCriterion, auto_schedule,
+                            certify, clopper_pearson, evaluate, selection_key, synthesize)
     from robustness.physics import PhysicsRun
     from sweeps.config import Synthesize
     from sweeps.executors import enable_compilation_cache
@@ -163,6 +163,7 @@ def main() -> int:
     jax.config.update("jax_enable_x64", True)
     enable_compilation_cache()
     crit = SuccessCriterion(pos_eps_m=0.003, theta_eps_rad=0.05)
+    req = Requirement(P_REQ, CONF, crit)
     run = PhysicsRun(backend="c", stroke=args.stroke)
     models = ("limit_surface",) if args.no_qs else ("limit_surface", "quasistatic")
     ref = _size(load_part_ref("biplus_stable", ROOT / "examples").vertices)
@@ -193,10 +194,9 @@ def main() -> int:
                 mj_key = jax.random.fold_in(jax.random.key(1), cell)
                 t0 = time.perf_counter()
                 grid = Synthesize(max_candidates=n_cand).grid(sampler.friction)
-                syn = synthesize(part.vertices, (0.0, 0.0, 0.0), goal, part.com, sampler=sampler,
-                                 n=n_sel, key=selection_key(key), criterion=crit,
-                                 required_probability=P_REQ, model=args.syn_model,
-                                 confidence=CONF, **grid)
+                syn = synthesize(part.vertices, (0.0, 0.0, 0.0), goal, part.com,
+                                 selection=Selection(sampler, n_sel, selection_key(key)),
+                                 requirement=req, model=args.syn_model, **grid)
                 t_syn += time.perf_counter() - t0
                 plans = [("default", default, False)]
                 plans.append(("synth", syn.plan, _same(syn.plan, default)))
@@ -211,9 +211,9 @@ def main() -> int:
                              pushes=plan.n_pushes, dist=plan.total_distance)
                     for m in models:
                         t0 = time.perf_counter()
-                        cert, _, _ = certify(plan, sampler, key, crit, required_probability=P_REQ,
-                                             confidence=CONF, n_samples="auto",
-                                             max_samples=args.max_samples, model=m, bound=False)
+                        cert, _, _ = certify(plan, sampler, key, req,
+                                             samples=auto_schedule(P_REQ, CONF, args.max_samples),
+                                             model=m, bound=False)
                         t_cert += time.perf_counter() - t0
                         r[m] = dict(ok=cert.verdict == "certified", low=cert.ci_low_one_sided,
                                     n=cert.n_samples, k=cert.n_success, reason=cert.reason,
@@ -222,13 +222,11 @@ def main() -> int:
                     if any(r[m]["ok"] for m in models):
                         n = n_mj if r["limit_surface"]["ok"] else n_qs
                         t0 = time.perf_counter()
-                        ev = evaluate(plan, sampler, n, mj_key, crit, "mujoco", physics=run,
-                                      summary=False)
+                        ev = evaluate(plan, sampler, n, mj_key, crit, Model("mujoco", physics=run))
                         t_mj += time.perf_counter() - t0
                         c = ev.columns
                         ok = np.asarray(c["success"], bool)
-                        ls = evaluate(plan, sampler, n, mj_key, crit, "limit_surface",
-                                      summary=False)
+                        ls = evaluate(plan, sampler, n, mj_key, crit, "limit_surface")
                         lok = np.asarray(ls.columns["success"], bool)
                         modes = {}
                         for mo in np.asarray(c["failure_mode"])[~ok]:

@@ -145,38 +145,6 @@ MU_F = (0.8, 1.5)
 EPS_POS, EPS_TH = 3e-3, math.radians(1.0)
 
 
-def _start_plan(plan, part, start):
-    """The sensorless plan from one start as a :class:`planning.PushPlan` (each
-    push's in-contact travel and pose from the exact replay from ``start``),
-    for :func:`robustness.physics.rollout_push_plan` with contact strokes."""
-    from planning import Push, PushPlan
-    from planning.pushing.sensorless import replay_sensorless
-
-    pose, pushes = np.asarray(start, float), []
-    for q in plan.pushes:
-        d = np.asarray(q.direction)
-        c, s_ = math.cos(pose[2]), math.sin(pose[2])
-        h = float(np.min((pose[:2] + part.body @ np.array([[c, s_], [-s_, c]])) @ d))
-        after = replay_sensorless(part, [q], pose[None, :])[0][0]
-        turn = float(np.angle(np.exp(1j * (after[2] - pose[2]))))
-        # the edge that lies flush: its outward normal (world) opposite to the push
-        nu_w = part.nu + after[2]
-        e = int(np.argmin(np.abs(np.angle(np.exp(1j * (nu_w - math.atan2(-d[1], -d[0])))))))
-        pushes.append(Push(kind="reorient" if abs(turn) > 1e-9 else "translate",
-                           direction=tuple(float(x) for x in d), distance=q.line - h,
-                           edge=part.polygon.edge_vertices(e), contact_vertex=None, min_distance=None,
-                           pose_after=tuple(float(x) for x in after),
-                           rotation=turn if abs(turn) > 1e-9 else None))
-        pose = after
-    return PushPlan(vertices=tuple(map(tuple, part.polygon.vertices)),
-                    com=tuple(part.polygon.com), start=tuple(float(x) for x in start),
-                    goal=plan.reached_goal, pushes=tuple(pushes), plan_class="cw",
-                    reorient_edge=None, object_class=part.class_name, objective="distance",
-                    objective_value=0.0, total_distance=float(sum(p.distance for p in pushes)),
-                    margin_deg=part.margin_deg, safety_factor=part.safety_factor,
-                    final_error=(0.0, 0.0))
-
-
 def mujoco(names, n_starts, seed=41):
     """MuJoCo (C engine) rollouts from random headings and positions at fence
     friction 0.8 and 1.5 (support friction 0.5, rigid corner support, the
@@ -190,6 +158,7 @@ def mujoco(names, n_starts, seed=41):
 
     from robustness import Draws, FrictionRange, Sampler
     from robustness.physics import PhysicsSettings, rollout_push_plan
+    from robustness.sensorless import start_plan
 
     rng = np.random.default_rng(seed)
     ok, total = 0, 0
@@ -202,7 +171,7 @@ def mujoco(names, n_starts, seed=41):
         per = plan.period if plan.part_symmetric else 2 * math.pi
         for k in range(n_starts):
             start = (rng.uniform(0, 0.1), rng.uniform(0, 0.1), rng.uniform(-math.pi, math.pi))
-            pp = _start_plan(plan, part, start)
+            pp = start_plan(plan, start)
             fr = FrictionRange(mu_f=(0.8, 1.5), mu_s=(0.5, 0.5), support="rigid")
             draws = Sampler(friction=fr).sample(jax.random.key(k), 1, n_vertices=len(pp.vertices),
                                                  dim=2, n_pushes=pp.n_pushes, body=part.body)

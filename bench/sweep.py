@@ -42,7 +42,6 @@ def direct(design) -> int:
     """Plan and evaluate every (configuration, task) with the robustness layer
     itself, blocks and keys as the runner draws them; returns the sample count."""
     import jax
-    import jax.numpy as jnp
     import pandas as pd
 
     from robustness.evaluation import evaluate
@@ -61,9 +60,7 @@ def direct(design) -> int:
             for b, lo in enumerate(range(0, cfg.samples, size)):
                 key = jax.random.fold_in(jax.random.fold_in(jax.random.key(cfg.seed), ti), b)
                 ev = evaluate(plan, cfg.sampler(), min(size, cfg.samples - lo), key, cfg.eps,
-                              model=cfg.model, dtype=jnp.float64 if cfg.dtype == "float64"
-                              else jnp.float32, confidence=cfg.required.confidence, physics=cfg.physics_run(part),
-                              task=name, summary=False)
+                              cfg.model_spec(physics=cfg.physics_run(part)), task=name)
                 frames.append(ev.samples)
             df = pd.concat(frames, ignore_index=True)
             summarise(df, plan, cfg.sampler(), kind=cfg.kind, model=cfg.model, dtype=cfg.dtype,

@@ -116,8 +116,8 @@ def main() -> int:
     import numpy as np
 
     from planning import plan_pose
-    from robustness import (DEFAULT_MODEL, SuccessCriterion, evaluate, one_sided_lower,
-                            physics_tiebreak, selection_key, synthesize)
+    from robustness import (DEFAULT_MODEL, Requirement, Selection, SuccessCriterion, evaluate,
+                            one_sided_lower, physics_tiebreak, selection_key, synthesize)
     from robustness import tolerance_design as td
     from sweeps.executors import enable_compilation_cache
     from sweeps.study import load_part_ref
@@ -135,6 +135,7 @@ def main() -> int:
     enable_compilation_cache()
     sampler = _sampler()
     eps = dict(criterion=SuccessCriterion(pos_eps_m=0.003, theta_eps_rad=0.05))
+    req = Requirement(0.9, 0.95, **eps)
     model = args.model
     tri = load_part_ref("biplus_stable", ROOT / "examples")
     ref = _size(tri.vertices)
@@ -150,11 +151,12 @@ def main() -> int:
             goal = (goal[0] * k, goal[1] * k, goal[2])
             key = jax.random.fold_in(jax.random.key(0), 10 * PARTS.index(name) + ti)
             default = plan_pose(part.vertices, (0.0, 0.0, 0.0), goal, part.com)
-            synthesize(part.vertices, (0, 0, 0), goal, part.com, sampler=sampler, n=1000,
-                       key=selection_key(key), model=model, **eps)         # warm-up
+            sel = Selection(sampler, 1000, selection_key(key))
+            synthesize(part.vertices, (0, 0, 0), goal, part.com, selection=sel, requirement=req,
+                       model=model)         # warm-up
             t0 = time.perf_counter()
-            syn = synthesize(part.vertices, (0, 0, 0), goal, part.com, sampler=sampler, n=1000,
-                             key=selection_key(key), model=model, **eps)
+            syn = synthesize(part.vertices, (0, 0, 0), goal, part.com, selection=sel,
+                             requirement=req, model=model)
             if args.physics_samples:
                 syn = physics_tiebreak(syn, sampler, args.physics_samples,
                                        jax.random.fold_in(selection_key(key), 1), **eps)
@@ -162,13 +164,13 @@ def main() -> int:
             fresh = jax.random.fold_in(key, 1)
             lows = []
             for plan in (default, syn.plan):
-                ev = evaluate(plan, sampler, args.fresh, fresh, model=model, **eps, summary=False)
+                ev = evaluate(plan, sampler, args.fresh, fresh, model=model, **eps)
                 lows.append(one_sided_lower(int(np.sum(ev.columns["success"])), args.fresh, 0.95))
             mj = [float("nan"), float("nan")]
             if args.mujoco_samples:
                 for j, plan in enumerate((default, syn.plan)):
                     ev = evaluate(plan, sampler, args.mujoco_samples, jax.random.fold_in(key, 2),
-                                  model="mujoco", **eps, summary=False)
+                                  model="mujoco", **eps)
                     mj[j] = float(np.mean(ev.columns["success"]))
             ratio = syn.plan.total_distance / default.total_distance
             rows.append(dict(part=name, task=task, K=len(syn.candidates), low=lows, mj=mj,
@@ -183,13 +185,13 @@ def main() -> int:
     goal = tasks[1][1]
     key = jax.random.key(7)
     t0 = time.perf_counter()
-    syn = synthesize(part.vertices, (0, 0, 0), goal, part.com, sampler=sampler, n=1000,
-                     key=selection_key(key), limit=64, model=model, **eps)
+    syn = synthesize(part.vertices, (0, 0, 0), goal, part.com,
+                     selection=Selection(sampler, 1000, selection_key(key)), requirement=req,
+                     limit=64, model=model)
     one = time.perf_counter() - t0
 
     def design():
-        judge = td.Judge(syn.plan, 1000, td.design_key(key), p=0.9, confidence=0.95,
-                         model=model, **eps)
+        judge = td.Judge(syn.plan, 1000, td.design_key(key), req, model)
         ds = [td.loosest(judge, sampler, a) for a in td.PUSH_AXES]
         td.sensitivity(judge, sampler, td.PUSH_AXES)
         td.joint_design(judge, sampler, ds, jax.random.fold_in(td.design_key(key), 1))

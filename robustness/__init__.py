@@ -24,6 +24,11 @@
   ``plan.kind``, :func:`kind_for_part`).
 * Success: :class:`SuccessCriterion` (the tolerances, their defaults by plan kind
   and the one classification of every model's samples).
+* Values handed down: :class:`Model` (a model's name, the kernels' dtype,
+  MuJoCo's settings: what ``evaluate``, ``certify``, ``synthesize`` and the
+  design's judge take as ``model=``), :class:`Requirement` (probability,
+  confidence, criterion: what a certificate must show), :class:`Selection`
+  (robust synthesis' draws and objective).
 * Statistics: :func:`clopper_pearson`, :func:`one_sided_lower`, :func:`one_sided_upper`;
   the default confidence :data:`CONFIDENCE` and required probability
   :data:`REQUIRED_PROBABILITY`.
@@ -40,10 +45,10 @@ from robustness.stats import (CONFIDENCE, REQUIRED_PROBABILITY, clopper_pearson,
                               one_sided_upper, samples_needed)
 from robustness.summary import summarise
 from robustness.synthesis import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES,
-                                  SHORTLIST, Candidate, Scores, Synthesis, physics_tiebreak, push_candidates,
+                                  SHORTLIST, Candidate, Scores, Selection, Synthesis, physics_tiebreak, push_candidates,
                                   score_candidates, select, selection_key, synthesize)
 from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTolerance,
-                                   SuccessCriterion)
+                                   Requirement, SuccessCriterion)
 
 # used by the layers above (the one boundary: tests/test_layers.py)
 from robustness.failure_modes import COLOURS as FAILURE_MODE_COLOURS, MODES as FAILURE_MODE_TABLE
@@ -61,7 +66,7 @@ from robustness.certificates import (Schedule, auto_schedule, decide, first_cert
                                      no_plan, perturbed_sources)
 from robustness.kinds import (KINDS, NOT_EVALUATED, PlanKind, kind_for_part, kind_of, model_for,
                               plan_kind)
-from robustness.models import (DEFAULT_MODEL, PUSH_KINEMATIC, THROUGHPUT, block_samples,
+from robustness.models import (DEFAULT_MODEL, PUSH_KINEMATIC, Model, THROUGHPUT, block_samples,
                                decision_model, peak_bytes, samples_per_second)
 from robustness.summary import STAT_COLUMNS, empty_summary
 from robustness.sensorless import is_sensorless, start_set
@@ -69,8 +74,8 @@ from robustness.tables import FAILURE_MODES, to_arrow
 
 __all__ = [
     "synthesize", "physics_tiebreak", "push_candidates", "score_candidates", "select", "selection_key", "Candidate",
-    "Scores", "Synthesis", "GRID_MARGINS_DEG", "GRID_SAFETY_FACTORS", "GRID_STRATEGIES",
-    "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Sampler",
+    "Scores", "Selection", "Synthesis", "GRID_MARGINS_DEG", "GRID_SAFETY_FACTORS", "GRID_STRATEGIES",
+    "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Requirement", "Model", "Sampler",
     "CONFIDENCE", "REQUIRED_PROBABILITY", "plan_kind", "KINDS", "NOT_EVALUATED", "PlanKind",
     "kind_for_part", "kind_of", "DEFAULT_MODEL", "decision_model", "SHORTLIST",
     "NO_PHYSICS", "PhysicsCheck", "confirm_in_physics", "confirmation_key",

@@ -58,9 +58,9 @@ from typing import Callable, Optional
 import numpy as np
 
 from robustness import stats
-from robustness.kinds import KINDS, kind_of, model_for
-from robustness.models import DEFAULT_MODEL
-from robustness.tolerances import SuccessCriterion
+from robustness.kinds import KINDS, kind_of
+from robustness.models import DEFAULT_MODEL, Model
+from robustness.tolerances import Requirement, SuccessCriterion
 
 VERDICTS = ("certified", "not certified", "no plan")
 PROCEDURES = ("fixed", "sequential_bonferroni")
@@ -394,11 +394,12 @@ def first_certifying(candidates, evaluate_one: Callable) -> Optional[object]:
     return None
 
 
-def certify(plan, sampler, key, criterion: Optional[SuccessCriterion] = None, *,
-            required_probability: float = stats.REQUIRED_PROBABILITY,
-            confidence: float = stats.CONFIDENCE, n_samples="auto", max_samples: int = 100_000,
-            model: str = DEFAULT_MODEL, dtype=None, physics=None, task: str = "task",
-            bound: bool = True):
+#: the most samples an ``"auto"`` certification draws (:func:`auto_schedule`'s cap)
+MAX_SAMPLES = 100_000
+
+
+def certify(plan, sampler, key, requirement: Optional[Requirement] = None, *,
+            samples="auto", model=DEFAULT_MODEL, task: str = "task", bound: bool = True):
     """Certify one plan: sample, replay, decide (see the module docstring).
 
     Args:
@@ -406,36 +407,47 @@ def certify(plan, sampler, key, criterion: Optional[SuccessCriterion] = None, *,
       sampler: the :class:`~robustness.Sampler` of the tolerances.
       key: a ``jax.random`` key; block ``b`` of samples uses ``fold_in(key, b)``, so
         growing the sample count keeps the samples drawn before.
-      criterion: the :class:`~robustness.SuccessCriterion` (default: the plan
-        kind's, :meth:`~robustness.SuccessCriterion.for_plan`).
-      required_probability, confidence: the requirement (both in (0, 1)).
-      n_samples: an integer (one look, the plain one-sided bound), or ``"auto"``:
-        the sequential procedure of :func:`auto_schedule` (looks from the fewest
-        samples that could certify, doubling, up to ``max_samples``; Bonferroni
-        over the looks), stopping at the first look that decides.
-      model, dtype, physics, task, bound: as in :func:`robustness.evaluate`.
+      requirement: the :class:`~robustness.Requirement` (probability, confidence,
+        success criterion; default ``Requirement()``: 0.9 at 95 %, the plan kind's
+        criterion).
+      samples: an integer (one look, the plain one-sided bound), ``"auto"``: the
+        sequential procedure of :func:`auto_schedule` (looks from the fewest
+        samples that could certify, doubling, up to :data:`MAX_SAMPLES`; Bonferroni
+        over the looks), stopping at the first look that decides; or a
+        :class:`Schedule` of the requirement's confidence (another cap:
+        ``auto_schedule(p, confidence, cap)``).
+      model, task, bound: as in :func:`robustness.evaluate` (``model`` a name or
+        a :class:`~robustness.Model`).
 
     Returns:
       ``(certificate, samples, summary)``: the :class:`Certificate`, the
       per-sample frame of every block, and the summary row (dict).
     """
     import jax
-    import jax.numpy as jnp
     import pandas as pd
 
     from robustness.evaluation import evaluate
     from robustness.summary import summarise
 
+    req = (Requirement() if requirement is None else requirement)
+    if not isinstance(req, Requirement):
+        raise ValueError(f"requirement: expected a robustness.Requirement, got {req!r}")
+    req = req.for_plan(plan)
+    p, confidence, criterion = req.probability, req.confidence, req.criterion
     kind = kind_of(plan).kind
-    model = model_for(model, kind)
-    dtype = jnp.float64 if dtype is None else dtype
-    criterion = SuccessCriterion.for_plan(plan) if criterion is None else criterion
-    if n_samples == "auto":
-        schedule = auto_schedule(required_probability, confidence, int(max_samples))
-    elif isinstance(n_samples, int) and not isinstance(n_samples, bool) and n_samples >= 1:
-        schedule = Schedule((n_samples,), confidence)
+    spec = Model.of(model).for_kind(kind)
+    if isinstance(samples, Schedule):
+        if samples.confidence != confidence:
+            raise ValueError(f"samples: the schedule's confidence {samples.confidence} is not "
+                             f"the requirement's {confidence}")
+        schedule = samples
+    elif samples == "auto":
+        schedule = auto_schedule(p, confidence, MAX_SAMPLES)
+    elif isinstance(samples, int) and not isinstance(samples, bool) and samples >= 1:
+        schedule = Schedule((samples,), confidence)
     else:
-        raise ValueError(f"n_samples: expected an integer >= 1 or 'auto', got {n_samples!r}")
+        raise ValueError(f"samples: expected an integer >= 1, 'auto' or a Schedule, "
+                         f"got {samples!r}")
     block = schedule.counts[0]
     frames: list = []
 
@@ -444,8 +456,8 @@ def certify(plan, sampler, key, criterion: Optional[SuccessCriterion] = None, *,
         b = len(frames)
         while drawn < total:
             m = min(block, total - drawn)
-            ev = evaluate(plan, sampler, m, jax.random.fold_in(key, b), criterion, model, dtype,
-                          confidence=confidence, physics=physics, task=task, bound=False)
+            ev = evaluate(plan, sampler, m, jax.random.fold_in(key, b), criterion, spec,
+                          task=task, bound=False)
             df = ev.samples.copy()
             df["sample_id"] += drawn
             frames.append(df)
@@ -454,17 +466,17 @@ def certify(plan, sampler, key, criterion: Optional[SuccessCriterion] = None, *,
         df = pd.concat(frames, ignore_index=True)
         return len(df), int(df["success"].sum())
 
-    grow(more, schedule, required_probability)
-    samples = pd.concat(frames, ignore_index=True)
-    summary = summarise(samples, plan, sampler, kind=kind, model=model,
-                        dtype=jnp.dtype(dtype).name, criterion=criterion,
+    grow(more, schedule, p)
+    frame = pd.concat(frames, ignore_index=True)
+    summary = summarise(frame, plan, sampler, kind=kind, model=spec.name,
+                        dtype=spec.dtype.name, criterion=criterion,
                         confidence=confidence, task=task, bound=bound)
-    cert = decide(summary, required_probability, confidence, kind=kind, model=model,
-                  perturbed=perturbed_sources(sampler, kind, model), criterion=criterion,
+    cert = decide(summary, p, confidence, kind=kind, model=spec.name,
+                  perturbed=perturbed_sources(sampler, kind, spec.name), criterion=criterion,
                   schedule=schedule)
-    return cert, samples, summary
+    return cert, frame, summary
 
 
-__all__ = ["Certificate", "Schedule", "certify", "decide", "no_plan", "perturbed_sources",
+__all__ = ["Certificate", "MAX_SAMPLES", "Schedule", "certify", "decide", "no_plan", "perturbed_sources",
            "decided", "auto_sample_counts", "auto_schedule", "grow", "VERDICTS", "REASONS",
            "PROCEDURES", "BOUND_MODEL"]

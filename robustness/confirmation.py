@@ -94,11 +94,11 @@ def confirm_in_physics(plan, sampler, n: int, key, criterion, *, model: str, mod
     judged by ``criterion``, and set the result beside the ``model``'s
     ``model_k`` / ``model_n``."""
     from robustness.evaluation import evaluate
+    from robustness.models import Model
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        ev = evaluate(plan, sampler, int(n), key, criterion, "mujoco", physics=physics,
-                      summary=False)
+        ev = evaluate(plan, sampler, int(n), key, criterion, Model("mujoco", physics=physics))
     k = int(np.sum(ev.columns["success"]))
     return PhysicsCheck(int(n), k, model, int(model_n), int(model_k), float(confidence))
 

@@ -115,8 +115,8 @@ import pandas as pd
 
 from kernels import wrap_angle_np, float64
 from robustness.compiled import release_executables
-from robustness.kinds import kind_of, model_for
-from robustness.models import MODELS
+from robustness.kinds import kind_of
+from robustness.models import MODELS, Model
 from robustness.outcomes import SampleOutcomes, goal_errors  # noqa: F401  (goal_errors: read here by others)
 from robustness.samplers import Sampler, parameter_columns, parameter_lists
 from robustness.sensorless import draw_starts, is_sensorless
@@ -135,26 +135,41 @@ class Evaluation:
         ``samples``; parameter columns in ``param_columns``) as ``{name: (n,)
         array}`` (a constant column, ``task``..., as one scalar): what a writer
         builds its table from (:func:`robustness.tables.samples_columns`).
-      summary: dict, the ``summary`` table's row (None when not asked for).
       param_columns: names of the sampled-parameter columns of ``samples``.
-      kind: ``"push"`` or ``"tumble"``; model: the model used.
+      kind: ``"push"`` or ``"tumble"``; model: the model used (its name).
       lists: the per-vertex and per-push draws as ``(n, k)`` arrays, one per
         list column of the ``samples`` table
         (:func:`robustness.samplers.parameter_lists`).
       samples: ``columns`` as a pandas frame, one row per sample (built when
         first read).
+      summary: the ``summary`` table's row at the default confidence (built
+        when first read, :meth:`summarise`; an empirical maximum above the
+        analytic bound warns then, :class:`BoundViolation`).
     """
 
     columns: dict
-    summary: dict
     param_columns: tuple
     kind: str
     model: str
     lists: dict = dataclasses.field(default_factory=dict)
+    #: what the summary needs: (plan, sampler, criterion, dtype name, task, bound)
+    _of: tuple = dataclasses.field(default=(), repr=False)
 
     @functools.cached_property
     def samples(self) -> pd.DataFrame:
         return pd.DataFrame(self.columns)
+
+    @functools.cached_property
+    def summary(self) -> dict:
+        return self.summarise(warn_stacklevel=6)
+
+    def summarise(self, confidence: float = CONFIDENCE, warn_stacklevel: int = 4) -> dict:
+        """The ``summary`` table's row of these samples, its Clopper-Pearson
+        bounds at ``confidence`` (:func:`robustness.summarise`)."""
+        plan, sampler, criterion, dtype, task, bound = self._of
+        return summarise(self.samples, plan, sampler, kind=self.kind, model=self.model,
+                         dtype=dtype, criterion=criterion, confidence=confidence, task=task,
+                         bound=bound and self.model != "mujoco", warn_stacklevel=warn_stacklevel)
 
     @property
     def n(self) -> int:
@@ -167,64 +182,50 @@ class Evaluation:
 # --------------------------------------------------------------------------
 @float64
 def evaluate(plan, sampler: Sampler, n: int, key, criterion: Optional[SuccessCriterion] = None,
-             model: str = "quasistatic", dtype=jnp.float64, *, confidence: float = CONFIDENCE,
-             chunk: int = 4096, task: str = "task", bound: bool = True,
-             merge_factor: float = 8.0, physics=None, summary: bool = True) -> Evaluation:
+             model="quasistatic", *, task: str = "task", bound: bool = True) -> Evaluation:
     """Evaluate a plan on ``n`` perturbed samples.
 
     Args:
       plan: a :class:`~planning.pushing.plan.PushPlan`, a
         :class:`~planning.SensorlessPlan` (its starts drawn over its region and
-        heading interval, :mod:`robustness.sensorless`; no analytic bound, no
-        MuJoCo) or a :class:`~planning.tumbling.plan.TumblePlan`.
+        heading interval, :mod:`robustness.sensorless`; no analytic bound) or a
+        :class:`~planning.tumbling.plan.TumblePlan`.
       sampler: the :class:`~robustness.samplers.Sampler` (tolerances).
       n: number of samples (>= 1).
       key: a ``jax.random`` key.
       criterion: the :class:`~robustness.SuccessCriterion` that judges each
         sample (default :meth:`SuccessCriterion.for_plan`: the tumble plan's eps
         for both tolerances; 1 mm and 1 degree for push plans).
-      model: ``"quasistatic"`` or ``"exact"`` (push plans; tumbles are exact),
-        or ``"mujoco"``: the plan rolled out in MuJoCo (:mod:`robustness.physics`;
-        push and tumble plans; slow: seconds of CPU per sample).
-      dtype: float dtype of the kernels (``jnp.float64`` or ``jnp.float32``); the
-        perturbations are drawn in float64 and cast, so both dtypes see the same
-        samples (compare them row by row).  MuJoCo: float64 on the C engine,
-        float32 under MJX, whatever ``dtype``.
-      confidence: of the Clopper-Pearson interval.
-      chunk: samples per compiled call (bounds memory; the last, partial
-        chunk is padded to a power of two, so sample counts share compilations).
+      model: a :class:`~robustness.Model` (the model's name, the kernels' dtype,
+        MuJoCo's settings, the chunk size) or a model's name: ``"quasistatic"``,
+        ``"limit_surface"`` or ``"exact"`` (push plans; tumbles are exact), or
+        ``"mujoco"``: the plan rolled out in MuJoCo (:mod:`robustness.physics`;
+        push and tumble plans; slow: seconds of CPU per sample).  A float32
+        evaluation sees the float64 one's samples (compare them row by row).
       task: the task name written in the tables.
-      bound: compute the analytic bound (set False to skip it).
-      merge_factor: polyhedra: face-merging tolerance factor for the
-        combinatorics check (:func:`robustness.samplers.face_merge_tol`).
-      physics: ``model="mujoco"`` only: a :class:`robustness.physics.PhysicsRun`
-        (backend, stroke, cell settings); default ``PhysicsRun()``.
-      summary: summarise the samples (``Evaluation.summary``); False for a
-        caller that summarises several evaluations together (a task's blocks:
-        :func:`robustness.summarise`), then ``summary`` is None.
+      bound: the summary holds the analytic bound (False: skip it).
 
     Returns:
-      :class:`Evaluation`.
+      :class:`Evaluation` (its ``summary`` built when first read).
     """
     ops = kind_of(plan)   # the plan's row of the dispatch table (robustness.kinds)
     kind = ops.kind
-    if model not in MODELS:
-        raise ValueError(f"model: expected one of {MODELS}, got {model!r}")
-    if model == "mujoco" and model not in ops.models:
+    spec = Model.of(model)
+    if spec.name == "mujoco" and spec.name not in ops.models:
         ops.physics_rows(plan)   # says why this kind is not rolled out
     if not (isinstance(n, (int, np.integer)) and n >= 1):
         raise ValueError(f"n: expected an integer >= 1, got {n!r}")
-    dtype = jnp.dtype(dtype)
-    model = model_for(model, kind)
+    spec = spec.for_kind(kind)
+    model, dtype, chunk, merge_factor = spec.name, spec.dtype, spec.chunk, spec.merge_factor
     crit = SuccessCriterion.for_plan(plan) if criterion is None else criterion
     if not isinstance(crit, SuccessCriterion):
         raise TypeError(f"criterion: expected a robustness.SuccessCriterion, got {crit!r}")
-    chunk = max(1, int(chunk))
     release_executables()   # a long run of many plan shapes stays under the map limit
     shape = plan.draw_shape()
     draws = ops.draw(plan, sampler, key, n, model)
     if model == "mujoco":
-        rows, dtype = _physics_rows(plan, ops, draws, sampler, crit, merge_factor, physics)
+        rows, dtype = _physics_rows(plan, ops, draws, sampler, crit, merge_factor, spec.physics,
+                                    key)
     else:
         rows = ops.rows(plan, draws, crit, model=model, dtype=dtype, chunk=chunk, task=task,
                         sampler=sampler, merge_factor=merge_factor, key=key)
@@ -236,20 +237,13 @@ def evaluate(plan, sampler: Sampler, n: int, key, criterion: Optional[SuccessCri
     lists = parameter_lists(cast, **shape)
     data = _columns(rows, cols, plan, kind, model, dtype, task)
     if model == "mujoco":
-        _compare_with_kinematics(data, plan, ops, draws, crit, chunk, task, sampler, merge_factor)
-    ev = Evaluation(columns=data, summary=None, param_columns=tuple(cols), kind=kind,
-                    model=model, lists=lists)
-    if summary:
-        s = summarise(ev.samples, plan, sampler, kind=kind, model=model, dtype=dtype.name,
-                      criterion=crit, confidence=confidence, task=task,
-                      bound=bound and model != "mujoco", warn_stacklevel=5)
-        frame = ev.samples
-        ev = dataclasses.replace(ev, summary=s)
-        ev.__dict__["samples"] = frame   # built once (the cached property's slot)
-    return ev
+        _compare_with_kinematics(data, plan, ops, draws, crit, chunk, task, sampler, merge_factor,
+                                 key)
+    return Evaluation(columns=data, param_columns=tuple(cols), kind=kind, model=model,
+                      lists=lists, _of=(plan, sampler, crit, dtype.name, task, bool(bound)))
 
 
-def _physics_rows(plan, ops, draws, sampler, criterion, merge_factor, physics) -> tuple:
+def _physics_rows(plan, ops, draws, sampler, criterion, merge_factor, physics, key) -> tuple:
     """Per-sample outcomes of a plan rolled out in MuJoCo (:mod:`robustness.physics`;
     the kind's half: ``ops.physics_rows`` of the dispatch table):
     the physics layer classifies every sample by ``criterion`` itself (tipping,
@@ -265,7 +259,8 @@ def _physics_rows(plan, ops, draws, sampler, criterion, merge_factor, physics) -
         raise ValueError(f"physics: expected a robustness.physics.PhysicsRun, got {run!r}")
     common = dict(backend=run.backend, settings=run.settings, criterion=criterion)
     n = draws.n
-    r, extra = ops.physics_rows(plan, draws, sampler, criterion, merge_factor, run, common)
+    r, extra = ops.physics_rows(plan, draws, sampler, criterion, merge_factor, run, common,
+                                key=key)
     out = SampleOutcomes(
         x=r["x"], y=r["y"], theta=r["theta"], slip=np.asarray(r["slip"], np.float64),
         model_valid=np.asarray(r["simulated"], bool), in_bound_model=np.zeros(n, bool),
@@ -275,7 +270,7 @@ def _physics_rows(plan, ops, draws, sampler, criterion, merge_factor, physics) -
 
 
 def _compare_with_kinematics(data, plan, ops, draws, criterion, chunk, task, sampler,
-                             merge_factor) -> None:
+                             merge_factor, key) -> None:
     """Physics rows get the kinematic models' answers on the same draws beside them
     (float64, into the columns ``data``): ``dpos_vs_<model>_m`` (m) and
     ``dtheta_vs_<model>_rad`` (rad, wrapped), the physics final pose minus the
@@ -285,7 +280,7 @@ def _compare_with_kinematics(data, plan, ops, draws, criterion, chunk, task, sam
     kind = ops.kind
     for ref in ops.references:
         rr = ops.rows(plan, draws, criterion, model=ref, dtype=f64, chunk=chunk, task=task,
-                      sampler=sampler, merge_factor=merge_factor)
+                      sampler=sampler, merge_factor=merge_factor, key=key)
         other = _columns(rr, {}, plan, kind, ref, f64, task)
         data[f"dpos_vs_{ref}_m"] = np.hypot(data["final_x_m"] - other["final_x_m"],
                                             data["final_y_m"] - other["final_y_m"])

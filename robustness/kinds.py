@@ -18,8 +18,8 @@ Per kind:
   merge_factor, key)``: the kinematic replay's classified outcomes (``key``:
   the evaluation's, for what a kind draws beyond the sampler)
   (:class:`robustness.outcomes.SampleOutcomes`);
-* ``physics_rows(plan, draws, sampler, criterion, merge_factor, run, common)``: the
-  MuJoCo rollout and the kind's own outcome columns;
+* ``physics_rows(plan, draws, sampler, criterion, merge_factor, run, common, key)``: the
+  MuJoCo rollout and the kind's own outcome columns (``key``: the evaluation's);
 * ``nominal_final(plan)``: the plan's own prediction of the final pose;
 * ``bound(plan, geometry, execution)``: the first-order analytic bound
   (:class:`robustness.Bound`);
@@ -175,9 +175,12 @@ def _sensorless_rows(plan, draws, criterion, *, model, dtype, chunk, key, **_):
                            dtype, chunk)
 
 
-def _sensorless_physics(plan, *_, **__):
-    raise ValueError("model: mujoco does not roll out sensorless plans here (bench/"
-                     "sensorless.py does); use quasistatic, limit_surface or exact")
+def _sensorless_physics(plan, draws, sampler, criterion, merge_factor, run, common, key=None):
+    """MuJoCo from the starts the kinematic rows draw (the evaluation's ``key``)."""
+    from robustness.sensorless import sensorless_physics_rows
+
+    return sensorless_physics_rows(plan, draws, sampler, criterion, merge_factor, run, common,
+                                   key)
 
 
 def _sensorless_final(plan) -> np.ndarray:
@@ -213,7 +216,7 @@ KINDS = {k.kind: k for k in (
              sources=_tumble_sources, success_many=tumble_success_many,
              candidate_cost=_tumble_cost, cost_needs_bound=True),
     PlanKind(kind="sensorless", plan_type=SensorlessPlan, part_kind="polygon",
-             models=PUSH_KINEMATIC, references=("quasistatic", "exact"), paper_bounds=False,
+             models=MODELS, references=("quasistatic", "exact"), paper_bounds=False,
              draw=_push_draw, rows=_sensorless_rows, physics_rows=_sensorless_physics,
              nominal_final=_sensorless_final, bound=_no_bound, default_eps=_push_eps,
              sources=_push_sources, success_many=_sensorless_success_many,

@@ -20,7 +20,11 @@ dispatch table), re-exported here.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
+from typing import Any, Optional
+
+import jax.numpy as jnp
 
 # their home: the dispatch table of plan kinds
 from robustness.kinds import MODELS, PUSH_KINEMATIC, model_for, plan_kind  # noqa: F401
@@ -31,6 +35,76 @@ from robustness.kinds import MODELS, PUSH_KINEMATIC, model_for, plan_kind  # noq
 #: corners where the ellipsoidal ``quasistatic`` model agrees on 0.66
 #: (``bench/fidelity.py``); ``quasistatic`` stays, named, as the fast approximation
 DEFAULT_MODEL = "limit_surface"
+
+
+#: samples per compiled call of a kinematic replay (bounds memory; the last, partial
+#: chunk is padded to a power of two, so sample counts share compilations)
+CHUNK = 4096
+#: polyhedra: the face-merging tolerance factor of the combinatorics check
+#: (:func:`robustness.samplers.face_merge_tol`)
+MERGE_FACTOR = 8.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Model:
+    """How samples are replayed: the model and how it runs (what every call that
+    evaluates samples takes as one value, ``model=``; a bare name stands for
+    ``Model(name)``, :meth:`of`).
+
+    Attributes:
+      name: one of :data:`MODELS` (``"quasistatic"``, ``"limit_surface"``,
+        ``"exact"``, ``"mujoco"``; module docstring).
+      dtype: the kinematic kernels' float dtype, ``float64`` or ``float32`` (the
+        perturbations are drawn in float64 and cast, so both see the same samples).
+        MuJoCo: float64 on the C engine, float32 under MJX, whatever ``dtype``.
+      physics: read by ``"mujoco"`` only: a :class:`robustness.physics.PhysicsRun`
+        (backend, stroke, cell settings); None: ``PhysicsRun()``.
+      chunk: samples per compiled call of a kinematic replay (:data:`CHUNK`).
+      merge_factor: polyhedra: the face-merging tolerance factor of the
+        combinatorics check (:data:`MERGE_FACTOR`).
+
+    A bad field is refused when the value is made, in one line naming it.
+    """
+
+    name: str
+    dtype: Any = jnp.float64
+    physics: Optional[Any] = None
+    chunk: int = CHUNK
+    merge_factor: float = MERGE_FACTOR
+
+    def __post_init__(self):
+        if self.name not in MODELS:
+            raise ValueError(f"model: expected one of {MODELS}, got {self.name!r}")
+        try:
+            dt = jnp.dtype(self.dtype)
+        except TypeError:
+            dt = None
+        if dt not in (jnp.dtype(jnp.float32), jnp.dtype(jnp.float64)):
+            raise ValueError(f"dtype: expected float64 or float32, got {self.dtype!r}")
+        object.__setattr__(self, "dtype", dt)
+        if not (isinstance(self.chunk, int) and not isinstance(self.chunk, bool)
+                and self.chunk >= 1):
+            raise ValueError(f"chunk: expected an integer >= 1, got {self.chunk!r}")
+        if not (isinstance(self.merge_factor, (int, float)) and math.isfinite(self.merge_factor)
+                and self.merge_factor > 0):
+            raise ValueError(f"merge_factor: expected a finite number > 0, "
+                             f"got {self.merge_factor!r}")
+
+    @classmethod
+    def of(cls, model, **fields) -> "Model":
+        """``model`` as a :class:`Model`: a Model as it is (``fields`` replaced),
+        a name as ``Model(name, **fields)``."""
+        if isinstance(model, cls):
+            return dataclasses.replace(model, **fields) if fields else model
+        if isinstance(model, str):
+            return cls(model, **fields)
+        raise ValueError(f"model: expected one of {MODELS} or a robustness.Model, got {model!r}")
+
+    def for_kind(self, kind: str) -> "Model":
+        """The model a plan of ``kind`` is evaluated under (:func:`model_for`:
+        tumbles have only ``exact`` and ``mujoco``)."""
+        name = model_for(self.name, kind)
+        return self if name == self.name else dataclasses.replace(self, name=name, physics=None)
 
 
 def decision_model(model: str, kind: str) -> str:
@@ -80,6 +154,9 @@ THROUGHPUT = {
     ("sensorless", "exact", "*"): 80_000.0,
     ("sensorless", "quasistatic", "*"): 5_000.0,
     ("sensorless", "limit_surface", "*"): 600.0,
+    # one rollout a sample from its own start (the rectangle of
+    # examples/certify_sensorless.yaml: 8 fence pushes, some 2 m of travel)
+    ("sensorless", "mujoco", "*"): 0.1,
     ("tumble", "exact", "*"): 100_000.0,
     ("tumble", "mujoco", "*"): 1.0,
 }
@@ -131,6 +208,6 @@ def peak_bytes(model: str, block: int) -> float:
     return MEMORY_BASE + int(block) * SAMPLE_BYTES.get(model, SAMPLE_BYTES["*"])
 
 
-__all__ = ["plan_kind", "BLOCK_MAX", "BLOCK_MIN", "BLOCK_SECONDS", "MEMORY_BASE", "MODELS", "PUSH_KINEMATIC",
+__all__ = ["Model", "CHUNK", "MERGE_FACTOR", "plan_kind", "BLOCK_MAX", "BLOCK_MIN", "BLOCK_SECONDS", "MEMORY_BASE", "MODELS", "PUSH_KINEMATIC",
            "SAMPLE_BYTES", "THROUGHPUT", "block_samples", "model_for", "peak_bytes",
            "samples_per_second"]

@@ -153,30 +153,39 @@ def tumble_rows(plan, draws, criterion, *, model="exact", dtype, chunk, task=Non
         in_bound_model=(~changed) & (~bad_face), success=success, failure_mode=mode)
 
 
-def push_physics_rows(plan, draws, sampler, criterion, merge_factor, run, common) -> tuple:
+def push_physics_rows(plan, draws, sampler, criterion, merge_factor, run, common,
+                      key=None) -> tuple:
     """A push plan rolled out in MuJoCo (:func:`robustness.physics.rollout_push_plan`):
     ``(rollout dict, the push columns of its SampleOutcomes)``."""
     from robustness.physics import rollout_push_plan
 
-    n = draws.n
-    none = np.full(n, -1, np.int64)
     r = rollout_push_plan(plan, draws, stroke=run.stroke, **common)
     poly, planned = push_nominal(plan)
     edges = np.asarray(r["edges"])
     complete = np.asarray(r["complete"], bool)
     wrong = complete & (edges != np.asarray(planned, np.int64)[None, :])
+    return r, push_physics_columns(r, poly, edges, complete, wrong, planned[-1])
+
+
+def push_physics_columns(r: dict, poly, edges, complete, wrong, planned_last: int) -> dict:
+    """The push columns of a MuJoCo rollout's :class:`SampleOutcomes` (known-start
+    and sensorless plans): the final and planned edges' vertex pairs, the pushes
+    that ended on no edge (``complete`` (n, P) False) or on another than planned
+    (``wrong`` (n, P)), the rollout's hull check, realised ``c`` (m) and support check."""
+    n = len(edges)
+    none = np.full(n, -1, np.int64)
     fa, fb = edge_pairs(poly, edges[:, -1])
-    pa, pb = edge_pairs(poly, np.full(n, planned[-1]))
-    extra = dict(final_edge_a=fa, final_edge_b=fb, planned_edge_a=pa, planned_edge_b=pb,
-                 final_face=none, planned_face=none, n_incomplete=(~complete).sum(axis=1),
-                 first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
-                 hull_changed=np.asarray(r["hull_changed"], bool),
-                 c_physical_m=np.asarray(r["c_physical"], np.float64),
-                 support_ok=np.asarray(r["support_ok"], bool))
-    return r, extra
+    pa, pb = edge_pairs(poly, np.full(n, planned_last))
+    return dict(final_edge_a=fa, final_edge_b=fb, planned_edge_a=pa, planned_edge_b=pb,
+                final_face=none, planned_face=none, n_incomplete=(~complete).sum(axis=1),
+                first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
+                hull_changed=np.asarray(r["hull_changed"], bool),
+                c_physical_m=np.asarray(r["c_physical"], np.float64),
+                support_ok=np.asarray(r["support_ok"], bool))
 
 
-def tumble_physics_rows(plan, draws, sampler, criterion, merge_factor, run, common) -> tuple:
+def tumble_physics_rows(plan, draws, sampler, criterion, merge_factor, run, common,
+                        key=None) -> tuple:
     """A tumble plan rolled out in MuJoCo (:func:`robustness.physics.rollout_tumble_plan`),
     after the check that the pads grip the part
     (:func:`robustness.physics.settings.check_pad_friction`): ``(rollout dict,

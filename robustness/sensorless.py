@@ -38,8 +38,13 @@ part's symmetry period when the part looks the same turned by it (the
 goal's heading); a push that ends flush on none of the edges the plan allows
 for it (:attr:`planning.FencePush.edges`) is ``wrong_edge``, one that ends on
 a vertex ``incomplete_reorientation``.  No analytic bound is computed (the
-first-order bound linearises about one nominal start), and MuJoCo does not
-roll sensorless plans out here (``bench/sensorless.py`` does).
+first-order bound linearises about one nominal start).
+
+**MuJoCo** (``model="mujoco"``, :func:`sensorless_physics_rows`): each sample
+is the plan from its drawn start (:func:`start_plan`: the exact replay's
+in-contact travel of every fence to its line) rolled out on its perturbed part,
+friction and fence errors with contact strokes, one rollout a sample; its final
+heading folded as above and judged against the goal turned by the period.
 
 Units: metres, radians, world frame.
 """
@@ -54,7 +59,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import make_polygon, PartWarning, rot2, wrap_angle_np
+from kernels import make_polygon, PartWarning, rot2, rot2_np, wrap_angle_np
 
 #: ``jax.random.fold_in(key, START_STREAM)`` draws a sensorless sample's start
 START_STREAM = 0x5E0540
@@ -240,5 +245,92 @@ def sensorless_rows(plan, draws, starts, criterion, model, dtype, chunk):
         success=success, failure_mode=mode)
 
 
+def start_plan(plan, start):
+    """The sensorless plan from one start as a :class:`planning.PushPlan`: each
+    fence push's in-contact travel, the edge that ends flush and the pose after it
+    from the exact replay of the nominal part from ``start`` ((3,), m, m, rad,
+    world); its goal the plan's goal turned by the multiple of the symmetry period
+    nearest the replay's final heading (the goal itself on a part that does not
+    look the same turned).  What MuJoCo rolls out with contact strokes (each
+    stroke's travel counted from where the fence meets the part: the line's).
+
+    Raises:
+      ValueError: a fence that misses the part from ``start`` (outside the start set).
+    """
+    from planning import Push, PushPlan, prepare_part, replay_sensorless
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PartWarning)
+        part = prepare_part(np.asarray(plan.vertices), np.asarray(plan.com))
+    pose, pushes = np.asarray(start, np.float64), []
+    for q in plan.pushes:
+        d = np.asarray(q.direction, np.float64)
+        h = float(np.min((pose[:2] + part.body @ rot2_np(pose[2]).T) @ d))
+        if q.line - h < 0:
+            raise ValueError(f"start: the fence of push {len(pushes)} misses the part from "
+                             f"{tuple(np.round(start, 6))} (outside the plan's start set)")
+        after = np.asarray(replay_sensorless(part, [q], pose[None, :])[0][0], np.float64)
+        turn = float(wrap_angle_np(after[2] - pose[2]))
+        nu_w = part.nu + after[2]   # the edge flush: outward normal opposite to the push
+        e = int(np.argmin(np.abs(wrap_angle_np(nu_w - math.atan2(-d[1], -d[0])))))
+        pushes.append(Push(kind="reorient" if abs(turn) > 1e-9 else "translate",
+                           direction=(float(d[0]), float(d[1])), distance=float(q.line - h),
+                           edge=part.polygon.edge_vertices(e), contact_vertex=None,
+                           min_distance=None, pose_after=tuple(float(x) for x in after),
+                           rotation=turn if abs(turn) > 1e-9 else None))
+        pose = after
+    g = np.asarray(plan.goal, np.float64)
+    per = plan.period if plan.part_symmetric and plan.symmetry > 1 else 2 * math.pi
+    goal = (float(g[0]), float(g[1]),
+            float(wrap_angle_np(g[2] + np.round(wrap_angle_np(pose[2] - g[2]) / per) * per)))
+    return PushPlan(vertices=tuple(map(tuple, part.polygon.vertices)), com=tuple(part.polygon.com),
+                    start=tuple(float(x) for x in start), goal=goal, pushes=tuple(pushes),
+                    plan_class="cw", reorient_edge=None, object_class=part.class_name,
+                    objective="distance", objective_value=0.0,
+                    total_distance=float(sum(p.distance for p in pushes)),
+                    margin_deg=part.margin_deg, safety_factor=part.safety_factor,
+                    final_error=(0.0, 0.0))
+
+
+def sensorless_physics_rows(plan, draws, sampler, criterion, merge_factor, run, common,
+                            key=None) -> tuple:
+    """A sensorless plan rolled out in MuJoCo from the starts its kinematic rows
+    draw (:func:`draw_starts` of the evaluation's ``key``, which replace the
+    sampler's start error): each sample the plan from its start
+    (:func:`start_plan`) on its perturbed part, friction and fence errors,
+    contact strokes (:func:`robustness.physics.rollout_push_plan`), judged by
+    ``criterion`` against the goal turned by the symmetry period.  One rollout
+    per sample (each start its own strokes): ``(rollout dict, the push columns
+    of its SampleOutcomes)``, the final heading folded as the kinematic rows'
+    (:func:`fold_heading`)."""
+    from robustness.outcomes import push_physics_columns
+    from robustness.physics import rollout_push_plan
+    from robustness.samplers import Draws
+
+    n, P = draws.n, len(plan.pushes)
+    starts = draw_starts(plan, key, n)
+    ex = draws.params.execution   # the drawn start replaces the start error
+    params = dataclasses.replace(draws.params, execution=dataclasses.replace(
+        ex, start_offset=jnp.zeros_like(ex.start_offset)))
+    zeroed = Draws(params, draws.in_axes, n)
+    got = [rollout_push_plan(start_plan(plan, starts[i]), zeroed.slice(i, i + 1),
+                             stroke="contact", **common) for i in range(n)]
+    cat = lambda k: np.concatenate([np.asarray(g[k]).reshape(1, *np.shape(g[k])[1:])  # noqa: E731
+                                    for g in got])
+    r = {k: cat(k) for k in ("x", "y", "theta", "slip", "simulated", "success", "failure_mode",
+                             "max_tilt", "hull_changed", "c_physical", "support_ok")}
+    r["theta"] = fold_heading(plan, r["theta"])
+    r["backend"] = got[0]["backend"] if got else common.get("backend", "c")
+    edges = np.concatenate([np.asarray(g["edges"], np.int64).reshape(1, P) for g in got])
+    complete = np.concatenate([np.asarray(g["complete"], bool).reshape(1, P) for g in got])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PartWarning)
+        poly = make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    allowed = [{poly.caller_edge_to_hull(e) for e in p.edges} for p in plan.pushes]
+    ok_edge = np.stack([np.isin(edges[:, k], sorted(allowed[k])) for k in range(P)], axis=1)
+    wrong = complete & ~ok_edge
+    return r, push_physics_columns(r, poly, edges, complete, wrong, min(allowed[-1]))
+
+
 __all__ = ["START_STREAM", "is_sensorless", "start_set", "draw_starts", "run_sensorless",
-           "sensorless_rows", "fold_heading"]
+           "sensorless_rows", "fold_heading", "start_plan", "sensorless_physics_rows"]

@@ -45,17 +45,16 @@ import warnings
 from typing import Optional, Sequence
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from kernels import float64
 from planning import STRATEGIES, PlanningError, PushOptions, plan_alternatives, plan_pose
 from robustness import stats
 from robustness.kinds import kind_of
-from robustness.models import DEFAULT_MODEL, MODELS, decision_model
+from robustness.models import DEFAULT_MODEL, Model, decision_model
 from robustness.samplers import Sampler
 from robustness.stats import CONFIDENCE
-from robustness.tolerances import SuccessCriterion
+from robustness.tolerances import Requirement, SuccessCriterion
 
 OBJECTIVES = ("max_lower_bound", "shortest_certifying")
 #: fold-in of the selection draws (certification blocks fold in 0, 1, 2...)
@@ -272,9 +271,8 @@ def _signature(plan) -> tuple:
 @float64
 def score_candidates(plans: Sequence, sampler: Sampler, n: int, key,
                      criterion: Optional[SuccessCriterion] = None, *,
-                     model: str = "quasistatic", dtype=jnp.float64,
-                     confidence: float = CONFIDENCE, chunk: int = 4096,
-                     merge_factor: float = 8.0, bounds: bool = True) -> Scores:
+                     model="quasistatic", confidence: float = CONFIDENCE,
+                     bounds: bool = True) -> Scores:
     """Replay the plans of one task (push plans, or tumble plans) on the same
     ``n`` draws of ``sampler`` (drawn with ``key`` for the longest plan's push
     or tumble count) and score them, with the success rule of
@@ -285,8 +283,9 @@ def score_candidates(plans: Sequence, sampler: Sampler, n: int, key,
     Args:
       criterion: the :class:`~robustness.SuccessCriterion` (default: the
         first plan's kind's, :meth:`~robustness.SuccessCriterion.for_plan`).
-      model: push plans: ``quasistatic`` or ``exact`` (tumbles are exact).
-      merge_factor: tumbles: the combinatorics check's face-merging factor.
+      model: a :class:`~robustness.Model` or a name; push plans:
+        ``quasistatic``, ``limit_surface`` or ``exact`` (tumbles are exact).
+      confidence: of each candidate's one-sided lower bound.
       bounds: compute each candidate's first-order bound.
 
     Returns:
@@ -296,9 +295,11 @@ def score_candidates(plans: Sequence, sampler: Sampler, n: int, key,
     if not plans:
         raise ValueError("plans: expected at least one candidate plan")
     ops = kind_of(plans[0])   # the candidates' row of the dispatch table (robustness.kinds)
+    spec = Model.of(model)
     criterion = SuccessCriterion.for_plan(plans[0]) if criterion is None else criterion
-    success = ops.success_many(plans, sampler, int(n), key, model=model, dtype=dtype,
-                               criterion=criterion, chunk=chunk, merge_factor=merge_factor)
+    success = ops.success_many(plans, sampler, int(n), key, model=spec.name, dtype=spec.dtype,
+                               criterion=criterion, chunk=spec.chunk,
+                               merge_factor=spec.merge_factor)
     k = success.sum(axis=1)
     low = np.array([stats.one_sided_lower(int(x), int(n), confidence) for x in k])
     K = len(plans)
@@ -447,8 +448,8 @@ def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key,
     for i in tied:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            ev = evaluate(syn.candidates[i].plan, sampler, int(n), key, criterion, "mujoco",
-                          physics=physics, summary=False)
+            ev = evaluate(syn.candidates[i].plan, sampler, int(n), key, criterion,
+                          Model("mujoco", physics=physics))
         got.append(int(np.sum(ev.columns["success"])))
     best = max(range(len(tied)), key=lambda j: (got[j], -s.cost[tied[j]], -s.steps[tied[j]],
                                                  -tied[j]))
@@ -457,46 +458,77 @@ def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key,
                                physics=(tuple(tied), tuple(got), int(n)))
 
 
+@dataclasses.dataclass(frozen=True)
+class Selection:
+    """How robust synthesis chooses: its candidates scored on ``n`` draws of
+    ``sampler`` with ``key`` (pass :func:`selection_key` of the certification's
+    key: the chosen plan is certified on other draws), chosen by ``objective``
+    (:data:`OBJECTIVES`, :func:`select`)."""
+
+    sampler: Sampler
+    n: int
+    key: object
+    objective: str = "max_lower_bound"
+
+    def __post_init__(self):
+        if not isinstance(self.sampler, Sampler):
+            raise ValueError(f"sampler: expected a robustness.Sampler, got {self.sampler!r}")
+        if not (isinstance(self.n, (int, np.integer)) and not isinstance(self.n, bool)
+                and self.n >= 1):
+            raise ValueError(f"n: expected an integer >= 1, got {self.n!r}")
+        if self.objective not in OBJECTIVES:
+            raise ValueError(f"objective: expected one of {OBJECTIVES}, got {self.objective!r}")
+
+
 @float64
-def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key,
-               criterion: Optional[SuccessCriterion] = None,
-               options: Optional[PushOptions] = None, objective: str = "max_lower_bound",
-               required_probability: Optional[float] = None, model: str = DEFAULT_MODEL,
-               dtype=jnp.float64, confidence: float = CONFIDENCE, **grid) -> Synthesis:
-    """Candidates of a push task (2-d ``vertices``: :func:`push_candidates`) or a
-    tumble task (3-d: :func:`tumble_candidates`; ``grid`` the keywords of
-    either), scored on ``n`` draws with ``key`` (:func:`score_candidates`; pass
-    :func:`selection_key` of the certification's key), chosen by ``objective``
-    (:func:`select`), each sample judged by ``criterion`` (default: the plan
-    kind's, :meth:`~robustness.SuccessCriterion.for_plan` of the first
-    candidate).  Certify the chosen plan on other draws.  ``model``:
-    push candidates are scored under the quasi-static, exact-limit-surface or
-    exact kinematics (``limit_surface``: of more than :data:`SHORTLIST`
-    candidates the quasi-static model shortlists the default plan and the best
-    ``SHORTLIST - 1`` on the same draws, and the exact limit surface chooses
-    among them; ``mujoco``: :func:`~robustness.models.decision_model`, the exact
-    limit surface, chooses, physics certifies; default
-    :data:`~robustness.models.DEFAULT_MODEL`)."""
+def synthesize(vertices, start, goal, com=None, *, selection: Selection,
+               requirement: Optional[Requirement] = None, model=DEFAULT_MODEL,
+               **grid) -> Synthesis:
+    """Candidates of a push task (2-d ``vertices``: :func:`push_candidates`,
+    ``grid`` its keywords, ``options=`` the planner's :class:`~planning.PushOptions`
+    among them) or a tumble task (3-d: :func:`tumble_candidates` and its
+    keywords), scored on the draws of ``selection``
+    (:func:`score_candidates`), chosen by its objective (:func:`select`).
+    ``requirement``: the :class:`~robustness.Requirement` (its criterion judges
+    each sample, default the first candidate's kind's; its probability is what
+    ``shortest_certifying`` must reach; its confidence, the candidates' lower
+    bounds).  Certify the chosen plan on other draws.  ``model`` (a
+    :class:`~robustness.Model` or a name): push candidates are scored under the
+    quasi-static, exact-limit-surface or exact kinematics (``limit_surface``: of
+    more than :data:`SHORTLIST` candidates the quasi-static model shortlists the
+    default plan and the best ``SHORTLIST - 1`` on the same draws, and the exact
+    limit surface chooses among them; ``mujoco``:
+    :func:`~robustness.models.decision_model`, the exact limit surface, chooses,
+    physics certifies; default :data:`~robustness.models.DEFAULT_MODEL`)."""
     tumble = np.asarray(vertices).shape[-1] == 3
-    if model not in MODELS:
-        raise ValueError(f"model: expected one of {MODELS}, got {model!r}")
-    model = decision_model(model, "tumble" if tumble else "push")
+    if not isinstance(selection, Selection):
+        raise ValueError(f"selection: expected a robustness.Selection, got {selection!r}")
+    req = Requirement() if requirement is None else requirement
+    if not isinstance(req, Requirement):
+        raise ValueError(f"requirement: expected a robustness.Requirement, got {req!r}")
+    spec = Model.of(model)
+    spec = dataclasses.replace(spec, name=decision_model(spec.name, "tumble" if tumble else "push"),
+                               physics=None)
     if tumble:
         cands, skipped = tumble_candidates(vertices, start, goal, com, **grid)
     else:
-        cands, skipped = push_candidates(vertices, start, goal, com, options=options, **grid)
+        cands, skipped = push_candidates(vertices, start, goal, com, **grid)
+    sampler, n, key = selection.sampler, selection.n, selection.key
+    crit, conf = req.criterion, req.confidence
     screened = None
-    if model == "limit_surface" and len(cands) > SHORTLIST:
+    if spec.name == "limit_surface" and len(cands) > SHORTLIST:
         # the fast model shortlists on the same draws; the faithful one chooses
-        pre = score_candidates([c.plan for c in cands], sampler, n, key, criterion,
-                               model="quasistatic", dtype=dtype, confidence=confidence)
+        pre = score_candidates([c.plan for c in cands], sampler, n, key, crit,
+                               model=dataclasses.replace(spec, name="quasistatic"),
+                               confidence=conf)
         rank = sorted(range(1, len(cands)),
                       key=lambda j: (-int(pre.n_success[j]), float(pre.cost[j]), j))
         screened, cands = len(cands), [cands[j] for j in [0] + rank[:SHORTLIST - 1]]
-    scores = score_candidates([c.plan for c in cands], sampler, n, key, criterion, model=model,
-                              dtype=dtype, confidence=confidence)
-    i, why = select(scores, objective, required_probability)
-    return Synthesis(cands, scores, i, objective, why, skipped, model, screened=screened)
+    scores = score_candidates([c.plan for c in cands], sampler, n, key, crit, model=spec,
+                              confidence=conf)
+    i, why = select(scores, selection.objective, req.probability)
+    return Synthesis(cands, scores, i, selection.objective, why, skipped, spec.name,
+                     screened=screened)
 
 
 #: candidates the exact limit surface scores in a synthesis under ``model:
@@ -507,7 +539,7 @@ def synthesize(vertices, start, goal, com=None, *, sampler: Sampler, n: int, key
 SHORTLIST = 8
 
 
-__all__ = ["Candidate", "Scores", "Synthesis", "TumbleSetting", "OBJECTIVES", "SHORTLIST",
+__all__ = ["Candidate", "Scores", "Selection", "Synthesis", "TumbleSetting", "OBJECTIVES", "SHORTLIST",
            "physics_tiebreak",
            "push_candidates",
            "tumble_candidates", "score_candidates", "select", "selection_key", "synthesize"]

@@ -58,14 +58,14 @@ import math
 from typing import Callable, Optional, Sequence
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from robustness import stats
 from robustness.evaluation import evaluate
 from robustness.kinds import kind_of
-from robustness.models import DEFAULT_MODEL
+from robustness.models import DEFAULT_MODEL, Model
 from robustness.samplers import Sampler
+from robustness.tolerances import Requirement
 
 #: push-plan axes, tumble-plan axes
 PUSH_AXES = ("tau_v", "tau_com", "start", "fence_angle", "push_distance", "fence_friction")
@@ -240,15 +240,18 @@ def perfect(sampler: Sampler, axis: str) -> Sampler:
 
 class Judge:
     """Counts successes of a plan on the same draws for any sampler (common
-    random numbers: one ``key``, one ``n``) and says whether they certify; each
-    sample judged by ``criterion`` (a :class:`~robustness.SuccessCriterion`;
-    default: the plan kind's)."""
+    random numbers: one ``key``, one ``n``) and says whether they certify the
+    :class:`~robustness.Requirement` (each sample judged by its criterion;
+    None: the plan kind's), under ``model`` (a :class:`~robustness.Model` or a
+    name)."""
 
-    def __init__(self, plan, n: int, key, *, p: float, confidence: float,
-                 model: str = DEFAULT_MODEL, dtype=jnp.float64, criterion=None, physics=None):
-        self.plan, self.n, self.key, self.p, self.confidence = plan, int(n), key, float(p), float(confidence)
-        self.kw = dict(criterion=criterion, model=model, dtype=dtype, physics=physics,
-                       summary=False, bound=False)
+    def __init__(self, plan, n: int, key, requirement: Requirement, model=DEFAULT_MODEL):
+        if not isinstance(requirement, Requirement):
+            raise ValueError(f"requirement: expected a robustness.Requirement, got {requirement!r}")
+        self.plan, self.n, self.key = plan, int(n), key
+        self.requirement = requirement
+        self.p, self.confidence = requirement.probability, requirement.confidence
+        self.kw = dict(criterion=requirement.criterion, model=Model.of(model), bound=False)
         self.calls = 0
 
     def successes(self, sampler: Sampler, key=None) -> int:
@@ -433,8 +436,7 @@ def joint_design(judge: Judge, sampler: Sampler, designs: Sequence[AxisDesign], 
             t, low = _boundary(at, good_at[0], min(1.0, 2.0 * good_at[0]), good_at[1], rel_tol)
     s = _joint_sampler(sampler, designs, t, basis)
     n = int(n_fresh or judge.n)
-    fresh = Judge(judge.plan, n, fresh_key, p=judge.p, confidence=judge.confidence)
-    fresh.kw = judge.kw
+    fresh = Judge(judge.plan, n, fresh_key, judge.requirement, judge.kw["model"])
     k = fresh.successes(s)
     lowf = stats.one_sided_lower(k, n, judge.confidence)
     values = {d.axis: (configured(s, d.axis)) for d in designs}

@@ -17,6 +17,7 @@ from typing import Literal, Optional, Sequence
 import numpy as np
 
 from kernels import SUPPORT_FAMILIES
+from robustness.stats import CONFIDENCE, REQUIRED_PROBABILITY
 
 DISTRIBUTIONS = ("uniform", "gaussian")
 #: support families (``any`` mixes rigid, uniform, ring and tripod; ``points`` is
@@ -272,3 +273,40 @@ class SuccessCriterion:
         conds = [np.broadcast_to(c, ok.shape) for c in conds]
         mode = np.select(conds, names, default="orientation")
         return ok, np.where(ok, "none", mode)
+
+
+@dataclasses.dataclass(frozen=True)
+class Requirement:
+    """What a plan must show to be certified: each sample judged by ``criterion``,
+    success with probability at least ``probability``, claimed at ``confidence``
+    (the one-sided Clopper-Pearson lower bound; :func:`robustness.certify`).
+
+    Attributes:
+      probability: the required success probability, in (0, 1).
+      confidence: the confidence of the claim, in (0, 1).
+      criterion: the :class:`SuccessCriterion` that judges each sample; None:
+        the plan kind's (:meth:`SuccessCriterion.for_plan`, :meth:`for_plan`).
+
+    A study's or certification's ``eps:`` and ``certify:`` sections validate into
+    this value (:class:`sweeps.config.Evaluation`).
+    """
+
+    probability: float = REQUIRED_PROBABILITY
+    confidence: float = CONFIDENCE
+    criterion: Optional[SuccessCriterion] = None
+
+    def __post_init__(self):
+        for name in ("probability", "confidence"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and 0.0 < v < 1.0):
+                raise ValueError(f"{name}: expected a number in (0, 1), got {v!r}")
+            object.__setattr__(self, name, float(v))
+        if self.criterion is not None and not isinstance(self.criterion, SuccessCriterion):
+            raise ValueError(f"criterion: expected a robustness.SuccessCriterion or None, "
+                             f"got {self.criterion!r}")
+
+    def for_plan(self, plan) -> "Requirement":
+        """This requirement with its criterion set: its own, else the plan kind's."""
+        if self.criterion is not None:
+            return self
+        return dataclasses.replace(self, criterion=SuccessCriterion.for_plan(plan))

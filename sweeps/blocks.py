@@ -49,12 +49,6 @@ def block_stem(task_index: int, block: int) -> str:
     return f"t{task_index:04d}-b{block:04d}"
 
 
-def _dtype(cfg):
-    import jax.numpy as jnp
-
-    return jnp.float64 if cfg.dtype == "float64" else jnp.float32
-
-
 def sample_block(plan, cfg, physics, task: str, n: int, key, *, lo: int, run_id: str,
                  schema: pa.Schema, columns: Mapping = (), model: Optional[str] = None) -> Block:
     """Evaluate ``plan`` on one block of ``n`` samples of ``cfg``'s sampler.
@@ -75,9 +69,7 @@ def sample_block(plan, cfg, physics, task: str, n: int, key, *, lo: int, run_id:
     Returns:
       :class:`Block`.
     """
-    ev = evaluate(plan, cfg.sampler(), n, key, cfg.eps, model or cfg.model, _dtype(cfg),
-                  confidence=cfg.required.confidence, physics=physics, task=task,
-                  summary=False)
+    ev = evaluate(plan, cfg.sampler(), n, key, cfg.eps, cfg.model_spec(model, physics), task=task)
     data = {"run_id": run_id, **dict(columns), **samples_columns(ev, lo)}
     return Block(arrow_table(data, schema, n),
                  {c: np.asarray(data[c]) for c in STAT_COLUMNS})

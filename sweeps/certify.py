@@ -63,8 +63,6 @@ native crash, 130 interrupted.
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 import pathlib
 import sys
@@ -265,9 +263,9 @@ def main(argv=None, prog: str = "nudge certify") -> int:
         return Exit.INPUT
     report_part(part)   # a CAD part: its file, unit and what reading it found
     from sweeps.budget import estimate_line, refusal
-    from sweeps.store import finished_units
+    from sweeps.store import finished_units, run_id as run_id_of
 
-    run_id = "r" + hashlib.sha256(json.dumps(doc, sort_keys=True, default=str).encode()).hexdigest()[:10]
+    run_id = run_id_of(doc)
     out = pathlib.Path(args.out) if args.out else pathlib.Path("results") / f"certify-{path.stem}" / run_id
     # a resumed run: the samples its finished blocks hold are not drawn again
     kept = sum(int(r.get("rows") or 0) for r in finished_units(out).values())
@@ -607,7 +605,7 @@ def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
 def margin_search(part, start, goal, cfg, key, model):
     """Smallest ``(margin_deg, safety_factor)`` of the grid whose plan certifies
     (one-sided bound at the required confidence); None if none does."""
-    import jax.numpy as jnp
+    import numpy as np
 
     from robustness import first_certifying, evaluate, one_sided_lower
     from sweeps.tasks import plan_task
@@ -623,11 +621,9 @@ def margin_search(part, start, goal, cfg, key, model):
             return False
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, cfg.eps, model,
-                          jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                          confidence=cfg.required.confidence, physics=cfg.physics_run(), bound=False)
-        s = ev.summary
-        return one_sided_lower(int(s["n_success"]), int(s["n"]),
+            ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, cfg.eps, cfg.model_spec(model, cfg.physics_run()),
+                          bound=False)
+        return one_sided_lower(int(np.sum(ev.columns["success"])), ev.n,
                                cfg.required.confidence) >= cfg.required.probability
 
     return first_certifying(grid, ok)

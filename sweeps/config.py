@@ -419,6 +419,20 @@ class Evaluation(Strict):
         None), with ``part``'s material (:class:`sweeps.partfile.PartFile`)."""
         return self.physics.run(part, self.friction) if self.model == "mujoco" else None
 
+    def model_spec(self, model: Optional[str] = None, physics=None):
+        """The :class:`~robustness.Model` these sections evaluate with: ``model``
+        (default ``model:``) in ``dtype:``, rolled out with ``physics`` (a
+        :class:`~robustness.physics.PhysicsRun`, :meth:`physics_run`)."""
+        from robustness import Model
+
+        return Model(model or self.model, dtype=self.dtype, physics=physics)
+
+    def requirement(self):
+        """The :class:`~robustness.Requirement` of ``required:`` and ``eps:``."""
+        from robustness import Requirement
+
+        return Requirement(self.required.probability, self.required.confidence, self.eps)
+
 
 HINTS = {
     "tau_v": "the half-width of each vertex coordinate's tolerance in metres (0 for none)",
@@ -668,17 +682,13 @@ def explicit_tasks(tasks: list, kind: str) -> list[tuple[str, tuple, tuple]]:
 
 def check_sensorless(cfg, tasks) -> None:
     """Sensorless tasks (a :class:`SensorlessStart`) only where their Monte Carlo
-    runs (:mod:`robustness.sensorless`): not under ``model: mujoco``, robust
+    runs (:mod:`robustness.sensorless`, MuJoCo included): not under robust
     synthesis or tolerance design (each needs a known start); one line naming
     the field and the fix, before any work."""
     for i, (name, start, _) in enumerate(tasks):
         if not isinstance(start, SensorlessStart):
             continue
         which = f"tasks[{i}] ({name}) starts at an unknown pose (heading/region)"
-        if cfg.model == "mujoco":
-            raise ConfigError(f"model: mujoco does not roll out sensorless tasks ({which}); use "
-                              "model: quasistatic, limit_surface or exact (bench/sensorless.py "
-                              "has MuJoCo rollouts from random headings)")
         for sec, flag in (("synthesize", "--synthesize"), ("design", "--design")):
             v = getattr(cfg, sec, None)
             if v is not None and v.enabled:

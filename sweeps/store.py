@@ -21,6 +21,7 @@ survives names files that were on disk before it was written.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import pathlib
@@ -31,6 +32,15 @@ import pyarrow as pa
 
 from sweeps.errors import UserError
 from sweeps.parquet import atomic_write, git_commit, write_table
+
+
+def run_id(doc: dict, leave_out: Iterable[str] = ()) -> str:
+    """A run's identity: ``r`` and 10 hex digits of the sha256 of the resolved
+    config ``doc`` without its ``leave_out`` keys (where and how it runs: the same
+    study resumes on another executor).  The same config gives the same run, so
+    the same command resumes it; the one formula of studies and certifications."""
+    ident = {k: v for k, v in doc.items() if k not in set(leave_out)}
+    return "r" + hashlib.sha256(json.dumps(ident, sort_keys=True, default=str).encode()).hexdigest()[:10]
 
 MANIFEST = "manifest.json"
 LOG = "chunks.jsonl"

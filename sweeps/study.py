@@ -38,7 +38,6 @@ carry ``deg``, lengths a unit: ``tau_v: 0.05 mm``, :mod:`sweeps.units`)::
 from __future__ import annotations
 
 import copy
-import hashlib
 import json
 import math
 import pathlib
@@ -56,6 +55,7 @@ from sweeps.config import (Angle, ConfigError, Design as DesignSection, Evaluati
                            parse_angle, parse_pose, validate)
 from sweeps.design import expand, parse_overrides, set_path
 from sweeps.plausible import check_design, wrap
+from sweeps.store import run_id
 from sweeps.units import at_path
 from sweeps.yamlio import dump_yaml, read_yaml
 
@@ -165,8 +165,7 @@ class Design:
         # another executor
         ident = {k: v for k, v in doc.items() if k not in OPERATIONAL}
         self.identity = dump_yaml(ident)
-        digest = hashlib.sha256(json.dumps(ident, sort_keys=True, default=str).encode()).hexdigest()
-        self.run_id = "r" + digest[:10]
+        self.run_id = run_id(doc, OPERATIONAL)
         top = validate(Study, doc)
         self.paths, self.points = expand(doc.get("params") or {}, top.seed)
         try:   # swept lengths with a unit ('0.05 mm') in metres: numeric columns in the tables

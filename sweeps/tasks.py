@@ -109,9 +109,7 @@ def synthesize_for(cfg, part, start, goal, key):
     (:func:`robustness.selection_key`), its tie broken in MuJoCo with
     ``synthesize.physics_samples`` (push tasks); returns the
     :class:`~robustness.Synthesis`."""
-    import jax.numpy as jnp
-
-    from robustness import decision_model, selection_key, synthesize
+    from robustness import Selection, decision_model, selection_key, synthesize
 
     sy = cfg.synthesize
     push = part.kind == "polygon"
@@ -119,11 +117,10 @@ def synthesize_for(cfg, part, start, goal, key):
     grid = (dict(options=cfg.planner.push_options(), **sy.grid(cfg.friction)) if push
             else sy.tumble_grid(tumble_eps(cfg.planner, cfg.eps), cfg.planner.tumble_tau_v,
                                 cfg.planner.tau_g))
-    syn = synthesize(part.vertices, start, goal, part.com, sampler=cfg.sampler(),
-                     n=sy.n_samples, key=selection_key(key), criterion=cfg.eps,
-                     objective=sy.objective, required_probability=cfg.required.probability,
-                     model=model, dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                     confidence=cfg.required.confidence, **grid)
+    syn = synthesize(part.vertices, start, goal, part.com,
+                     selection=Selection(cfg.sampler(), sy.n_samples, selection_key(key),
+                                         sy.objective),
+                     requirement=cfg.requirement(), model=cfg.model_spec(model), **grid)
     if push and sy.physics_samples:   # the kinematic model's tie broken in MuJoCo
         import jax
 
@@ -147,7 +144,6 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
       per axis.
     """
     import jax
-    import jax.numpy as jnp
 
     from robustness import (decision_model, design_axes_for, design_key, DesignJudge, drawing_line,
                             joint_design, loosest_tolerances, tolerance_sensitivity)
@@ -161,9 +157,7 @@ def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:
     sampler = cfg.sampler()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        judge = DesignJudge(plan, d.n_samples, dkey, p=p, confidence=conf, model=model,
-                            dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                            criterion=cfg.eps)
+        judge = DesignJudge(plan, d.n_samples, dkey, cfg.requirement(), cfg.model_spec(model))
         designs = [loosest_tolerances(judge, sampler, a, rel_tol=d.rel_tol) for a in axes]
         sens = {s.axis: s for s in tolerance_sensitivity(judge, sampler, axes)}
         joint = joint_design(judge, sampler, designs, jax.random.fold_in(dkey, 1))

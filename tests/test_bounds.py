@@ -139,7 +139,7 @@ def test_paper_bounds_confronted_with_monte_carlo():
             warnings.simplefilter("always")
             ev = evaluate(plan, sampler, 256, jax.random.PRNGKey(0), SuccessCriterion(1e-2, 1e-2),
                           model="exact")
-        s = ev.summary
+            s = ev.summary   # the summary (built when first read) confronts the bounds
         assert s["paper_bound_position_m"] == pytest.approx(pb["Delta_C_f"])
         assert s["bound_violated"] is False          # first order holds
         assert s["paper_bound_violated"] is (not paper_holds)

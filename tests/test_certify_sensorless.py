@@ -130,11 +130,10 @@ tasks:
     ((", region: [0, 0.04, 0, 0.04]", ""), ("tasks[0].start.region:", "required")),
     (("region: [0, 0.04, 0, 0.04]", "region: [0, 0.04, 0]"), ("tasks[0].start.region:",)),
     (("region:", "regoin:"), ("tasks[0].start:", "regoin", "allowed keys: heading, region")),
-    (("tasks:", "model: mujoco\ntasks:"), ("model: mujoco", "sensorless", "quasistatic")),
     (("tasks:", "design: {n_samples: 100}\ntasks:"), ("design:", "known start")),
     (("rectangle.yaml", "cube.yaml"), ("tasks[0].start:", "tumble task", "[x, y, theta, face]")),
 ], ids=["region-inverted", "heading-inverted", "heading-too-wide", "heading-word",
-        "heading-angle", "no-heading", "no-region", "region-3", "misspelt-key", "mujoco",
+        "heading-angle", "no-heading", "no-region", "region-3", "misspelt-key",
         "design", "tumble-part"])
 def test_bad_sensorless_starts_are_one_line_exit_2(tmp_path, edit, words):
     p = tmp_path / "cfg.yaml"
@@ -292,3 +291,27 @@ tasks:
     nxt = [ln for ln in r.stdout.splitlines() if "next:" in ln]
     assert nxt and "friction.mu_f" in nxt[0]
     assert "--synthesize" not in r.stdout and "--design" not in r.stdout
+
+
+@pytest.mark.slow
+def test_mujoco_rolls_sensorless_plans_out_from_the_start_set(tmp_path):
+    """``model: mujoco`` on a sensorless task: each sample is the plan from its
+    drawn start rolled out in MuJoCo (contact strokes), its start read back from
+    the table, the claim stating the physics model; beside it the exact
+    kinematics' verdict on the same draws."""
+    p = tmp_path / "cfg.yaml"
+    p.write_text(SENSORLESS.replace("tasks:", "model: mujoco\nfriction: {mu_f: [0.8, 1.5], "
+                                               "support: rigid}\ntasks:")
+                 .replace("friction: {mu_f: [0.8, 1.5]}\n", "").replace("n_samples: 30", "n_samples: 1"))
+    out = tmp_path / "o"
+    r = nudge_here("certify", p, "--out", out, "--quiet")
+    assert r.returncode in (0, 1), (r.stdout, r.stderr)
+    cert = pd.read_parquet(out / "certificates").iloc[0]
+    assert cert["model"] == "mujoco" and cert["n_samples"] == 1
+    assert "from any heading in [-180, 180] deg" in cert["claim"]
+    s = pd.read_parquet(out / "samples").iloc[0]
+    assert s["model"] == "mujoco" and s["kind"] == "sensorless"
+    assert abs(s["start_dx_m"]) <= 0.02 and abs(s["start_dy_m"]) <= 0.02
+    assert abs(s["err_theta_rad"]) < math.pi / 2    # folded: the rectangle's period is pi
+    assert not pd.isna(s["success_exact"])           # the kinematics on the same draw
+    assert bool(s["success"]) is (s["failure_mode"] == "none")

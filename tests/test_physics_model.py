@@ -118,6 +118,7 @@ def test_evaluate_tumble_in_mujoco_beside_the_exact_model():
 
     from planning import plan_tumble
     from robustness import FrictionRange, GeometryTolerance, Sampler, evaluate
+    from robustness import Model
     from robustness.physics import PhysicsRun
     from sweeps.partfile import load_part
 
@@ -127,7 +128,7 @@ def test_evaluate_tumble_in_mujoco_beside_the_exact_model():
         plan = plan_tumble(cube.vertices, goal=(0.0, 0.0, 0.0, 1), com=cube.com, eps=2e-3)
     sam = Sampler(geometry=GeometryTolerance(tau_com=1e-3),
                   friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(1.5, 1.5)))
-    ev = evaluate(plan, sam, 1, jax.random.key(0), model="mujoco", physics=PhysicsRun(backend="c"))
+    ev = evaluate(plan, sam, 1, jax.random.key(0), model=Model("mujoco", physics=PhysicsRun(backend="c")))
     s = ev.samples
     assert ev.model == "mujoco" and (s["final_face"] == s["planned_face"]).all()
     assert s["success"].all() and s["success_exact"].all() and s["success_quasistatic"].isna().all()

@@ -155,5 +155,15 @@ def test_a_sensorless_plan_is_its_own_kind_not_a_push_plan():
     assert kind_of(plan) is KINDS["sensorless"]
     ev = evaluate(plan, Sampler(), 8, jax.random.key(0), model="exact")   # starts over the set
     assert (ev.samples["kind"] == "sensorless").all() and ev.samples["success"].all()
-    with pytest.raises(ValueError, match="does not roll out sensorless plans"):
-        evaluate(plan, Sampler(), 2, jax.random.key(0), model="mujoco")
+    # MuJoCo rolls each sample out as the plan from its drawn start: that plan, replayed
+    # by the exact kinematics, ends at the goal turned by a multiple of the part's period
+    from robustness.sensorless import draw_starts, start_plan
+
+    for st in draw_starts(plan, jax.random.key(0), 3):
+        pp = start_plan(plan, st)
+        assert pp.start == tuple(st) and pp.n_pushes == plan.n_steps and pp.verdict == "solved"
+        assert pp.goal[:2] == plan.goal[:2]
+        turns = (pp.goal[2] - plan.goal[2]) / plan.period
+        assert abs(turns - round(turns)) < 1e-9
+        r = evaluate(pp, Sampler(), 1, jax.random.key(1), model="exact", bound=False).samples
+        assert r["success"].all() and r["err_pos_m"].max() < 1e-9

@@ -266,7 +266,7 @@ def _pairs(count=160):
 
 # The uni- and biplus-stable parts' search solves ~600 candidate LPs a plan (0.4 s in
 # the numpy planner): they are checked on every third pair (each kind of pair kept).
-AGREE_STRIDE = {"uni": 3, "biplus": 3}
+AGREE_STRIDE = {"uni": 3, "biplus": 3, "nice": 2, "wide": 2, "marginal": 2}
 
 
 def _agree_pairs(name):
@@ -505,7 +505,7 @@ def test_uni_stable_singularity(seed):
         # ...and indeed no regular candidate is feasible (reference LP solver)
         part = pp.prepare_part(pts, com)
         table = sq.candidate_table(part, "paper", 3)
-        cands = pp.candidates(part, table, pp.Settings(strategy="paper"), start, goal)
+        cands = pp.candidates(part, table, PushOptions(strategy="paper"), start, goal)
         regular = [c for c in cands if c is not None and table["tier"][c.row] == 0]
         assert regular
         for cand in regular:

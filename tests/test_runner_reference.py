@@ -15,13 +15,12 @@ one unit of work, its samples in one file; a tumble study with a vertex toleranc
 import math
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-from robustness import evaluate, model_for, summarise, tables
+from robustness import Model, evaluate, model_for, summarise, tables
 from sweeps.run import execute
 from sweeps.study import Executor, load_design
 from sweeps.tasks import plan_task
@@ -69,10 +68,9 @@ def _reference_samples(design, cid, ti, lo, n, block):
     name, start, goal = design.tasks(cid)[ti]
     plan, _ = plan_task(part, start, goal, cfg.planner, cfg.eps)
     key = jax.random.fold_in(jax.random.fold_in(jax.random.key(cfg.seed), ti), block)
-    ev = evaluate(plan, cfg.sampler(), n, key, cfg.eps, model=cfg.model,
-                  dtype=jnp.float64 if cfg.dtype == "float64" else jnp.float32,
-                  confidence=cfg.required.confidence, physics=cfg.physics_run(part), task=name,
-                  bound=False)
+    ev = evaluate(plan, cfg.sampler(), n, key, cfg.eps,
+                  model=Model(cfg.model, dtype=cfg.dtype, physics=cfg.physics_run(part)),
+                  task=name, bound=False)
     df = tables.pack_samples(ev.samples, ev.param_columns)
     df["sample_id"] = df["sample_id"] + lo
     return plan, df

@@ -12,8 +12,8 @@ import pandas as pd
 import pytest
 
 from planning import plan_alternatives, plan_pose
-from robustness import (ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler,
-                        SuccessCriterion, evaluate, stats)
+from robustness import (ExecutionTolerance, FrictionRange, GeometryTolerance, Requirement, Sampler,
+                        Selection, SuccessCriterion, evaluate, stats)
 from robustness.evaluation import goal_errors
 from robustness.replay import run_push
 from robustness.synthesis import (Scores, push_candidates, score_candidates, select,
@@ -29,6 +29,7 @@ SAMPLER = Sampler(GeometryTolerance(tau_v=2e-5, tau_com=1e-4),
                   ExecutionTolerance(start_xy=5e-4, start_theta=0.01, fence_angle=0.002,
                                      distance_abs=1e-4, distance_rel=0.005))
 EPS = dict(criterion=SuccessCriterion(pos_eps_m=0.003, theta_eps_rad=0.05))
+REQ = Requirement(criterion=EPS["criterion"])
 START, TURN = (0.0, 0.0, 0.0), (0.10, 0.05, np.pi / 3)
 SMALL = dict(margins_deg=(3.0, 7.0, 20.0), safety_factors=(1.15, 2.0), strategies=("search",),
              per_setting=2)
@@ -65,7 +66,7 @@ def test_batched_scores_are_evaluates_on_the_same_draws():
     P = max(p.n_pushes for p in plans)
     longest = int(np.argmax([p.n_pushes for p in plans]))
     # the longest candidate sees exactly the draws evaluate() draws for it
-    ev = evaluate(plans[longest], SAMPLER, n, key, **EPS, summary=False)
+    ev = evaluate(plans[longest], SAMPLER, n, key, **EPS)
     assert np.array_equal(ev.columns["success"], s.success[longest])
     # every other candidate: its pushes see the first of the same per-push errors
     with jax.enable_x64(True):
@@ -97,8 +98,8 @@ def test_a_plan_that_should_win_wins():
     # (its reorient pushes slip); synthesis must find one that does not
     V, com = _part()
     # (under the fast model: the faithful one is tested by the shortlist test below)
-    syn = synthesize(V, START, TURN, com, sampler=SAMPLER, n=400, key=jax.random.key(0), **EPS,
-                     model="quasistatic", **SMALL)
+    syn = synthesize(V, START, TURN, com, selection=Selection(SAMPLER, 400, jax.random.key(0)),
+                     requirement=REQ, model="quasistatic", **SMALL)
     k = syn.scores.n_success
     assert syn.candidates[0].plan.pushes == plan_pose(V, START, TURN, com).pushes
     assert k[syn.chosen] == k.max() and k[0] < 0.5 * 400 and k[syn.chosen] > 0.95 * 400
@@ -161,9 +162,9 @@ def _config(tmp_path, extra=""):
 
 @pytest.mark.slow
 def test_certify_synthesize_end_to_end(tmp_path):
-    cfg = _config(tmp_path, "synthesize:\n  n_samples: 300\n  margins_deg: [3, 20]\n"
+    cfg = _config(tmp_path, "synthesize:\n  n_samples: 160\n  margins_deg: [3, 20]\n"
                             "  safety_factors: [1.15, 2.0]\n  strategies: [search]\n"
-                            "  per_setting: 2\n  enabled: false\n  confirm_samples: 6\n")
+                            "  per_setting: 2\n  enabled: false\n  confirm_samples: 2\n")
     out = tmp_path / "out"
     r = nudge_here("certify", cfg, "--synthesize", "--out", out, "--quiet")
     assert r.returncode in (0, 1), r.stderr
@@ -180,17 +181,17 @@ def test_certify_synthesize_end_to_end(tmp_path):
         assert g["bound_position_m"].notna().all() and (g["n_steps"] >= 1).all()
         # the certified plan is the chosen one; the verdict's samples are not the selection's
         assert plans[plans.task == task].iloc[0]["plan_json"] == ch["plan_json"]
-        assert c["n_samples"] == 120 and c["selection_n_samples"] == 300 == ch["n_samples"]
+        assert c["n_samples"] == 120 and c["selection_n_samples"] == 160 == ch["n_samples"]
         assert c["selection"].startswith("synthesized:") and "fresh draws" in c["selection"]
         assert "fresh draws" in c["note"]
         assert c["selection_ci_low"] == pytest.approx(ch["ci_low_one_sided"])
         # the chosen plan rolled out in MuJoCo beside its certificate, said in the note
-        assert c["physics_n_samples"] == 6 and 0 <= c["physics_n_success"] <= 6
+        assert c["physics_n_samples"] == 2 and 0 <= c["physics_n_success"] <= 2
         assert c["physics_agrees"] in (True, False)
-        assert "MuJoCo on 6 fresh draws" in c["note"]
+        assert "MuJoCo on 2 fresh draws" in c["note"]
         assert ("DISAGREE" in c["note"]) == (not c["physics_agrees"])
     report = (out / "report.html").read_text()
-    assert "<th class=\"l\">MuJoCo</th>" in report and "/6 " in report
+    assert "<th class=\"l\">MuJoCo</th>" in report and "/2 " in report
     turn = certs[certs.task == "turn"].iloc[0]
     assert turn["selection_ci_low"] > turn["default_selection_ci_low"] + 0.3
     assert "synthesized:" in r.stdout
@@ -243,14 +244,15 @@ def test_tumble_candidates_are_scored_like_evaluate_and_ties_go_to_the_smaller_b
                       execution=ExecutionTolerance(tumble_slip_xy=2e-5, tumble_slip_theta=2e-4))
     goal = (0.2, 0.0, 0.0, 0)
     eps = dict(criterion=SuccessCriterion(pos_eps_m=0.0025, theta_eps_rad=0.012))
-    syn = synthesize(part.vertices, (0, 0, 0, 0), goal, part.com, sampler=sampler, n=300,
-                     key=jax.random.key(0), eps=1e-3, **eps)
+    syn = synthesize(part.vertices, (0, 0, 0, 0), goal, part.com,
+                     selection=Selection(sampler, 300, jax.random.key(0)),
+                     requirement=Requirement(**eps), eps=1e-3)
     cands, s = syn.candidates, syn.scores
     assert len(cands) >= 2 and all(c.plan.verdict == "solved" for c in cands)
     assert len({c.plan.faces for c in cands}) == len(cands)
     assert max(c.plan.n_tumbles for c in cands) <= cands[0].plan.n_tumbles + 2
     longest = int(np.argmax([c.plan.n_tumbles for c in cands]))
-    ev = evaluate(cands[longest].plan, sampler, 300, jax.random.key(0), **eps, summary=False)
+    ev = evaluate(cands[longest].plan, sampler, 300, jax.random.key(0), **eps)
     assert np.array_equal(ev.columns["success"], s.success[longest])
     # every candidate, the shorter ones too: its tumbles see the first of the same slips
     # and no more (a step past a plan's tumbles is a no-op without a slip)
@@ -316,8 +318,9 @@ def test_physics_breaks_the_kinematic_tie():
 
     part = load_part_ref("rectangle", ROOT / "examples")
     # a short translation: many candidates succeed on every selection draw (a tie)
-    syn = synthesize(part.vertices, START, (0.05, 0.02, 0.0), part.com, sampler=SAMPLER, n=200,
-                     key=jax.random.key(0), model="quasistatic", **EPS, **SMALL)
+    syn = synthesize(part.vertices, START, (0.05, 0.02, 0.0), part.com,
+                     selection=Selection(SAMPLER, 200, jax.random.key(0)), requirement=REQ,
+                     model="quasistatic", **SMALL)
     k = syn.scores.n_success
     tied = [i for i in range(len(k)) if k[i] >= k[syn.chosen] - 1]
     assert len(tied) >= 2
@@ -344,8 +347,8 @@ def test_the_faithful_model_chooses_among_the_fast_models_shortlist(monkeypatch)
                                                                         support="rigid"))
     full, _ = push_candidates(V, START, TURN, com, **SMALL)
     assert len(full) > 3
-    syn = synthesize(V, START, TURN, com, sampler=sampler, n=n, key=key, model="limit_surface",
-                     **EPS, **SMALL)
+    syn = synthesize(V, START, TURN, com, selection=Selection(sampler, n, key), requirement=REQ,
+                     model="limit_surface", **SMALL)
     assert syn.screened == len(full) and len(syn.candidates) == 3 and syn.model == "limit_surface"
     assert syn.candidates[0].plan.pushes == full[0].plan.pushes
     pre = score_candidates([c.plan for c in full], sampler, n, key, **EPS)

@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 
 from planning import plan_pose
-from robustness import ExecutionTolerance, GeometryTolerance, Sampler, SuccessCriterion, stats
+from robustness import (ExecutionTolerance, GeometryTolerance, Requirement, Sampler, SuccessCriterion,
+                        stats)
 from robustness import tolerance_design as td
 from tests.commandline import nudge_here
 
@@ -23,7 +24,7 @@ def _plan():
 
 
 def _judge(plan, n=300, p=0.9):
-    return td.Judge(plan, n, jax.random.key(4), p=p, confidence=0.95, model="exact", **EPS)
+    return td.Judge(plan, n, jax.random.key(4), Requirement(p, 0.95, **EPS), "exact")
 
 
 @pytest.mark.slow

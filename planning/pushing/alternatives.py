@@ -79,8 +79,7 @@ def plan_alternatives(vertices, start, goal, com=None, *, options: Optional[Push
     first = pl.plan_pose(vertices, start, goal, com, options=o)   # its message when none
     if limit == 1:
         return [first]
-    settings = pl.check_settings(o.objective, o.strategy, o.max_reorients, o.extra_steps,
-                                 o.workspace)
+    settings = o
     start, goal = check_pose(start, "start"), check_pose(goal, "goal")
     part = prepare_part(vertices, com, o.margin_deg, o.safety_factor, support=o.support,
                         min_fence_mu=o.min_fence_mu)

@@ -35,7 +35,7 @@ class PushPlanBatch:
 
     Attributes:
       part: the prepared part; starts, goals: (B, 3) poses.
-      settings: the planner settings (:class:`planning.pushing.planner.Settings`).
+      settings: the planner's :class:`~planning.PushOptions`.
       ok: (B,) plan found and verified by replay.
       plan_class: (B,) index into ``PLAN_CLASSES``; turns: (B,) extra full turns.
       total_distance: (B,) m; n_pushes: (B,).
@@ -50,7 +50,7 @@ class PushPlanBatch:
     part: PushPart
     starts: np.ndarray
     goals: np.ndarray
-    settings: pp.Settings
+    settings: PushOptions
     ok: np.ndarray
     plan_class: np.ndarray
     turns: np.ndarray
@@ -220,8 +220,7 @@ def plan_pose_batch(vertices, starts, goals, com=None, options: Optional[PushOpt
     if o.solver != DEFAULTS.solver:
         raise ValueError(f"options.solver: the batched planner solves every LP in closed form, "
                          f"got {o.solver!r}")
-    settings = pp.check_settings(o.objective, o.strategy, o.max_reorients, o.extra_steps,
-                                 o.workspace)
+    settings = o
     starts = np.atleast_2d(check_pose(starts, "starts"))
     goals = np.atleast_2d(check_pose(goals, "goals"))
     if starts.shape != goals.shape or starts.ndim != 2:

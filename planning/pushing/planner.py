@@ -29,34 +29,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import angle_distance, wrap_angle_np, float64, replay_pushes
-from planning.pushing.options import OBJECTIVES, PushOptions, check_workspace, options_of
+from planning.pushing.options import PushOptions, options_of
 from planning.pushing import pose_lp, sequences as sq, workspace as wsp
 from planning.pushing.part import (ANG_TOL, SAME_ORIENTATION, PlanningError, PushPart,
                                    WorkspaceError, check_pose, prepare_part)
 from planning.pushing.plan import Push, PushPlan
 
-
-
-# --------------------------------------------------------------------------
-# Settings
-# --------------------------------------------------------------------------
-@dataclasses.dataclass(frozen=True)
-class Settings:
-    """The planner's validated settings (see :func:`plan_pose` for each)."""
-
-    objective: str = "distance"
-    strategy: str = "search"
-    max_reorients: int = 24
-    extra_steps: int = 3
-    workspace: Optional[tuple[float, float, float, float]] = None
-
-
-def check_settings(objective, strategy, max_reorients, extra_steps, workspace) -> Settings:
-    """Validate the planner settings; one clear error naming the field."""
-    if objective not in OBJECTIVES:
-        raise ValueError(f"objective: expected one of {OBJECTIVES}, got {objective!r}")
-    strategy, max_reorients, extra_steps = sq.check_search(strategy, max_reorients, extra_steps)
-    return Settings(objective, strategy, max_reorients, extra_steps, check_workspace(workspace))
 
 
 # --------------------------------------------------------------------------
@@ -77,7 +55,7 @@ class Candidate:
     shifts: np.ndarray      # (r, 2) centre-of-mass displacement of each reorient at its least distance
 
 
-def candidates(part: PushPart, table: dict, settings: Settings, start, goal) -> list:
+def candidates(part: PushPart, table: dict, settings: PushOptions, start, goal) -> list:
     """Expand every template of ``table`` for this start/goal pair (None where
     a template does not apply), with its LP data."""
     theta0, thetag = _orientations(start, goal)
@@ -219,17 +197,17 @@ def plan_pose(vertices, start, goal, com=None, options: Optional[PushOptions] = 
       PlanningError: no candidate is feasible (within the effort budget or the
         workspace: the message says which), or the replay disagrees.
     """
-    o = options_of(options)
-    settings = check_settings(o.objective, o.strategy, o.max_reorients, o.extra_steps, o.workspace)
+    o = options_of(options)   # validated when made: the planner reads its settings from it
     start = check_pose(start, "start")
     goal = check_pose(goal, "goal")
     part = prepare_part(vertices, com, o.margin_deg, o.safety_factor, support=o.support,
                         min_fence_mu=o.min_fence_mu)
-    return plan_one(part, settings, start, goal, o.solver)
+    return plan_one(part, o, start, goal, o.solver)
 
 
-def plan_one(part: PushPart, settings: Settings, start, goal, solver: str = "closed_form") -> PushPlan:
-    """:func:`plan_pose` for a prepared part and validated settings."""
+def plan_one(part: PushPart, settings: PushOptions, start, goal, solver: str = "closed_form") -> PushPlan:
+    """:func:`plan_pose` for a prepared part; ``settings``: the
+    :class:`~planning.PushOptions` (objective, strategy, effort, workspace) it reads."""
     if settings.workspace is not None:
         wsp.check_inside(part, settings.workspace, start, "start")
         wsp.check_inside(part, settings.workspace, goal, "goal")
@@ -258,7 +236,7 @@ BOUND_SLACK = 1e-7
 EXHAUSTIVE_LP = False    # tests: solve every candidate's LP (the bound must not change the plan)
 
 
-def solve_candidates(part: PushPart, settings: Settings, cands: list, table: dict,
+def solve_candidates(part: PushPart, settings: PushOptions, cands: list, table: dict,
                      solver: str = "closed_form") -> list:
     """Every candidate's LP optimum as ``(cost, pushes, weights)`` (None: not
     applicable or infeasible).  For the ``distance`` objective without a
@@ -304,7 +282,7 @@ def _result(cand: Candidate, w, scale: float) -> tuple:
 EXHAUSTIVE_FIT = False   # tests: fit every candidate (the bound must not change the plan)
 
 
-def fit_workspace(part: PushPart, settings: Settings, start, cands: list, table: dict,
+def fit_workspace(part: PushPart, settings: PushOptions, start, cands: list, table: dict,
                   results: list, boxes: list) -> list:
     """The candidates' optima inside the workspace (:func:`workspace.fit`), as
     ``results`` (``(cost, pushes, weights)`` or None).  Exact branch and bound:
@@ -385,7 +363,7 @@ def _message(part: PushPart, start, goal, why: str) -> str:
     return line if len(line) <= MESSAGE_LIMIT else head + why
 
 
-def _workspace_error(part: PushPart, settings: Settings, start, goal, boxes) -> WorkspaceError:
+def _workspace_error(part: PushPart, settings: PushOptions, start, goal, boxes) -> WorkspaceError:
     """No candidate fits the workspace: the error names the smallest workspace
     found (the given one scaled about its centre; :func:`workspace.smallest_workspace`)."""
     scale, box = wsp.smallest_workspace(boxes, settings.workspace)
@@ -396,7 +374,7 @@ def _workspace_error(part: PushPart, settings: Settings, start, goal, boxes) -> 
     return WorkspaceError(_message(part, start, goal, why), scale, box if math.isfinite(scale) else None)
 
 
-def _too_long_message(part: PushPart, settings: Settings, start, goal, shortest: float) -> str:
+def _too_long_message(part: PushPart, settings: PushOptions, start, goal, shortest: float) -> str:
     return _message(part, start, goal, (
         f": the shortest candidate pushes {shortest:.4g} m in all, {shortest / part.size:.3g} part sizes "
         f"(its push directions nearly cancel), more than float64 can replay ({part.longest_plan:.4g} m); "
@@ -404,7 +382,7 @@ def _too_long_message(part: PushPart, settings: Settings, start, goal, shortest:
            if settings.strategy == "paper" else f"try another {option('margin_deg')}")))
 
 
-def _no_plan_message(part: PushPart, settings: Settings, start, goal, cands, table) -> str:
+def _no_plan_message(part: PushPart, settings: PushOptions, start, goal, cands, table) -> str:
     """Why no candidate gave a plan, in one line of at most ``MESSAGE_LIMIT``
     characters that names the options to change as the user types them."""
     if (all(c is None for c in cands) and part.min_fence_mu is not None
@@ -437,7 +415,7 @@ def _slip_note(part: PushPart) -> str:
     return f"; only pushes sticking at min_fence_mu={part.min_fence_mu:g} allowed"
 
 
-def assemble(part: PushPart, settings: Settings, start, goal, cand: Candidate, table: dict,
+def assemble(part: PushPart, settings: PushOptions, start, goal, cand: Candidate, table: dict,
              weights) -> PushPlan:
     """The plan of a solved candidate, replayed and checked (raises PlanningError
     if the replay disagrees).  Function of ~80 lines: it lists the pushes in
@@ -477,7 +455,7 @@ def assemble(part: PushPart, settings: Settings, start, goal, cand: Candidate, t
                      int(table["turns"][cand.row]), err)
 
 
-def make_plan(part: PushPart, settings: Settings, start, goal, pushes, cls: int, turns: int,
+def make_plan(part: PushPart, settings: PushOptions, start, goal, pushes, cls: int, turns: int,
               err) -> PushPlan:
     """A :class:`PushPlan` with every setting recorded."""
     from planning.pushing.plan import PLAN_CLASSES

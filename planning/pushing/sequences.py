@@ -86,7 +86,6 @@ import numpy as np
 
 from kernels import BIPLUS_STABLE, CCW, CW, NICE_STABLE, UNI_STABLE
 from planning.pushing.part import PushPart
-from planning.pushing.plan import STRATEGIES
 
 COST_TIE = 1e-9          # relative: candidates this close in cost tie; the lower row wins
 STEP_ROUND = 1e-12       # relative slack of the fewest-steps count (rounding of Delta / step)
@@ -119,16 +118,6 @@ class Step:
     edge: int
     sense: int
     alpha: float
-
-
-def check_search(strategy: str, max_reorients, extra_steps) -> tuple[str, int, int]:
-    """Validate the search settings; returns them normalised."""
-    if strategy not in STRATEGIES:
-        raise ValueError(f"strategy: expected one of {STRATEGIES}, got {strategy!r}")
-    for field, value, lo in (("max_reorients", max_reorients, 1), ("extra_steps", extra_steps, 0)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
-            raise ValueError(f"{field}: expected an integer >= {lo}, got {value!r}")
-    return strategy, int(max_reorients), int(extra_steps)
 
 
 def _rate(part: PushPart, e: int, sense: int) -> float:
