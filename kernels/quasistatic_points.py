@@ -72,7 +72,15 @@ ellipsoid-like support (many points on a ring) the result approaches
 median 2e-9-1.3e-5 m, worst 4e-5-4.2e-4 m (16 panels: median 2e-10-3.7e-6,
 worst 8.5e-6-3.2e-4) over the nice-stable, biplus and unistable parts on
 rigid corners and a uniform pad, the landed edges all the same; 6 panels
-miss the fine integration's 2e-7 m.  The ellipsoid's closed form is still
+miss the fine integration's 2e-7 m.  The heading is the weak side: against 128
+panels, 3 random pushes of 5-40 mm on every family of ``any`` at fence friction
+0.3/0.8/1.5 (the quadrature test's grid with other draws), the nice-stable
+pentagon is within 2.4e-6 m and 1e-8 rad on 8 panels, but the unistable polygon
+is off by up to 4.9e-4 m and 2.1e-2 rad (1.2 degrees: a tripod at fence
+friction 0.3) on 8 panels and 1.6e-4 m, 3.0e-3 rad on 32 (December 2026; the
+landed edges the same): a kink inside a panel converges slowly, and on such
+pushes the heading error exceeds a 1-degree success criterion.  Not fixed yet
+(panels split at the kinks would).  The ellipsoid's closed form is still
 some 30-140 times faster (180,000-230,000 samples/s of the same plan).
 
 Assumptions and limits: quasi-static, normal push, fence longer than the part,

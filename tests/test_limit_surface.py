@@ -467,7 +467,7 @@ def test_a_mixed_support_batch_split_by_point_count_equals_the_whole(monkeypatch
             assert [g[0][1] for g in groups] == [("rigid", "tripod"), ("uniform", "ring")]
             assert sorted(np.concatenate([g[1] for g in groups])) == list(range(40))
         runs[split] = evaluate(plan, sampler, 40, jax.random.key(3), model="limit_surface",
-                               summary=False, bound=False).columns
+                               bound=False).columns
     a, b = runs[True], runs[False]
     for k in ("final_x_m", "final_y_m", "final_theta_rad", "slip_m"):
         np.testing.assert_allclose(a[k], b[k], atol=1e-7)
