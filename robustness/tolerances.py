@@ -287,8 +287,8 @@ class Requirement:
       criterion: the :class:`SuccessCriterion` that judges each sample; None:
         the plan kind's (:meth:`SuccessCriterion.for_plan`, :meth:`for_plan`).
 
-    A study's or certification's ``eps:`` and ``certify:`` sections validate into
-    this value (:class:`sweeps.config.Evaluation`).
+    A study's or certification's ``required:`` and ``eps:`` sections give this
+    value (:meth:`sweeps.config.Evaluation.requirement`).
     """
 
     probability: float = REQUIRED_PROBABILITY
