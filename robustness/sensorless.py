@@ -59,7 +59,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import make_polygon, PartWarning, rot2, rot2_np, wrap_angle_np
+from kernels import make_polygon, PartWarning, rot2, wrap_angle_np
 
 #: ``jax.random.fold_in(key, START_STREAM)`` draws a sensorless sample's start
 START_STREAM = 0x5E0540
@@ -165,6 +165,21 @@ def _fence_batch(nom, rows, model):
     return _blocks(lambda b: jax.vmap(one)(b), rows, _block(model))
 
 
+def allowed_edges(plan) -> tuple:
+    """``(poly, allowed)``: the plan's nominal polygon and, per push, the hull
+    edges it may end flush on (a list of sets, hull order)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", PartWarning)
+        poly = make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    return poly, [{poly.caller_edge_to_hull(e) for e in p.edges} for p in plan.pushes]
+
+
+def wrong_pushes(edges, complete, allowed) -> np.ndarray:
+    """(n, P) bool: push ``k`` ended flush (``complete``) on none of ``allowed[k]``."""
+    ok = np.stack([np.isin(edges[:, k], sorted(a)) for k, a in enumerate(allowed)], axis=1)
+    return np.asarray(complete, bool) & ~ok
+
+
 def run_sensorless(plan, draws, starts, model, dtype, chunk):
     """Replay a sensorless plan on the samples ``draws`` from ``starts`` ((n, 3),
     m, m, rad); returns ``(poly, allowed, PushReplay)``: the nominal polygon,
@@ -173,9 +188,7 @@ def run_sensorless(plan, draws, starts, model, dtype, chunk):
     from robustness.replay import (_bucket, _push_samples_of, _run_chunks, _static_model,
                                    limit_surface_calls)
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PartWarning)
-        poly = make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    poly, allowed = allowed_edges(plan)
     P, m = len(plan.pushes), len(plan.vertices)
     Pp, mp = _bucket(P, 8), _bucket(m, 4)
     ang = np.zeros(Pp)
@@ -194,7 +207,6 @@ def run_sensorless(plan, draws, starts, model, dtype, chunk):
     call, whole = limit_surface_calls(static, draws.n, chunk)
     res = _run_chunks(_fence_batch, nom, rows, draws.n, call, static, whole=whole)
     res = dataclasses.replace(res, edges=res.edges[:, :P], complete=res.complete[:, :P])
-    allowed = [{poly.caller_edge_to_hull(e) for e in p.edges} for p in plan.pushes]
     return poly, allowed, res
 
 
@@ -221,8 +233,7 @@ def sensorless_rows(plan, draws, starts, criterion, model, dtype, chunk):
     poly, allowed, r = run_sensorless(plan, draws, starts, model, dtype, chunk)
     edges = np.asarray(r.edges, np.int64).reshape(n, P)
     complete = np.asarray(r.complete).reshape(n, P).astype(bool)
-    ok_edge = np.stack([np.isin(edges[:, k], sorted(allowed[k])) for k in range(P)], axis=1)
-    wrong = complete & ~ok_edge
+    wrong = wrong_pushes(edges, complete, allowed)
     n_incomplete = (~complete).sum(axis=1)
     changed = np.asarray(r.changed).astype(bool)
     trunc = np.asarray(r.truncated).astype(bool)
@@ -265,16 +276,17 @@ def start_plan(plan, start):
     pose, pushes = np.asarray(start, np.float64), []
     for q in plan.pushes:
         d = np.asarray(q.direction, np.float64)
-        h = float(np.min((pose[:2] + part.body @ rot2_np(pose[2]).T) @ d))
-        if q.line - h < 0:
+        final, travel, _ = replay_sensorless(part, [q], pose[None, :])
+        travel = float(travel[0])   # the fence's travel after contact, to its line
+        if travel < 0:
             raise ValueError(f"start: the fence of push {len(pushes)} misses the part from "
                              f"{tuple(np.round(start, 6))} (outside the plan's start set)")
-        after = np.asarray(replay_sensorless(part, [q], pose[None, :])[0][0], np.float64)
+        after = np.asarray(final[0], np.float64)
         turn = float(wrap_angle_np(after[2] - pose[2]))
         nu_w = part.nu + after[2]   # the edge flush: outward normal opposite to the push
         e = int(np.argmin(np.abs(wrap_angle_np(nu_w - math.atan2(-d[1], -d[0])))))
         pushes.append(Push(kind="reorient" if abs(turn) > 1e-9 else "translate",
-                           direction=(float(d[0]), float(d[1])), distance=float(q.line - h),
+                           direction=(float(d[0]), float(d[1])), distance=travel,
                            edge=part.polygon.edge_vertices(e), contact_vertex=None,
                            min_distance=None, pose_after=tuple(float(x) for x in after),
                            rotation=turn if abs(turn) > 1e-9 else None))
@@ -307,7 +319,7 @@ def sensorless_physics_rows(plan, draws, sampler, criterion, merge_factor, run, 
     from robustness.physics import rollout_push_plan
     from robustness.samplers import Draws
 
-    n, P = draws.n, len(plan.pushes)
+    n = draws.n
     starts = draw_starts(plan, key, n)
     ex = draws.params.execution   # the drawn start replaces the start error
     params = dataclasses.replace(draws.params, execution=dataclasses.replace(
@@ -315,22 +327,18 @@ def sensorless_physics_rows(plan, draws, sampler, criterion, merge_factor, run, 
     zeroed = Draws(params, draws.in_axes, n)
     got = [rollout_push_plan(start_plan(plan, starts[i]), zeroed.slice(i, i + 1),
                              stroke="contact", **common) for i in range(n)]
-    cat = lambda k: np.concatenate([np.asarray(g[k]).reshape(1, *np.shape(g[k])[1:])  # noqa: E731
-                                    for g in got])
-    r = {k: cat(k) for k in ("x", "y", "theta", "slip", "simulated", "success", "failure_mode",
-                             "max_tilt", "hull_changed", "c_physical", "support_ok")}
+    # each rollout is of one sample: its arrays have a leading axis of 1
+    r = {k: np.concatenate([np.asarray(g[k]) for g in got])
+         for k in ("x", "y", "theta", "slip", "simulated", "success", "failure_mode", "max_tilt",
+                   "hull_changed", "c_physical", "support_ok", "edges", "complete")}
     r["theta"] = fold_heading(plan, r["theta"])
-    r["backend"] = got[0]["backend"] if got else common.get("backend", "c")
-    edges = np.concatenate([np.asarray(g["edges"], np.int64).reshape(1, P) for g in got])
-    complete = np.concatenate([np.asarray(g["complete"], bool).reshape(1, P) for g in got])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PartWarning)
-        poly = make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
-    allowed = [{poly.caller_edge_to_hull(e) for e in p.edges} for p in plan.pushes]
-    ok_edge = np.stack([np.isin(edges[:, k], sorted(allowed[k])) for k in range(P)], axis=1)
-    wrong = complete & ~ok_edge
-    return r, push_physics_columns(r, poly, edges, complete, wrong, min(allowed[-1]))
+    r["backend"] = got[0]["backend"]
+    poly, allowed = allowed_edges(plan)
+    edges, complete = r["edges"].astype(np.int64), r["complete"].astype(bool)
+    return r, push_physics_columns(r, poly, edges, complete,
+                                   wrong_pushes(edges, complete, allowed), min(allowed[-1]))
 
 
-__all__ = ["START_STREAM", "is_sensorless", "start_set", "draw_starts", "run_sensorless",
+__all__ = ["START_STREAM", "is_sensorless", "start_set", "draw_starts", "allowed_edges",
+           "wrong_pushes", "run_sensorless",
            "sensorless_rows", "fold_heading", "start_plan", "sensorless_physics_rows"]

@@ -250,9 +250,18 @@ class Judge:
             raise ValueError(f"requirement: expected a robustness.Requirement, got {requirement!r}")
         self.plan, self.n, self.key = plan, int(n), key
         self.requirement = requirement
-        self.p, self.confidence = requirement.probability, requirement.confidence
         self.kw = dict(criterion=requirement.criterion, model=Model.of(model), bound=False)
         self.calls = 0
+
+    @property
+    def p(self) -> float:
+        """The required success probability (the requirement's)."""
+        return self.requirement.probability
+
+    @property
+    def confidence(self) -> float:
+        """The confidence of the claim (the requirement's)."""
+        return self.requirement.confidence
 
     def successes(self, sampler: Sampler, key=None) -> int:
         self.calls += 1

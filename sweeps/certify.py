@@ -621,8 +621,8 @@ def margin_search(part, start, goal, cfg, key, model):
             return False
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, cfg.eps, cfg.model_spec(model, cfg.physics_run()),
-                          bound=False)
+            ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, cfg.eps,
+                          cfg.model_spec(model, cfg.physics_run()), bound=False)
         return one_sided_lower(int(np.sum(ev.columns["success"])), ev.n,
                                cfg.required.confidence) >= cfg.required.probability
 
