@@ -30,7 +30,7 @@ from kernels.quasistatic import SimOutcome, limit_surface_ratio, simulate_push, 
 from kernels.limit_surface import Motion, push_motion
 from kernels.quasistatic_points import simulate_push as simulate_push_on_points
 from kernels.quasistatic_points import simulate_pushes as simulate_pushes_on_points
-from kernels.tumble import TumbleConfig, make_config, replay, tumble
+from kernels.tumble import TumbleConfig, edge_motion, make_config, replay, tumble
 from kernels.support import (SUPPORT_FAMILIES, corner_weights, equilibrium_weights,
                              family_c_range, family_point_count, family_support, tripod_fit)
 
@@ -56,7 +56,7 @@ __all__ = [
     "polygon_geometry", "Polyhedron", "TumbleGeometry", "make_polyhedron", "tumble_geometry",
     "PushOutcome", "replay_push", "replay_pushes", "SimOutcome", "limit_surface_ratio",
     "simulate_push", "simulate_pushes", "Motion", "push_motion", "simulate_push_on_points",
-    "simulate_pushes_on_points", "family_support", "family_point_count", "TumbleConfig", "make_config", "replay", "tumble",
+    "simulate_pushes_on_points", "family_support", "family_point_count", "TumbleConfig", "edge_motion", "make_config", "replay", "tumble",
     "SUPPORT_FAMILIES", "corner_weights", "equilibrium_weights", "family_c_range", "tripod_fit",
     "BIPLUS_STABLE", "CCW", "CW", "MARGINAL_FOOT", "NICE_STABLE", "OBJECT_CLASS_NAMES", "UNI_STABLE",
     "as_points", "max_reorient_table", "object_class", "peshkin_length", "peshkin_length_np",

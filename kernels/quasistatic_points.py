@@ -78,9 +78,23 @@ panels, 3 random pushes of 5-40 mm on every family of ``any`` at fence friction
 pentagon is within 2.4e-6 m and 1e-8 rad on 8 panels, but the unistable polygon
 is off by up to 4.9e-4 m and 2.1e-2 rad (1.2 degrees: a tripod at fence
 friction 0.3) on 8 panels and 1.6e-4 m, 3.0e-3 rad on 32 (December 2026; the
-landed edges the same): a kink inside a panel converges slowly, and on such
-pushes the heading error exceeds a 1-degree success criterion.  Not fixed yet
-(panels split at the kinks would).  The ellipsoid's closed form is still
+landed edges the same; against 256 panels, four seeds: 64 panels still
+8.3e-3 rad off, first-order convergence).  The cause, checked against the
+cvxpy oracle (``oracles/limit_surface_numpy.py``, equal to 1e-5 at every
+node): on a small support (a tripod of 1 mm radius, the contact 35 mm away) the
+motion is continuous but turns steeply where the fence contact starts to
+slide: the rotation rate goes from 8.2 to 51 rad/m within 0.005 of
+``ell`` (a panel is 0.35 wide), so the integrand ``ds/dell`` all but jumps
+(0.035 -> 0.004) inside one panel.  Only a push that stops mid-pivot takes its
+heading from the travel's inversion (a landing's heading is exact), so the
+heading error is confined to pushes that end between landings: on the planned
+pushes of the four bundled polygons' default plans (the calibration task,
+supports ``rigid`` and ``any``, fence friction 0.3-0.8, 512 samples each,
+4,096 in all) 8 panels against 128 leave every final heading the same, final
+positions within 8.8e-6 m, and no verdict changed (3 mm, 0.05 rad).  Not fixed
+(a panel split at the switch, located from the sticking force's cone ratio on
+the nodes before it, with nodes graded towards it, would; it costs solves on
+every sample under ``vmap``).  The ellipsoid's closed form is still
 some 30-140 times faster (180,000-230,000 samples/s of the same plan).
 
 Assumptions and limits: quasi-static, normal push, fence longer than the part,

@@ -37,6 +37,7 @@ __all__ = [
     "TumbleConfig",
     "RigidMotion2D",
     "make_config",
+    "edge_motion",
     "tumble",
     "replay",
     "replay_trajectory",
@@ -121,6 +122,35 @@ def _tables(topology: TumbleTopology):
     return tuple(a.astype(np.int32) for a in (nf, slot_b, g_slot_a, g_slot_b))
 
 
+def edge_motion(ca, cb, qa, qb):
+    """The planar rigid motion of one elementary tumble, in the frame of the face
+    on the plane: it maps the landing face's frame coordinates into the current
+    face's, taking the shared edge's corners ``qa``, ``qb`` (landing face's
+    frame) onto ``ca``, ``cb`` (current face's frame): the rotation from
+    ``qb - qa`` to ``cb - ca``, the translation that matches the edge's
+    midpoints (the plane development; exact for planar faces).  The one home of
+    the tumble's kinematics: :func:`tumble` applies it to the edge's corners in
+    the world (the landing face's new pose), the Monte-Carlo replay
+    (:mod:`robustness.replay`) composes it with the slips.
+
+    Args:
+      ca, cb, qa, qb: (..., 2) corners, metres (any common leading shape).
+
+    Returns:
+      ``(c, s, tx, ty)``, each (...): ``q -> [[c, -s], [s, c]] q + (tx, ty)``.
+    """
+    dc, dq = cb - ca, qb - qa
+    rc = dq[..., 0] * dc[..., 0] + dq[..., 1] * dc[..., 1]
+    rs = dq[..., 0] * dc[..., 1] - dq[..., 1] * dc[..., 0]
+    rn = jnp.sqrt(rc * rc + rs * rs)
+    rc, rs = rc / rn, rs / rn
+    mq = 0.5 * (qa + qb)
+    mc = 0.5 * (ca + cb)
+    tx = mc[..., 0] - (rc * mq[..., 0] - rs * mq[..., 1])
+    ty = mc[..., 1] - (rs * mq[..., 0] + rc * mq[..., 1])
+    return rc, rs, tx, ty
+
+
 def _step(C, xy, theta, face, g, nf, slot_b, g_slot_a, g_slot_b):
     """One tumble on raw arrays; returns (xy, theta, face, ok)."""
     F = nf.shape[0]
@@ -135,14 +165,10 @@ def _step(C, xy, theta, face, g, nf, slot_b, g_slot_a, g_slot_b):
     qa = C[gg, g_slot_a[f, k]]
     qb = C[gg, g_slot_b[f, k]]
     Rt = rot2(theta)
-    pa = Rt @ ca + xy
-    pb = Rt @ cb + xy
-    dp = pb - pa
-    dq = qb - qa
-    cr = dq[0] * dp[1] - dq[1] * dp[0]
-    dt = dq[0] * dp[0] + dq[1] * dp[1]
-    phi = jnp.arctan2(cr, dt)  # the rotation taking dq onto dp
-    xy_new = 0.5 * (pa + pb) - rot2(phi) @ (0.5 * (qa + qb))
+    # the edge's corners in the world: the motion is then the landing face's new pose
+    c, s, tx, ty = edge_motion(Rt @ ca + xy, Rt @ cb + xy, qa, qb)
+    xy_new = jnp.stack([tx, ty])
+    phi = jnp.arctan2(s, c)
     noop = g < 0
     keep = noop | ~found
     xy_out = jnp.where(keep, xy, xy_new)

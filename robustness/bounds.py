@@ -62,7 +62,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import float64, polygon_geometry, replay_pushes, rot2
-from planning import PushPlan, prepare_part
+from planning import PushPlan
 from robustness.tolerances import ExecutionTolerance, GeometryTolerance
 
 
@@ -108,7 +108,7 @@ def _one_sided_jacobians(arrays, n: int, Pp: int, scale: float):
 def _plan_arrays(plan: PushPlan, pad_to: int = 0):
     """Body-frame hull, start, push angles and distances of a plan; the pushes
     padded with zero-distance pushes (no-ops) to ``pad_to``."""
-    part = prepare_part(plan.vertices, plan.com, plan.margin_deg, plan.safety_factor)
+    part = plan.nominal_part()   # the geometry only: the planner's margin is not needed here
     P = len(plan.pushes)
     Pp = max(P, pad_to)
     ang = np.zeros(Pp)

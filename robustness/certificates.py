@@ -199,20 +199,18 @@ def perturbed_sources(sampler, kind: str, model: str, sensorless: bool = False) 
     return tuple(out)
 
 
-def decide(summary: dict, required_probability: float, confidence: float, *, kind: str,
-           model: str, perturbed: tuple, criterion: Optional[SuccessCriterion] = None,
+def decide(summary: dict, requirement: Requirement, *, kind: str, model: str, perturbed: tuple,
            schedule: Optional[Schedule] = None, starts: str = "") -> Certificate:
     """The certificate of a task's Monte-Carlo summary (see the module docstring).
 
     Args:
       summary: the summary row (``robustness.summary.summarise``): ``n``,
         ``n_success``, ``dominant_failure_mode``, the bound fields.
-      required_probability, confidence: the requirement.
+      requirement: the :class:`~robustness.Requirement` (probability and
+        confidence; its ``criterion``, the samples' success criterion, reports
+        whether the analytic bound lies within its tolerances: None, not reported).
       kind, model: the plan kind and the evaluation model (named in the claim).
       perturbed: :func:`perturbed_sources` of the sampler.
-      criterion: the :class:`~robustness.SuccessCriterion` of the samples (to
-        report whether the analytic bound lies within its tolerances; None: not
-        reported).
       schedule: the looks the samples were drawn by (:func:`auto_schedule`;
         ``n`` must be one of its counts); None: one fixed look at ``n``.  Every
         bound is taken at its ``look_confidence``.
@@ -222,8 +220,11 @@ def decide(summary: dict, required_probability: float, confidence: float, *, kin
         with samples begins with (``from any heading in ...: P(success) >= ...``);
         "": a known start.
     """
-    cert = _decide(summary, required_probability, confidence, kind=kind, model=model,
-                   perturbed=perturbed, criterion=criterion, schedule=schedule)
+    if not isinstance(requirement, Requirement):
+        raise ValueError(f"requirement: expected a robustness.Requirement, got {requirement!r}")
+    cert = _decide(summary, requirement.probability, requirement.confidence, kind=kind,
+                   model=model, perturbed=perturbed, criterion=requirement.criterion,
+                   schedule=schedule)
     if starts and cert.n_samples:
         cert = dataclasses.replace(cert, claim=f"from {starts}: {cert.claim}")
     return cert
@@ -305,10 +306,12 @@ def _procedure(schedule: Schedule, n: int) -> dict:
                 look_counts=schedule.counts)
 
 
-def no_plan(reason: str, required_probability: float, confidence: float, model: str,
+def no_plan(reason: str, requirement: Requirement, model: str,
             schedule: Optional[Schedule] = None) -> Certificate:
-    """The certificate of a task the planner could not serve (nothing sampled);
-    ``schedule``: the looks it would have had (its procedure is recorded)."""
+    """The certificate of a task the planner could not serve (nothing sampled)
+    under ``requirement`` (a :class:`~robustness.Requirement`); ``schedule``:
+    the looks it would have had (its procedure is recorded)."""
+    required_probability, confidence = requirement.probability, requirement.confidence
     schedule = schedule or Schedule((stats.samples_needed(required_probability, confidence),),
                                     confidence)
     return Certificate(verdict="no plan", reason="no_plan", claim=f"no plan: {reason}",
@@ -365,7 +368,7 @@ def auto_schedule(required_probability: float, confidence: float, cap: int) -> S
 
 
 def grow(evaluate_more: Callable[[int], tuple[int, int]], schedule: Schedule,
-         required_probability: float) -> tuple[int, int]:
+         requirement: Requirement) -> tuple[int, int]:
     """Draw samples look by look until one decides (at the schedule's
     ``look_confidence``) or the last look is reached.
 
@@ -373,6 +376,8 @@ def grow(evaluate_more: Callable[[int], tuple[int, int]], schedule: Schedule,
       evaluate_more: ``f(n_total) -> (n, k)``: extends the evaluation to
         ``n_total`` samples (reusing those drawn before) and returns the totals.
       schedule: the looks (:func:`auto_schedule`, or one fixed count).
+      requirement: the :class:`~robustness.Requirement` a look decides against
+        (its probability; the looks' confidence is the schedule's).
 
     Returns:
       ``(n, k)`` at the end.
@@ -380,7 +385,7 @@ def grow(evaluate_more: Callable[[int], tuple[int, int]], schedule: Schedule,
     n = k = 0
     for target in schedule.counts:
         n, k = evaluate_more(int(target))
-        if n < target or decided(n, k, required_probability, schedule.look_confidence):
+        if n < target or decided(n, k, requirement.probability, schedule.look_confidence):
             break       # n < target: interrupted
     return n, k
 
@@ -466,14 +471,13 @@ def certify(plan, sampler, key, requirement: Optional[Requirement] = None, *,
         df = pd.concat(frames, ignore_index=True)
         return len(df), int(df["success"].sum())
 
-    grow(more, schedule, p)
+    grow(more, schedule, req)
     frame = pd.concat(frames, ignore_index=True)
     summary = summarise(frame, plan, sampler, kind=kind, model=spec.name,
                         dtype=spec.dtype.name, criterion=criterion,
                         confidence=confidence, task=task, bound=bound)
-    cert = decide(summary, p, confidence, kind=kind, model=spec.name,
-                  perturbed=perturbed_sources(sampler, kind, spec.name), criterion=criterion,
-                  schedule=schedule)
+    cert = decide(summary, req, kind=kind, model=spec.name,
+                  perturbed=perturbed_sources(sampler, kind, spec.name), schedule=schedule)
     return cert, frame, summary
 
 

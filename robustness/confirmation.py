@@ -86,21 +86,24 @@ def confirmation_key(key):
     return jax.random.fold_in(key, 0xC0F1)
 
 
-def confirm_in_physics(plan, sampler, n: int, key, criterion, *, model: str, model_k: int,
-                       model_n: int, confidence: float, physics=None) -> PhysicsCheck:
+def confirm_in_physics(plan, sampler, n: int, key, requirement, *, model: str, model_k: int,
+                       model_n: int, physics=None) -> PhysicsCheck:
     """Roll ``plan`` out in MuJoCo (:func:`robustness.evaluate`, ``model="mujoco"``,
     ``physics`` a :class:`~robustness.physics.PhysicsRun`) on ``n`` draws of
     ``sampler`` with ``key`` (pass :func:`confirmation_key` of the task's key),
-    judged by ``criterion``, and set the result beside the ``model``'s
-    ``model_k`` / ``model_n``."""
+    each judged by the :class:`~robustness.Requirement`'s criterion, and set
+    the result beside the ``model``'s ``model_k`` / ``model_n`` (both bounds at
+    the requirement's confidence)."""
     from robustness.evaluation import evaluate
     from robustness.models import Model
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        ev = evaluate(plan, sampler, int(n), key, criterion, Model("mujoco", physics=physics))
+        ev = evaluate(plan, sampler, int(n), key, requirement.criterion,
+                      Model("mujoco", physics=physics))
     k = int(np.sum(ev.columns["success"]))
-    return PhysicsCheck(int(n), k, model, int(model_n), int(model_k), float(confidence))
+    return PhysicsCheck(int(n), k, model, int(model_n), int(model_k),
+                        float(requirement.confidence))
 
 
 __all__ = ["PhysicsCheck", "NO_PHYSICS", "confirm_in_physics", "confirmation_key"]

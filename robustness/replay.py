@@ -17,7 +17,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import polygon_geometry, polygon_hull_changed, rot2, wrap_angle
+from kernels import edge_motion, polygon_geometry, polygon_hull_changed, rot2, wrap_angle
 from robustness.cpus import cpu_threads
 from robustness.hulls import polyhedron_combinatorics_changed
 
@@ -619,17 +619,7 @@ def _edge_motions(C, topology):
     landing face's frame into the current face's; column ``F K`` is the
     identity (a no-op step)."""
     f, k, kb, g, ga, gb = _edge_tables(topology)
-    ca, cb, qa, qb = C[:, f, k], C[:, f, kb], C[:, g, ga], C[:, g, gb]
-    dc, dq = cb - ca, qb - qa
-    # the rotation taking dq onto dc: (dq . dc, dq x dc) normalised
-    rc = dq[..., 0] * dc[..., 0] + dq[..., 1] * dc[..., 1]
-    rs = dq[..., 0] * dc[..., 1] - dq[..., 1] * dc[..., 0]
-    rn = jnp.sqrt(rc * rc + rs * rs)
-    rc, rs = rc / rn, rs / rn
-    mq = 0.5 * (qa + qb)
-    mc = 0.5 * (ca + cb)
-    tx = mc[..., 0] - (rc * mq[..., 0] - rs * mq[..., 1])
-    ty = mc[..., 1] - (rs * mq[..., 0] + rc * mq[..., 1])
+    rc, rs, tx, ty = edge_motion(C[:, f, k], C[:, f, kb], C[:, g, ga], C[:, g, gb])
     B = C.shape[0]
     one, zero = jnp.ones((B, 1), C.dtype), jnp.zeros((B, 1), C.dtype)
     return (jnp.concatenate([rc, one], 1), jnp.concatenate([rs, zero], 1),
@@ -644,8 +634,8 @@ def _tumble_block(nom: dict, q: dict, topology, slip_series: bool):
     ``T o M``, ``T`` f's pose and ``M`` the motion that takes the edge's
     corners in g's frame (``q_a``, ``q_b``) onto those in f's frame (``c_a``,
     ``c_b``): the rotation from ``q_b - q_a`` to ``c_b - c_a``, translation
-    ``(c_a + c_b)/2 - R (q_a + q_b)/2`` -- what :func:`kernels.tumble.tumble`
-    computes from the world positions of the corners, regrouped.  The faces
+    ``(c_a + c_b)/2 - R (q_a + q_b)/2``: :func:`kernels.edge_motion`, the
+    kinematics :func:`kernels.tumble.tumble` composes with the pose.  The faces
     visited do not depend on the sample (:func:`_tumble_walk`), so the
     motions of every directed edge are computed once per sample and gathered
     per step.  A slip ``(s, dtheta)`` after a tumble (world translation,

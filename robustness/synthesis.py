@@ -53,7 +53,6 @@ from robustness import stats
 from robustness.kinds import kind_of
 from robustness.models import DEFAULT_MODEL, Model, decision_model
 from robustness.samplers import Sampler
-from robustness.stats import CONFIDENCE
 from robustness.tolerances import Requirement, SuccessCriterion
 
 OBJECTIVES = ("max_lower_bound", "shortest_certifying")
@@ -270,9 +269,8 @@ def _signature(plan) -> tuple:
 
 @float64
 def score_candidates(plans: Sequence, sampler: Sampler, n: int, key,
-                     criterion: Optional[SuccessCriterion] = None, *,
-                     model="quasistatic", confidence: float = CONFIDENCE,
-                     bounds: bool = True) -> Scores:
+                     requirement: Optional[Requirement] = None, *,
+                     model="quasistatic", bounds: bool = True) -> Scores:
     """Replay the plans of one task (push plans, or tumble plans) on the same
     ``n`` draws of ``sampler`` (drawn with ``key`` for the longest plan's push
     or tumble count) and score them, with the success rule of
@@ -281,11 +279,12 @@ def score_candidates(plans: Sequence, sampler: Sampler, n: int, key,
     the nominal part).
 
     Args:
-      criterion: the :class:`~robustness.SuccessCriterion` (default: the
-        first plan's kind's, :meth:`~robustness.SuccessCriterion.for_plan`).
+      requirement: the :class:`~robustness.Requirement`: its criterion judges
+        each sample (None: the first plan's kind's,
+        :meth:`~robustness.SuccessCriterion.for_plan`), its confidence is each
+        candidate's one-sided lower bound's (default ``Requirement()``).
       model: a :class:`~robustness.Model` or a name; push plans:
         ``quasistatic``, ``limit_surface`` or ``exact`` (tumbles are exact).
-      confidence: of each candidate's one-sided lower bound.
       bounds: compute each candidate's first-order bound.
 
     Returns:
@@ -296,7 +295,8 @@ def score_candidates(plans: Sequence, sampler: Sampler, n: int, key,
         raise ValueError("plans: expected at least one candidate plan")
     ops = kind_of(plans[0])   # the candidates' row of the dispatch table (robustness.kinds)
     spec = Model.of(model)
-    criterion = SuccessCriterion.for_plan(plans[0]) if criterion is None else criterion
+    req = (Requirement() if requirement is None else requirement).for_plan(plans[0])
+    criterion, confidence = req.criterion, req.confidence
     success = ops.success_many(plans, sampler, int(n), key, model=spec.name, dtype=spec.dtype,
                                criterion=criterion, chunk=spec.chunk,
                                merge_factor=spec.merge_factor)
@@ -392,23 +392,25 @@ def tumble_candidates(vertices, start, goal, com=None, *, eps: float = 1e-3, tau
 
 
 def select(scores: Scores, objective: str = "max_lower_bound",
-           required_probability: Optional[float] = None) -> tuple[int, str]:
+           requirement: Optional[Requirement] = None) -> tuple[int, str]:
     """The chosen candidate's index and one line saying why.
 
     ``max_lower_bound``: the highest lower bound; candidates within one
     success of the best count as tied and the lowest cost (push distance;
     tumbles: propagated error), then the fewest steps, then the lowest index
     wins among them.  ``shortest_certifying``: the cheapest (cost, then
-    steps) whose bound reaches ``required_probability``; without one,
-    ``max_lower_bound``.
+    steps) whose bound reaches the :class:`~robustness.Requirement`'s
+    probability (the bounds are the scores', at their confidence); without
+    one, ``max_lower_bound``.
     """
     if objective not in OBJECTIVES:
         raise ValueError(f"objective: expected one of {OBJECTIVES}, got {objective!r}")
     k = scores.n_success
     order = lambda idx: min(idx, key=lambda i: (scores.cost[i], scores.steps[i], i))  # noqa: E731
     if objective == "shortest_certifying":
-        if required_probability is None:
-            raise ValueError("required_probability: shortest_certifying needs the requirement")
+        if requirement is None:
+            raise ValueError("requirement: shortest_certifying needs the requirement")
+        required_probability = requirement.probability
         ok = [i for i in range(len(k)) if scores.ci_low[i] >= required_probability]
         if ok:
             i = order(ok)
@@ -514,19 +516,16 @@ def synthesize(vertices, start, goal, com=None, *, selection: Selection,
     else:
         cands, skipped = push_candidates(vertices, start, goal, com, **grid)
     sampler, n, key = selection.sampler, selection.n, selection.key
-    crit, conf = req.criterion, req.confidence
     screened = None
     if spec.name == "limit_surface" and len(cands) > SHORTLIST:
         # the fast model shortlists on the same draws; the faithful one chooses
-        pre = score_candidates([c.plan for c in cands], sampler, n, key, crit,
-                               model=dataclasses.replace(spec, name="quasistatic"),
-                               confidence=conf)
+        pre = score_candidates([c.plan for c in cands], sampler, n, key, req,
+                               model=dataclasses.replace(spec, name="quasistatic"))
         rank = sorted(range(1, len(cands)),
                       key=lambda j: (-int(pre.n_success[j]), float(pre.cost[j]), j))
         screened, cands = len(cands), [cands[j] for j in [0] + rank[:SHORTLIST - 1]]
-    scores = score_candidates([c.plan for c in cands], sampler, n, key, crit, model=spec,
-                              confidence=conf)
-    i, why = select(scores, selection.objective, req.probability)
+    scores = score_candidates([c.plan for c in cands], sampler, n, key, req, model=spec)
+    i, why = select(scores, selection.objective, req)
     return Synthesis(cands, scores, i, selection.objective, why, skipped, spec.name,
                      screened=screened)
 

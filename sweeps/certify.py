@@ -363,7 +363,8 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
 
     kind = kind_for_part(part.kind)
     model = model_for(cfg.model, kind)
-    p, conf = cfg.required.probability, cfg.required.confidence
+    req = cfg.requirement()
+    p, conf = req.probability, req.confidence
     caught: list = []
     try:
         plan, reason = plan_task(part, start, goal, cfg.planner, cfg.eps, caught)
@@ -388,18 +389,18 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
 
         s = empty_summary(name, kind, model, cfg.dtype, cfg.eps, conf)
         _write_summary(store, ti, s)
-        return {**row, **no_plan(reason, p, conf, model, schedule).to_row()}
+        return {**row, **no_plan(reason, req, model, schedule).to_row()}
     size = min(schedule.counts[0], block_samples(kind, model, cfg.friction.support))
     blocks = Blocks(cfg, store, plan, name, ti, key, size, model, done, flag)
-    grow(blocks.extend, schedule, p)
+    grow(blocks.extend, schedule, req)
     if flag.stop:
         return None
     summary = blocks.summary()
     _write_summary(store, ti, summary)
     sensorless = is_sensorless(plan)
-    cert = decide(summary, p, conf, kind=kind, model=model,
+    cert = decide(summary, req, kind=kind, model=model,
                   perturbed=perturbed_sources(cfg.sampler(), kind, model, sensorless),
-                  criterion=cfg.eps, schedule=schedule,
+                  schedule=schedule,
                   starts=start_set(plan) if sensorless else "")
     row.update(cert.to_row())
     ex = cfg.execution
@@ -446,9 +447,9 @@ def confirm_task(cfg, part, plan, summary, key):
     if (not n or part.kind != "polygon" or cfg.model == "mujoco"
             or cfg.friction.support not in REALISABLE_SUPPORTS):
         return None
-    return confirm_in_physics(plan, cfg.sampler(), n, confirmation_key(key), cfg.eps,
+    return confirm_in_physics(plan, cfg.sampler(), n, confirmation_key(key), cfg.requirement(),
                               model=cfg.model, model_k=int(summary["n_success"]),
-                              model_n=int(summary["n"]), confidence=cfg.required.confidence,
+                              model_n=int(summary["n"]),
                               physics=cfg.physics.run(part, cfg.friction))
 
 

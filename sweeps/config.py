@@ -273,6 +273,22 @@ class SensorlessStart:
                 0.0 if h is None else 0.5 * (h[0] + h[1]))
 
 
+class TaskPoses(typing.NamedTuple):
+    """A task resolved to poses, as every unit of a run and the certify command
+    hand it on (a value: fields by name; unpacks as ``name, start, goal``).
+
+    Attributes:
+      name: the task's name (unique in its configuration).
+      start: ``(x, y, theta)`` (push; m, m, rad, world), ``(x, y, theta, face)``
+        (tumble), or a :class:`SensorlessStart` (a push from an unknown pose).
+      goal: the goal pose or configuration, in the same form.
+    """
+
+    name: str
+    start: Union[tuple, SensorlessStart]
+    goal: tuple
+
+
 def reference_start(start) -> tuple:
     """A task's start as a row names it: the pose itself, or a
     :class:`SensorlessStart`'s :attr:`~SensorlessStart.reference`."""
@@ -654,8 +670,8 @@ def parse_pose(values, field: str, kind: str) -> tuple:
     return (x, y, th, int(f))
 
 
-def explicit_tasks(tasks: list, kind: str) -> list[tuple[str, tuple, tuple]]:
-    """``(name, start, goal)`` of explicit tasks; a push task needs a start (a
+def explicit_tasks(tasks: list, kind: str) -> list[TaskPoses]:
+    """The :class:`TaskPoses` of explicit tasks; a push task needs a start (a
     pose, or a :class:`SensorlessStart`)."""
     out = []
     names = [t.name for t in tasks]
@@ -676,7 +692,7 @@ def explicit_tasks(tasks: list, kind: str) -> list[tuple[str, tuple, tuple]]:
             start = parse_sensorless_start(t.start, f"tasks[{i}].start", kind)
         else:
             start = parse_pose(t.start, f"tasks[{i}].start", kind)
-        out.append((t.name, start, goal))
+        out.append(TaskPoses(t.name, start, goal))
     return out
 
 

@@ -198,7 +198,8 @@ def execute(design, out: pathlib.Path, spec, quiet: bool = False, report: bool =
     check_layout(done, out, design)
     blocks, summaries = plan_units(design, done)
     designs = design_units(design, done)
-    ctx = Context(str(design.path), json.dumps(design.doc), str(out), json.dumps(store.manifest))
+    ctx = Context(str(design.path), json.dumps(design.doc), str(out), json.dumps(store.manifest),
+                  design=design)
     total = sum(u.samples for u in blocks)
     resume = f"run the same command again to resume (results so far: {out})"
     if done:

@@ -51,7 +51,7 @@ from robustness.physics import check_pad_friction
 
 from sweeps import catalog
 from sweeps.config import (Angle, ConfigError, Design as DesignSection, Evaluation, PartInline,
-                           Strict, Synthesize, Task, check_sensorless, explicit_tasks,
+                           Strict, Synthesize, Task, TaskPoses, check_sensorless, explicit_tasks,
                            parse_angle, parse_pose, validate)
 from sweeps.design import expand, parse_overrides, set_path
 from sweeps.plausible import check_design, wrap
@@ -209,8 +209,8 @@ class Design:
             seen.setdefault(id(part), part)
         return list(seen.values())
 
-    def tasks(self, config_id: int) -> list[tuple[str, tuple, tuple]]:
-        """``(name, start, goal)`` of a configuration's tasks (derived once per
+    def tasks(self, config_id: int) -> list[TaskPoses]:
+        """The :class:`~sweeps.config.TaskPoses` of a configuration's tasks (derived once per
         distinct part, task list and seed: every unit of a run asks)."""
         cfg = self.configs[config_id]
         part = self.part(config_id)
@@ -288,7 +288,7 @@ def load_part_ref(ref, base: pathlib.Path, kind: Optional[str] = None):
         raise ConfigError(f"part: {msg}") from None
 
 
-def sample_tasks(s: GoalSampling, part, seed: int) -> list[tuple[str, tuple, tuple]]:
+def sample_tasks(s: GoalSampling, part, seed: int) -> list[TaskPoses]:
     """``n`` goals in the annulus or box with headings uniform in the range
     (faces uniform among ``faces`` for a polyhedron), seeded by ``seed``."""
     kind = part.kind
@@ -323,7 +323,7 @@ def sample_tasks(s: GoalSampling, part, seed: int) -> list[tuple[str, tuple, tup
             x, y = x0 + rng.random() * (x1 - x0), y0 + rng.random() * (y1 - y0)
         th = wrap(h0 + rng.random() * (h1 - h0))    # stored in (-pi, pi]
         goal = (x, y, th) if faces is None else (x, y, th, int(faces[rng.integers(len(faces))]))
-        out.append((f"goal{i:03d}", start, goal))
+        out.append(TaskPoses(f"goal{i:03d}", start, goal))
     return out
 
 

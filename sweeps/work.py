@@ -48,12 +48,28 @@ CONTEXTS: dict = {}
 
 @dataclasses.dataclass(frozen=True)
 class Context:
-    """What a worker needs to run any unit of a run (small and picklable)."""
+    """What a worker needs to run any unit of a run (small and picklable).
+
+    ``design``: the driver's validated :class:`~sweeps.study.Design` itself, for
+    the units run in this process (no rebuild: the values it validated are the
+    values the units use).  Pickled (to a Dask worker, another process) the
+    context travels without it, and the worker builds the design once from
+    ``doc_json``, the resolved document: the wire format between processes."""
 
     config_path: str
     doc_json: str          # the resolved config document (JSON)
     root: str              # the run folder
     manifest_json: str
+    design: Optional[object] = dataclasses.field(default=None, compare=False, repr=False)
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["design"] = None
+        return state
+
+    def __setstate__(self, state):
+        for k, v in state.items():
+            object.__setattr__(self, k, v)
 
 
 #: A configuration whose tasks' samples together are at most this many (each task
@@ -100,7 +116,8 @@ class Loaded:
         from sweeps.store import RunStore
         from sweeps.study import Design
 
-        self.design = Design(pathlib.Path(ctx.config_path), json.loads(ctx.doc_json))
+        self.design = (ctx.design if ctx.design is not None
+                       else Design(pathlib.Path(ctx.config_path), json.loads(ctx.doc_json)))
         self.store = RunStore(pathlib.Path(ctx.root), json.loads(ctx.manifest_json))
         self.swept = swept_fields(self.design)
         self._plan_keys: dict = {}

@@ -6,12 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from robustness import (ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler,
-                        SuccessCriterion, stats)
+from robustness import (ExecutionTolerance, FrictionRange, GeometryTolerance, Requirement,
+                        Sampler, SuccessCriterion, stats)
 from robustness.certificates import (BOUND_MODEL, Schedule, auto_sample_counts, auto_schedule,
                                      decide, decided, grow, no_plan, perturbed_sources)
 
 SOURCES = ("part vertices", "fence friction")
+REQ90 = Requirement(0.9, 0.95)
 
 
 def _summary(n, k, mode="none", bound=(math.nan, math.nan), violated=None):
@@ -20,8 +21,8 @@ def _summary(n, k, mode="none", bound=(math.nan, math.nan), violated=None):
 
 
 def _decide(n, k, p=0.95, conf=0.95, perturbed=SOURCES, **kw):
-    return decide(_summary(n, k, **kw), p, conf, kind="push", model="quasistatic",
-                  perturbed=perturbed, criterion=SuccessCriterion(0.002, 0.03))
+    return decide(_summary(n, k, **kw), Requirement(p, conf, SuccessCriterion(0.002, 0.03)),
+                  kind="push", model="quasistatic", perturbed=perturbed)
 
 
 def test_certified_states_the_one_sided_bound_model_and_samples():
@@ -63,7 +64,7 @@ def test_nothing_perturbed_claims_nothing():
 
 
 def test_no_plan():
-    c = no_plan("no feasible pose plan", 0.9, 0.95, "exact")
+    c = no_plan("no feasible pose plan", REQ90, "exact")
     assert c.verdict == "no plan" and c.reason == "no_plan" and c.n_samples == 0
     row = c.to_row()
     assert row["dominant_failure_mode"] == "no_plan" and "perturbed" not in row
@@ -174,9 +175,9 @@ def test_grow_and_decide_follow_the_rule_the_rates_are_computed_for():
     incs = rng.binomial(np.diff([0, *s.counts]), 0.9, size=(150, s.n_looks))
     for i in range(150):
         ks = dict(zip(s.counts, np.cumsum(incs[i])))
-        n, k = grow(lambda total: (total, int(ks[total])), s, 0.9)
+        n, k = grow(lambda total: (total, int(ks[total])), s, REQ90)
         assert (n, k) == (n_stop[i], k_stop[i])
-        c = decide(_summary(n, k, mode="slip"), 0.9, 0.95, kind="push", model="exact",
+        c = decide(_summary(n, k, mode="slip"), REQ90, kind="push", model="exact",
                    perturbed=SOURCES, schedule=s)
         assert (c.verdict == "certified") == (verdict[i] == "certified")
         assert (c.reason == "below_requirement") == (verdict[i] == "below")
@@ -185,7 +186,7 @@ def test_grow_and_decide_follow_the_rule_the_rates_are_computed_for():
 
 def test_a_sequential_certificate_names_its_procedure():
     s = auto_schedule(0.9, 0.95, 100_000)
-    c = decide(_summary(106, 106), 0.9, 0.95, kind="push", model="exact", perturbed=SOURCES,
+    c = decide(_summary(106, 106), REQ90, kind="push", model="exact", perturbed=SOURCES,
                schedule=s)
     assert c.verdict == "certified" and c.procedure == "sequential_bonferroni"
     assert (c.n_looks, c.look, c.look_counts) == (12, 2, s.counts)
@@ -199,9 +200,9 @@ def test_a_sequential_certificate_names_its_procedure():
     f = _decide(300, 300)
     assert f.procedure == "fixed" and f.look_confidence == 0.95 and (f.n_looks, f.look) == (1, 1)
     with pytest.raises(ValueError, match="not a look"):
-        decide(_summary(100, 100), 0.9, 0.95, kind="push", model="exact", perturbed=SOURCES,
+        decide(_summary(100, 100), REQ90, kind="push", model="exact", perturbed=SOURCES,
                schedule=s)
-    assert no_plan("none", 0.9, 0.95, "exact", s).procedure == "sequential_bonferroni"
+    assert no_plan("none", REQ90, "exact", s).procedure == "sequential_bonferroni"
 
 
 @pytest.mark.parametrize("true_rate,expect", [(1.0, "certified"), (0.5, "not certified")])
@@ -213,7 +214,7 @@ def test_grow_stops_when_decided(true_rate, expect):
         return total, int(round(true_rate * total))
 
     s = auto_schedule(0.9, 0.95, 10_000)
-    n, k = grow(more, s, 0.9)
+    n, k = grow(more, s, REQ90)
     assert decided(n, k, 0.9, s.look_confidence)
     assert calls == [s.counts[0]]          # both decided at the first look
     assert (_decide(n, k, p=0.9).verdict == "certified") == (expect == "certified")
@@ -227,5 +228,5 @@ def test_grow_goes_on_while_undecided_and_stops_at_the_cap():
         return total, total - max(1, total // 12)   # about 92%: close to p = 0.9
 
     s = auto_schedule(0.9, 0.95, 500)
-    n, _ = grow(more, s, 0.9)
+    n, _ = grow(more, s, REQ90)
     assert calls[0] == s.counts[0] and len(calls) > 1 and n <= 500

@@ -257,6 +257,39 @@ def test_a_full_disk_is_one_line_and_the_run_resumes(tmp_path, monkeypatch):
     assert not pd.read_parquet(out / "summary").empty
 
 
+def test_a_local_run_uses_the_design_it_validated_and_only_the_wire_carries_json(tmp_path,
+                                                                                monkeypatch):
+    """Issue 39 (the values travel): a run in this process validates the study
+    once; its units use that design (no JSON round trip, no second validation
+    of ``planner.margin_deg``).  A pickled context (a Dask worker's) carries the
+    resolved document only, and the worker builds the same design from it."""
+    import pickle
+
+    from sweeps import study, work
+
+    built = []
+    real = study.Design.__init__
+
+    def counting(self, *a, **kw):
+        built.append(1)
+        return real(self, *a, **kw)
+
+    monkeypatch.setattr(study.Design, "__init__", counting)
+    work.CONTEXTS.clear()
+    r = run_here(_study(tmp_path), "--out", tmp_path / "out", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert len(built) == 1
+    ctx = next(iter(work.CONTEXTS))
+    loaded = work.CONTEXTS[ctx]
+    assert loaded.design.configs[1].planner.margin_deg == 9
+    wire = pickle.loads(pickle.dumps(work.Context(str(loaded.design.path), ctx[1], ctx[0], "{}",
+                                                  design=loaded.design)))
+    assert wire.design is None and wire.doc_json == ctx[1]
+    rebuilt = work.Loaded(wire).design
+    assert len(built) == 2
+    assert [c.planner.margin_deg for c in rebuilt.configs] == [5, 9]
+
+
 # ---------------------------------------------------------------- running
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):

@@ -62,7 +62,7 @@ def test_batched_scores_are_evaluates_on_the_same_draws():
     cands, _ = push_candidates(V, START, TURN, com, **SMALL)
     plans = [c.plan for c in cands]
     n, key = 300, jax.random.key(3)
-    s = score_candidates(plans, SAMPLER, n, key, **EPS)
+    s = score_candidates(plans, SAMPLER, n, key, REQ)
     P = max(p.n_pushes for p in plans)
     longest = int(np.argmax([p.n_pushes for p in plans]))
     # the longest candidate sees exactly the draws evaluate() draws for it
@@ -119,9 +119,9 @@ def test_select_objectives_and_ties():
     s = Scores(success, low, np.array([0.3, 0.5, 0.6, 0.2]), np.array([3, 5, 6, 2]), 0.95)
     i, why = select(s, "max_lower_bound")
     assert i == 1 and "within one success" in why    # 99 ties 100 within one; the shorter
-    i, why = select(s, "shortest_certifying", required_probability=0.88)
+    i, why = select(s, "shortest_certifying", Requirement(0.88))
     assert i == 3 and "shortest" in why               # 95/100 reaches 0.88: the shortest
-    i, why = select(s, "shortest_certifying", required_probability=0.999)
+    i, why = select(s, "shortest_certifying", Requirement(0.999))
     assert i == 1 and "no candidate" in why
     with pytest.raises(ValueError, match="objective"):
         select(s, "best")
@@ -351,10 +351,10 @@ def test_the_faithful_model_chooses_among_the_fast_models_shortlist(monkeypatch)
                      model="limit_surface", **SMALL)
     assert syn.screened == len(full) and len(syn.candidates) == 3 and syn.model == "limit_surface"
     assert syn.candidates[0].plan.pushes == full[0].plan.pushes
-    pre = score_candidates([c.plan for c in full], sampler, n, key, **EPS)
+    pre = score_candidates([c.plan for c in full], sampler, n, key, REQ)
     best = sorted(range(1, len(full)), key=lambda j: (-int(pre.n_success[j]), float(pre.cost[j]), j))
     assert [c.plan.pushes for c in syn.candidates[1:]] == [full[j].plan.pushes for j in best[:2]]
-    faithful = score_candidates([c.plan for c in syn.candidates], sampler, n, key, **EPS,
+    faithful = score_candidates([c.plan for c in syn.candidates], sampler, n, key, REQ,
                                 model="limit_surface")
     assert np.array_equal(faithful.success, syn.scores.success)
     assert "the 3 of" in syn.describe() and "limit_surface model" in syn.describe()
