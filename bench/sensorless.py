@@ -28,15 +28,13 @@ vertices):
   vertices within +-0.02 mm, its centre of mass within 0.1 mm, fence angle
   +-0.002 rad, fence lines +-0.1 mm, each start drawn uniformly over every
   heading and the region (:mod:`robustness.sensorless`); success within 3 mm
-  and 1 degree.  Measured (``--random 0 --mujoco '' --mc 100``, 2 cores, about
-  10 s a part): rectangle 100/100 at both frictions; nice_stable 77/100
-  (wrong_edge 17, incomplete_reorientation 6: starts near a basin boundary of
-  the perturbed part); biplus_stable 21/100 (slip 79); unistable 20-21/100
-  (slip, position); plate 6/100 (position, wrong_edge: 27 m of fence travel):
-  ``mc_ok_mu0.8=0.448 mc_ok_mu1.5=0.450``, where the exact grid replay of the
-  nominal part reaches the goal from every start.  Sensorless plans that rely on
-  sticking and on long travels are fragile under tolerances: certify them.
-  The same counts at both frictions (biplus-stable 21/100, slip 79) are not a
+  and 1 degree.  Measured (200 samples a part, with the widest-margin funnel;
+  the figures before it below the RESULT lines): rectangle and nice_stable
+  200/200 at both frictions; biplus_stable 48/200 (slip 152); unistable
+  44-47/200 (slip, position); plate 123/200 (position: 15 m of fence
+  travel), where the exact grid replay of the nominal part reaches the goal
+  from every start.  Sensorless plans that rely on sticking and on long
+  travels are fragile under tolerances: certify them.  The same counts at both frictions (biplus-stable 21/100, slip 79) are not a
   friction left out: the fence slip of those samples falls from 17-25 mm at 0.8
   to 7-9 mm at 1.5 (position errors 9-10 -> 4-6 mm; most are ``any``'s small
   supports, c 4-5 mm), still past the 3 mm goal; at fence friction 100 all
@@ -54,6 +52,33 @@ vertices):
   support puts it, the same in the nominal case).  Success: within 3 mm and 1
   degree of the goal (headings modulo the period where the part looks the
   same).
+
+Measured 2026-12-06 (the defaults: the bundled parts and 100 random ones, 200
+Monte-Carlo samples a bundled part, 4 MuJoCo starts of the rectangle and the
+nice-stable pentagon; 2 cores shared with other work, about 20 minutes).  First
+with the funnel as it was, then with the widest least margin among the shortest
+funnels (:func:`planning.pushing.funnel.least_margin`)::
+
+    RESULT funnel_optimal=1.000 grid_ok=1.000 length_ratio=1.71 mujoco_ok=0.625
+    mc_ok_mu0.8=0.458 mc_ok_mu1.5=0.461
+    RESULT funnel_optimal=1.000 grid_ok=1.000 length_ratio=1.88 mujoco_ok=0.750
+    mc_ok_mu0.8=0.615 mc_ok_mu1.5=0.618
+
+Every funnel equals the exhaustive search (105 parts) and every covered grid
+start reaches the goal in the exact replay, before and after.  Before, every
+funnel from any heading compared equal (the first push's inherent margin 0 was
+in the minimum) and the nice-stable pentagon's turned 0.16 deg from a basin
+boundary, the plate's 0.02 deg: the pentagon's Monte Carlo lost 44 of 200
+samples (wrong_edge 34, incomplete_reorientation 10), and in MuJoCo it landed
+the other edge (148.5 deg off) from 3 of 4 starts, 2 of 8 runs succeeding.
+After, least margins 3.8 and 5.3 deg: the pentagon's Monte Carlo 200/200 at
+both frictions, the plate's 10 -> 123/200; in MuJoCo the pentagon succeeds in
+4 of 8 runs, one wrong edge left (at fence friction 0.8), the other three
+failures slip of 4-11 mm over its 17 pushes and 3.1 m of fence travel (mostly
+at 0.8).  The rectangle succeeds from all 4 starts at both frictions (within
+1.3 mm and 0.12 deg) before and after.  Sensorless plans rely on long fence
+runs and on sticking: certify one (``nudge certify``, ``model: mujoco``)
+before relying on it.
 
 Last line: ``RESULT funnel_optimal=F grid_ok=G length_ratio=L mujoco_ok=M
 mc_ok_mu0.8=A mc_ok_mu1.5=B``

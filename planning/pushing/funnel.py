@@ -21,7 +21,11 @@ the push direction, one per cell between the turns at which a possible
 heading crosses a basin boundary (Goldberg's construction; every turn in a
 cell gives the same sets).  It ends when every possible edge lies in one
 orbit of the push function's symmetry (period ``2 pi / m``): pushes cannot
-tell those headings apart.
+tell those headings apart.  Each turn is its cell's middle, so a push's margin
+(how far a possible heading stays from a basin boundary) is the cell's
+half-width; among the shortest sequences the search keeps the one whose least
+margin (:func:`least_margin`) is largest: a heading error smaller than it
+cannot change a push's outcome.
 
 Parts with a marginal edge (an unstable equilibrium a push can end on,
 :mod:`kernels.push`) are refused: their push function has a third kind of
@@ -255,10 +259,28 @@ def _first_pushes(pf: PushFunction, start_heading):
     return out
 
 
-def orient(part_or_pf, start_heading=None, max_pushes: int = 64) -> Funnel:
+def least_margin(margins) -> float:
+    """A funnel's least margin (rad): the smallest of its pushes' margins, the
+    first push's left out where it is 0 (a basin boundary inside the start
+    headings: every funnel from them has it, and its neighbourhood is not
+    covered).  The distance by which a heading error can stay inside every
+    basin the funnel relies on."""
+    m = [float(x) for i, x in enumerate(margins) if not (i == 0 and x == 0.0)]
+    return min(m) if m else math.inf
+
+
+def orient(part_or_pf, start_heading=None, max_pushes: int = 64,
+           enough: float = math.radians(7.0)) -> Funnel:
     """The shortest funnel (module docstring) for ``start_heading`` (``(lo, hi)``,
     world rad, ``hi - lo < 2 pi``) or every heading (None); among the shortest,
-    the one whose least margin is largest.
+    the one whose :func:`least_margin` is largest, margins of ``enough`` rad or
+    more counting alike (then the first found: a turn in the first cell of
+    the widest kind).  :func:`planning.plan_sensorless` passes the pose
+    planner's ``margin_deg``, the same margin from an unstable equilibrium.
+    Before December 2026 every funnel from any heading compared equal here (the
+    first push's inherent 0 was in the minimum), and the nice-stable pentagon's
+    funnel turned 0.16 deg from a basin boundary (MuJoCo landed the other edge
+    from 3 of 4 random starts, ``bench/sensorless.py``); now 3.8 deg.
 
     Raises:
       PlanningError: none within ``max_pushes`` (cannot happen for a valid part:
@@ -271,7 +293,7 @@ def orient(part_or_pf, start_heading=None, max_pushes: int = 64) -> Funnel:
             level[state] = ((psi,), (margin,), (state,))
     seen = set(level)
     for _ in range(max_pushes):
-        done = [(min(v[1]), k) for k, v in level.items() if _goal(pf, k)]
+        done = [(min(least_margin(v[1]), enough), k) for k, v in level.items() if _goal(pf, k)]
         if done:
             key = max(done, key=lambda t: t[0])[1]
             dirs, margins, states = level[key]
@@ -287,7 +309,8 @@ def orient(part_or_pf, start_heading=None, max_pushes: int = 64) -> Funnel:
                     continue
                 cand = (dirs + (float(_mod(dirs[-1] + alpha)),), margins + (float(h),),
                         states + (new,))
-                if new not in nxt or min(cand[1]) > min(nxt[new][1]):
+                if new not in nxt or (min(least_margin(cand[1]), enough)
+                                      > min(least_margin(nxt[new][1]), enough)):
                     nxt[new] = cand
         seen |= set(nxt)
         level = nxt
@@ -327,5 +350,5 @@ def exhaustive_length(pf: PushFunction, n_directions: int = 72, max_pushes: int 
     return None
 
 
-__all__ = ["PushFunction", "Funnel", "push_function", "orient", "exhaustive_length",
+__all__ = ["PushFunction", "Funnel", "push_function", "orient", "least_margin", "exhaustive_length",
            "EXCLUDED", "ANGLE_TOL"]

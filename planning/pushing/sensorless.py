@@ -362,7 +362,7 @@ def plan_sensorless(vertices, goal, region, start_heading=None, com=None,
         raise ValueError(f"max_stroke: must be a positive number of metres, got {max_stroke}")
     part = prepare_part(vertices, com, o.margin_deg, o.safety_factor)
     pf = push_function(part)
-    funnel = orient(pf, start_heading)
+    funnel = orient(pf, start_heading, enough=math.radians(o.margin_deg))
     if len(funnel.final_edges) > 1 and not pf.part_symmetric:
         raise PlanningError(
             f"orient: the push function has period {math.degrees(pf.period):.6g} deg but the part "
