@@ -143,6 +143,7 @@ def edge_motion(ca, cb, qa, qb):
     rc = dq[..., 0] * dc[..., 0] + dq[..., 1] * dc[..., 1]
     rs = dq[..., 0] * dc[..., 1] - dq[..., 1] * dc[..., 0]
     rn = jnp.sqrt(rc * rc + rs * rs)
+    rn = jnp.where(rn > 0, rn, 1.0)       # a degenerate edge (an invalid step's gather): no NaN
     rc, rs = rc / rn, rs / rn
     mq = 0.5 * (qa + qb)
     mc = 0.5 * (ca + cb)

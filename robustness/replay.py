@@ -635,7 +635,7 @@ def _tumble_block(nom: dict, q: dict, topology, slip_series: bool):
     corners in g's frame (``q_a``, ``q_b``) onto those in f's frame (``c_a``,
     ``c_b``): the rotation from ``q_b - q_a`` to ``c_b - c_a``, translation
     ``(c_a + c_b)/2 - R (q_a + q_b)/2``: :func:`kernels.edge_motion`, the
-    kinematics :func:`kernels.tumble.tumble` composes with the pose.  The faces
+    kinematics :func:`kernels.tumble.tumble` applies in the world.  The faces
     visited do not depend on the sample (:func:`_tumble_walk`), so the
     motions of every directed edge are computed once per sample and gathered
     per step.  A slip ``(s, dtheta)`` after a tumble (world translation,
