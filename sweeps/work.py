@@ -28,8 +28,10 @@ task's tolerance design), each idempotent (deterministic inputs, keys and file n
   (and its metadata) whatever its size.
 
 A unit runs in this process or on a Dask worker: it receives a small picklable
-:class:`Context`, rebuilds the study's :class:`~sweeps.study.Design` once per
-process, plans (cached per process), evaluates and writes its own files.
+:class:`Context` (in this process it carries the driver's validated
+:class:`~sweeps.study.Design`; a Dask worker rebuilds the design once per
+process from the context's resolved document), plans (cached per process),
+evaluates and writes its own files.
 """
 from __future__ import annotations
 
