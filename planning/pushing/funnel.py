@@ -287,13 +287,17 @@ def orient(part_or_pf, start_heading=None, max_pushes: int = 64,
         Goldberg's theorem).
     """
     pf = part_or_pf if isinstance(part_or_pf, PushFunction) else push_function(part_or_pf)
+
+    def score(margins) -> float:
+        return min(least_margin(margins), enough)
+
     level = {}
     for psi, state, margin in _first_pushes(pf, start_heading):
         if state not in level or margin > level[state][1][0]:
             level[state] = ((psi,), (margin,), (state,))
     seen = set(level)
     for _ in range(max_pushes):
-        done = [(min(least_margin(v[1]), enough), k) for k, v in level.items() if _goal(pf, k)]
+        done = [(score(v[1]), k) for k, v in level.items() if _goal(pf, k)]
         if done:
             key = max(done, key=lambda t: t[0])[1]
             dirs, margins, states = level[key]
@@ -309,8 +313,7 @@ def orient(part_or_pf, start_heading=None, max_pushes: int = 64,
                     continue
                 cand = (dirs + (float(_mod(dirs[-1] + alpha)),), margins + (float(h),),
                         states + (new,))
-                if new not in nxt or (min(least_margin(cand[1]), enough)
-                                      > min(least_margin(nxt[new][1]), enough)):
+                if new not in nxt or score(cand[1]) > score(nxt[new][1]):
                     nxt[new] = cand
         seen |= set(nxt)
         level = nxt
