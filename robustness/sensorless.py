@@ -59,7 +59,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from kernels import make_polygon, PartWarning, rot2, wrap_angle_np
+from kernels import PartWarning, rot2, wrap_angle_np
 
 #: ``jax.random.fold_in(key, START_STREAM)`` draws a sensorless sample's start
 START_STREAM = 0x5E0540
@@ -168,9 +168,7 @@ def _fence_batch(nom, rows, model):
 def allowed_edges(plan) -> tuple:
     """``(poly, allowed)``: the plan's nominal polygon and, per push, the hull
     edges it may end flush on (a list of sets, hull order)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", PartWarning)
-        poly = make_polygon(np.asarray(plan.vertices), np.asarray(plan.com))
+    poly = plan.nominal_part()
     return poly, [{poly.caller_edge_to_hull(e) for e in p.edges} for p in plan.pushes]
 
 
