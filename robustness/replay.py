@@ -359,9 +359,14 @@ def _blocks(fn, q, block: int):
 
 BLOCK = 512   # samples per block inside a compiled call
 #: the exact limit surface's blocks: its warm-started node solves carry a
-#: phase's motions through a scan, and above 256 samples a block's working set
-#: leaves the cache (the nice-stable pentagon's 7-push plan on rigid corners,
-#: unblocked: 1,480 samples/s at 256, 670 at 512, 520 at 2,048; 2 CPU cores)
+#: phase's motions through a scan (the nice-stable pentagon's 7-push plan on
+#: rigid corners, unblocked: 1,480 samples/s at 256, 670 at 512, 520 at 2,048;
+#: 2 CPU cores).  The cliff above 256 is XLA's CPU library fusions (YNN), not
+#: the cache: compiled without them (``compiler_options=
+#: {"xla_cpu_experimental_ynn_fusion_type": ""}``) one call of 1,024 samples in
+#: blocks of 512 runs at 3,400 samples/s against 1,500 with them (256: 3,000
+#: either way), but a batch's calls on both cores are then slower in blocks of
+#: 512 than of 256 (4,000-4,500 against 5,700-6,000 samples/s; December 2026)
 LIMIT_SURFACE_BLOCK = 256
 #: the most samples in one compiled limit-surface call: a batch of more runs
 #: as several calls on :func:`robustness.cpus.cpu_threads` threads (4,096

@@ -141,6 +141,10 @@ class Synthesis:
         (:func:`physics_tiebreak`), else None.
       screened: how many candidates the quasi-static model shortlisted these
         from (``model: limit_surface``, :data:`SHORTLIST`), else None.
+      veto: ``(default successes, chosen successes, n, vetoed)`` of the
+        MuJoCo check of the choice against the default plan
+        (:func:`physics_veto`), else None; vetoed_from: the candidate physics
+        vetoed (the default plan then chosen), else None.
     """
 
     candidates: list
@@ -152,6 +156,8 @@ class Synthesis:
     model: str = "quasistatic"
     physics: Optional[tuple] = None
     screened: Optional[int] = None
+    veto: Optional[tuple] = None
+    vetoed_from: Optional[int] = None
 
     @property
     def plan(self):
@@ -160,6 +166,12 @@ class Synthesis:
     def describe(self) -> str:
         """The selection in one sentence (the certificate's ``selection`` column)."""
         s = self.scores
+        if self.vetoed_from is not None:
+            i = self.vetoed_from
+            k0, kv = int(s.n_success[0]), int(s.n_success[i])
+            return (f"default plan kept: the {self.model} model preferred "
+                    f"{self.candidates[i].label} ({kv}/{s.n} selection draws against {k0}/{s.n}) "
+                    f"but MuJoCo contradicted it" + self._veto_text())
         k0, kc = int(s.n_success[0]), int(s.n_success[self.chosen])
         among = (f"{len(self.candidates)} candidates" if self.screened is None else
                  f"the {len(self.candidates)} of {self.screened} candidates the quasistatic model "
@@ -169,7 +181,17 @@ class Synthesis:
                 f"of the {self.model} model "
                 f"({kc}/{s.n} succeeded, against {k0}/{s.n} for the default plan; its bound "
                 f"{s.ci_low[self.chosen]:.4f} on those draws is optimistic: the verdict is "
-                "taken on fresh draws)" + self._physics_text())
+                "taken on fresh draws)" + self._physics_text() + self._veto_text())
+
+    def _veto_text(self) -> str:
+        if self.veto is None:
+            return ""
+        k0, kc, n, vetoed = self.veto
+        if vetoed:
+            return (f" (MuJoCo rollouts on {n} common draws: {kc}/{n} for it against {k0}/{n} "
+                    "for the default plan, worse by more than two standard errors)")
+        return (f"; confirmed against the default plan by MuJoCo rollouts on {n} common draws "
+                f"({kc}/{n} against {k0}/{n})")
 
     def _physics_text(self) -> str:
         if self.physics is None:
@@ -460,6 +482,53 @@ def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key,
                                physics=(tuple(tied), tuple(got), int(n)))
 
 
+def contradicts(default, chosen) -> bool:
+    """Whether rollouts contradict a choice: ``default`` and ``chosen`` are the
+    successes (0/1) of the default and the chosen plan on the same draws, and
+    the chosen plan does worse by more than two standard errors of the paired
+    difference (all draws alike and the chosen plan worse: by any margin)."""
+    d = np.asarray(chosen, float) - np.asarray(default, float)
+    if d.size == 0:
+        return False
+    m = float(d.mean())
+    se = float(d.std(ddof=1)) / np.sqrt(d.size) if d.size > 1 else 0.0
+    return m < 0 and m + 2.0 * se < 0
+
+
+def physics_veto(syn: Synthesis, sampler: Sampler, n: int, key,
+                 criterion: Optional[SuccessCriterion] = None, *, physics=None) -> Synthesis:
+    """Confirm the choice in physics before it replaces the default plan: the
+    chosen candidate and the default plan (index 0) are rolled out in MuJoCo
+    (:func:`robustness.evaluate`, ``model="mujoco"``, ``physics`` a
+    :class:`~robustness.physics.PhysicsRun`) on the same ``n`` draws of ``key``,
+    judged by ``criterion`` (default: the plan kind's); where the chosen plan
+    does worse by more than two standard errors of the paired difference
+    (:func:`contradicts`), physics contradicts the kinematic model's choice and
+    the default plan is kept.  Either way ``veto`` records ``(default
+    successes, chosen successes, n, vetoed)`` and :meth:`Synthesis.describe`
+    says it.  A check on tens of samples, not a certificate: the verdict is
+    still taken on fresh draws of the model.  Nothing to check (the default
+    chosen, ``n`` 0): ``syn`` unchanged."""
+    from robustness.evaluation import evaluate
+
+    if syn.chosen == 0 or int(n) <= 0:
+        return syn
+    got = []
+    for i in (0, syn.chosen):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ev = evaluate(syn.candidates[i].plan, sampler, int(n), key, criterion,
+                          Model("mujoco", physics=physics))
+        got.append(np.asarray(ev.columns["success"], bool))
+    vetoed = contradicts(got[0], got[1])
+    veto = (int(got[0].sum()), int(got[1].sum()), int(n), vetoed)
+    if not vetoed:
+        return dataclasses.replace(syn, veto=veto)
+    return dataclasses.replace(syn, chosen=0, veto=veto, vetoed_from=syn.chosen,
+                               why=f"{syn.why}; MuJoCo contradicted that choice, so the default "
+                                   "plan is kept")
+
+
 @dataclasses.dataclass(frozen=True)
 class Selection:
     """How robust synthesis chooses: its candidates scored on ``n`` draws of
@@ -539,6 +608,6 @@ SHORTLIST = 8
 
 
 __all__ = ["Candidate", "Scores", "Selection", "Synthesis", "TumbleSetting", "OBJECTIVES", "SHORTLIST",
-           "physics_tiebreak",
+           "physics_tiebreak", "physics_veto", "contradicts",
            "push_candidates",
            "tumble_candidates", "score_candidates", "select", "selection_key", "synthesize"]

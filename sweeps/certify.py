@@ -28,7 +28,10 @@ look, the plain one-sided bound.  With a
 a grid of margin angles and safety factors and the first setting that
 certifies is recommended.  ``--synthesize`` (a ``synthesize:`` section) replaces
 the default plan of a push task by the best of many candidates scored on the
-same selection draws (:mod:`robustness.synthesis`), certified on fresh draws;
+same selection draws (:mod:`robustness.synthesis`), certified on fresh draws
+(a choice MuJoCo contradicts against the default plan on
+``synthesize.veto_samples`` common draws keeps the default plan:
+:func:`robustness.physics_veto`);
 ``--design`` (a ``design:`` section) adds the tolerance design of the certified
 plan (:mod:`robustness.tolerance_design`: table ``design``, ``report.html``).
 
@@ -440,12 +443,11 @@ def confirm_task(cfg, part, plan, summary, key):
     beside its certificate; None when there is nothing to confirm with: no
     rollouts asked for, a tumble task, a model that is physics already, or a
     support MuJoCo does not build (``points``)."""
-    from kernels import REALISABLE_SUPPORTS
     from robustness import confirm_in_physics, confirmation_key
+    from sweeps.tasks import realisable
 
     n = cfg.synthesize.confirm_samples
-    if (not n or part.kind != "polygon" or cfg.model == "mujoco"
-            or cfg.friction.support not in REALISABLE_SUPPORTS):
+    if not n or part.kind != "polygon" or cfg.model == "mujoco" or not realisable(cfg):
         return None
     return confirm_in_physics(plan, cfg.sampler(), n, confirmation_key(key), cfg.requirement(),
                               model=cfg.model, model_k=int(summary["n_success"]),

@@ -188,6 +188,9 @@ class Synthesize(Strict):
     slack: StrictInt = Field(2, ge=0, le=100)
     physics_samples: StrictInt = Field(0, ge=0, le=10_000)     # MuJoCo tie-break (push tasks)
     physics_candidates: StrictInt = Field(4, ge=2, le=64)
+    # the chosen plan and the default one rolled out in MuJoCo on common draws: physics
+    # contradicting the choice keeps the default plan (push tasks, robustness.physics_veto)
+    veto_samples: StrictInt = Field(24, ge=0, le=10_000)
     # the chosen plan rolled out in MuJoCo on fresh draws, beside its certificate (push tasks)
     confirm_samples: StrictInt = Field(24, ge=0, le=10_000)
 

@@ -107,8 +107,10 @@ def synthesize_for(cfg, part, start, goal, key):
     certification's: its ``synthesize`` section, planner, sampler, eps,
     requirement) on the selection draws of the task's ``key``
     (:func:`robustness.selection_key`), its tie broken in MuJoCo with
-    ``synthesize.physics_samples`` (push tasks); returns the
-    :class:`~robustness.Synthesis`."""
+    ``synthesize.physics_samples`` and its choice confirmed in MuJoCo against
+    the default plan with ``synthesize.veto_samples`` (push tasks on a support
+    MuJoCo builds: :func:`robustness.physics_veto`, physics contradicting it
+    keeps the default plan); returns the :class:`~robustness.Synthesis`."""
     from robustness import Selection, decision_model, selection_key, synthesize
 
     sy = cfg.synthesize
@@ -130,7 +132,22 @@ def synthesize_for(cfg, part, start, goal, key):
                                jax.random.fold_in(selection_key(key), 1), cfg.eps,
                                physics=cfg.physics.run(part, cfg.friction),
                                top=sy.physics_candidates)
+    if push and sy.veto_samples and syn.chosen != 0 and realisable(cfg):
+        import jax      # the choice confirmed in MuJoCo against the default plan
+
+        from robustness import physics_veto
+
+        syn = physics_veto(syn, cfg.sampler(), sy.veto_samples,
+                           jax.random.fold_in(selection_key(key), 2), cfg.eps,
+                           physics=cfg.physics.run(part, cfg.friction))
     return syn
+
+
+def realisable(cfg) -> bool:
+    """Whether MuJoCo builds the config's support (not ``points``)."""
+    from kernels import REALISABLE_SUPPORTS
+
+    return cfg.friction.support in REALISABLE_SUPPORTS
 
 
 def design_rows(cfg, part, plan, name: str, key) -> tuple[list, str]:

@@ -3,6 +3,7 @@ the batched scores are evaluate()'s on the same draws, a plan that should win
 wins, the selection is biased and the certificate is taken on fresh draws."""
 import dataclasses
 import pathlib
+import types
 import warnings
 
 import jax
@@ -164,7 +165,8 @@ def _config(tmp_path, extra=""):
 def test_certify_synthesize_end_to_end(tmp_path):
     cfg = _config(tmp_path, "synthesize:\n  n_samples: 160\n  margins_deg: [3, 20]\n"
                             "  safety_factors: [1.15, 2.0]\n  strategies: [search]\n"
-                            "  per_setting: 2\n  enabled: false\n  confirm_samples: 2\n")
+                            "  per_setting: 2\n  enabled: false\n  confirm_samples: 2\n"
+                            "  veto_samples: 2\n")
     out = tmp_path / "out"
     r = nudge_here("certify", cfg, "--synthesize", "--out", out, "--quiet")
     assert r.returncode in (0, 1), r.stderr
@@ -183,6 +185,9 @@ def test_certify_synthesize_end_to_end(tmp_path):
         assert plans[plans.task == task].iloc[0]["plan_json"] == ch["plan_json"]
         assert c["n_samples"] == 120 and c["selection_n_samples"] == 160 == ch["n_samples"]
         assert c["selection"].startswith("synthesized:") and "fresh draws" in c["selection"]
+        # a choice other than the default plan was confirmed against it in MuJoCo
+        assert (ch["candidate"] != 0) == ("confirmed against the default plan by MuJoCo "
+                                          "rollouts on 2 common draws" in c["selection"])
         assert "fresh draws" in c["note"]
         assert c["selection_ci_low"] == pytest.approx(ch["ci_low_one_sided"])
         # the chosen plan rolled out in MuJoCo beside its certificate, said in the note
@@ -296,7 +301,7 @@ seed: 0
 model: quasistatic     # the sweep's machinery, on the fast model (the test of a minute less)
 report: false
 synthesize: {{n_samples: 200, margins_deg: [3, 20], safety_factors: [1.15, 2.0],
-              strategies: [search], per_setting: 2}}
+              strategies: [search], per_setting: 2, veto_samples: 0}}
 params:
   synthesize.enabled: [false, true]
 """)
@@ -330,6 +335,64 @@ def test_physics_breaks_the_kinematic_tie():
     assert got[idx.index(out.chosen)] == max(got)
     assert "MuJoCo rollouts on 2 common draws" in out.describe()
     assert out.scores is syn.scores and out.candidates is syn.candidates
+
+
+def test_rollouts_contradict_a_choice_only_beyond_two_standard_errors():
+    from robustness.synthesis import contradicts
+
+    both = np.ones(24, bool)
+    assert not contradicts(both, both)
+    assert contradicts(both, np.zeros(24, bool))              # every draw worse
+    assert contradicts([1, 1], [0, 0])                         # alike: any margin
+    one = both.copy()
+    one[0] = False
+    assert not contradicts(both, one)                          # 1 of 24: within 2 SE
+    half = np.arange(24) % 2 == 0
+    assert contradicts(both, half)                             # 12 of 24
+    assert not contradicts(half, both)                         # better: never
+    assert not contradicts([], [])
+
+
+def test_physics_vetoes_a_choice_it_contradicts_and_says_so(monkeypatch):
+    """``physics_veto`` rolls the chosen candidate and the default plan out on
+    the same draws: contradicted, the default plan is kept and the selection
+    sentence says why; confirmed, the choice stays and the sentence says so.
+    MuJoCo is replaced by fixed per-draw successes (the rollouts are tested in
+    the end-to-end test above)."""
+    import robustness.evaluation
+    from robustness import physics_veto
+
+    part_syn = synthesize(TRIANGLE, START, TURN, None,
+                          selection=Selection(SAMPLER, 100, jax.random.key(0)), requirement=REQ,
+                          model="quasistatic", **SMALL)
+    syn = dataclasses.replace(part_syn, chosen=1)
+    calls = []
+
+    def fake(results):
+        def evaluate(plan, sampler, n, key, criterion, model):
+            calls.append((plan, n, model.name))
+            ok = results[0 if plan is syn.candidates[0].plan else 1]
+            return types.SimpleNamespace(columns={"success": np.asarray(ok[:n], bool)})
+        return evaluate
+
+    monkeypatch.setattr(robustness.evaluation, "evaluate", fake(([1] * 8, [0] * 4 + [1] * 4)))
+    out = physics_veto(syn, SAMPLER, 8, jax.random.key(1), **EPS)
+    assert [c[1:] for c in calls] == [(8, "mujoco")] * 2
+    assert out.chosen == 0 and out.vetoed_from == 1 and out.veto == (8, 4, 8, True)
+    assert out.plan is syn.candidates[0].plan
+    text = out.describe()
+    assert text.startswith("default plan kept:") and "MuJoCo contradicted it" in text
+    assert "4/8 for it against 8/8 for the default plan" in text
+
+    monkeypatch.setattr(robustness.evaluation, "evaluate", fake(([1] * 8, [1] * 7 + [0])))
+    out = physics_veto(syn, SAMPLER, 8, jax.random.key(1), **EPS)
+    assert out.chosen == 1 and out.vetoed_from is None and out.veto == (8, 7, 8, False)
+    assert out.describe().startswith("synthesized:")
+    assert "confirmed against the default plan by MuJoCo rollouts on 8 common draws (7/8 " \
+           "against 8/8)" in out.describe()
+    calls.clear()
+    assert physics_veto(dataclasses.replace(syn, chosen=0), SAMPLER, 8, jax.random.key(1),
+                        **EPS).veto is None and not calls       # the default chosen: nothing
 
 
 @pytest.mark.slow
