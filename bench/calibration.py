@@ -76,6 +76,23 @@ of them 0/40 (biplus-stable default at 0.5/0.8 rigid: slip; uni-stable default
 at 0.8/1.5 rigid: fence strikes), plans the limit-surface model rightly refused.
 The limit-surface model is also pessimistic: the rectangle's default plan at
 0.5/0.8 rigid (LS 0/49, MuJoCo 40/40).
+
+With the physics veto (``--veto-samples 24``, the default since December 2026,
+as ``nudge certify --synthesize`` runs it: a synthesized choice MuJoCo
+contradicts against the default plan on 24 common draws keeps the default
+plan), ``--no-qs``, full (1,376 s: synthesis 224 s, certificates 124 s, MuJoCo
+972 s with the veto's rollouts)::
+
+    RESULT certified=20 calibration_failures=3 calibration_failure_rate=0.150
+    mujoco_success_certified=0.960 rollouts=100 stroke=planned
+
+The veto fired in three cells (the rectangle at 0.5 and 0.8 and the
+nice-stable pentagon at 0.5, support ``any``: 1/24, 11/24 and 6/24 against the
+default plan's 24/24), each a synthesized plan the model did not certify
+either, so the calibration is unchanged: the same three failures, two of them
+a default plan (nice-stable at 0.8 rigid, the synthesized plan nearly the
+same) and the uni-stable synthesized plan at 0.5 rigid, whose default plan
+the model does not certify (CP low 0.27), so nothing to keep instead.
 """
 from __future__ import annotations
 
@@ -132,7 +149,8 @@ def main() -> int:
 
     from planning import plan_pose
     from robustness import (Model, Requirement, Selection, SuccessCriterion, auto_schedule,
-                            certify, clopper_pearson, evaluate, selection_key, synthesize)
+                            certify, clopper_pearson, evaluate, physics_veto, selection_key,
+                            synthesize)
     from robustness.physics import PhysicsRun
     from sweeps.config import Synthesize
     from sweeps.executors import enable_compilation_cache
@@ -154,6 +172,10 @@ def main() -> int:
     ap.add_argument("--mu-f", nargs="+", type=float, default=list(MU_F))
     ap.add_argument("--supports", nargs="+", default=list(SUPPORTS), choices=SUPPORTS)
     ap.add_argument("--no-qs", action="store_true", help="skip the quasistatic certificates")
+    ap.add_argument("--veto-samples", type=int, default=24,
+                    help="MuJoCo confirms a synthesized choice against the default plan on this "
+                         "many common draws, as nudge certify --synthesize does "
+                         "(robustness.physics_veto); 0: the kinematic choice alone")
     args = ap.parse_args()
     n_mj = args.rollouts or (20 if args.quick else 100)
     n_qs = args.qs_rollouts or (20 if args.quick else 40)
@@ -198,6 +220,16 @@ def main() -> int:
                                  selection=Selection(sampler, n_sel, selection_key(key)),
                                  requirement=req, model=args.syn_model, **grid)
                 t_syn += time.perf_counter() - t0
+                if args.veto_samples:
+                    t0 = time.perf_counter()
+                    syn = physics_veto(syn, sampler, args.veto_samples,
+                                       jax.random.fold_in(selection_key(key), 2), crit,
+                                       physics=run)
+                    t_mj += time.perf_counter() - t0
+                    if syn.vetoed_from is not None:
+                        k0, kc, nv, _ = syn.veto
+                        print(f"  {name} mu_f {mu} {sup}: MuJoCo vetoed the synthesized choice "
+                              f"({kc}/{nv} against the default's {k0}/{nv})", flush=True)
                 plans = [("default", default, False)]
                 plans.append(("synth", syn.plan, _same(syn.plan, default)))
                 done = {}
