@@ -337,6 +337,42 @@ def test_physics_breaks_the_kinematic_tie():
     assert out.scores is syn.scores and out.candidates is syn.candidates
 
 
+@pytest.mark.slow
+def test_certify_keeps_the_default_plan_when_physics_contradicts_the_choice(tmp_path):
+    """The rectangle's 60-degree turn (``bench/synthesis.py``'s task): the exact
+    limit surface prefers a candidate (300/300 selection draws against the
+    default plan's 66/300) that MuJoCo fails on 7 of 16 common draws where the
+    default plan succeeds on all 16; ``nudge certify --synthesize`` keeps the
+    default plan, certifies it, and says why in the certificate, the
+    candidates table and the report."""
+    cfg = tmp_path / "turn.yaml"
+    cfg.write_text(f"""part: {ROOT / 'examples' / 'rectangle.yaml'}
+tolerances: {{tau_v: 2.0e-5, tau_com: 1.0e-4}}
+friction: {{mu_f: [0.5, 0.8], mu_s: [0.2, 0.5], support: any}}
+execution: {{start_xy: 5.0e-4, start_theta: 0.01, fence_angle: 0.002, distance_abs: 1.0e-4,
+             distance_rel: 0.005}}
+eps: {{pos_eps_m: 0.003, theta_eps_rad: 0.05}}
+n_samples: 100
+synthesize: {{n_samples: 300, veto_samples: 16, confirm_samples: 0}}
+tasks:
+  - {{name: turn, start: [0, 0, 0], goal: [0.1118034, 0.0559017, 60deg]}}
+""")
+    out = tmp_path / "out"
+    r = nudge_here("certify", cfg, "--synthesize", "--out", out, "--quiet")
+    assert r.returncode in (0, 1), r.stderr
+    assert "Traceback" not in r.stderr
+    c = pd.read_parquet(out / "certificates").iloc[0]
+    assert c["selection"].startswith("default plan kept: the limit_surface model preferred ")
+    assert "but MuJoCo contradicted it (MuJoCo rollouts on 16 common draws: " in c["selection"]
+    assert "/16 for the default plan, worse by more than two standard errors)" in c["selection"]
+    cands = pd.read_parquet(out / "candidates")
+    assert cands[cands.chosen]["candidate"].tolist() == [0]
+    assert c["selection_ci_low"] == pytest.approx(c["default_selection_ci_low"])
+    plans = pd.read_parquet(out / "plans")
+    assert plans["plan_json"].iloc[0] == cands[cands.candidate == 0]["plan_json"].iloc[0]
+    assert "default plan kept" in r.stdout and "default plan kept" in (out / "report.html").read_text()
+
+
 def test_rollouts_contradict_a_choice_only_beyond_two_standard_errors():
     from robustness.synthesis import contradicts
 
