@@ -151,7 +151,7 @@ def main() -> int:
     from planning import plan_pose
     from robustness import (Model, Requirement, Selection, SuccessCriterion, auto_schedule,
                             certify, clopper_pearson, evaluate, physics_veto, selection_key,
-                            synthesize)
+                            synthesize, veto_key)
     from robustness.physics import PhysicsRun
     from sweeps.config import Synthesize
     from sweeps.executors import enable_compilation_cache
@@ -223,8 +223,7 @@ def main() -> int:
                 t_syn += time.perf_counter() - t0
                 if args.veto_samples:
                     t0 = time.perf_counter()
-                    syn = physics_veto(syn, sampler, args.veto_samples,
-                                       jax.random.fold_in(selection_key(key), 2), crit,
+                    syn = physics_veto(syn, sampler, args.veto_samples, veto_key(key), crit,
                                        physics=run)
                     t_mj += time.perf_counter() - t0
                     if syn.vetoed_from is not None:

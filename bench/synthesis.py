@@ -156,7 +156,7 @@ def main() -> int:
     from planning import plan_pose
     from robustness import (DEFAULT_MODEL, Requirement, Selection, SuccessCriterion, evaluate,
                             one_sided_lower, physics_tiebreak, physics_veto, selection_key,
-                            synthesize)
+                            synthesize, veto_key)
     from sweeps.executors import enable_compilation_cache
     from sweeps.study import load_part_ref
 
@@ -208,8 +208,7 @@ def main() -> int:
             dt = time.perf_counter() - t0
             veto = ""
             if args.veto_samples:             # rollouts: timed apart
-                syn = physics_veto(syn, sampler, args.veto_samples,
-                                   jax.random.fold_in(selection_key(key), 2), **eps)
+                syn = physics_veto(syn, sampler, args.veto_samples, veto_key(key), **eps)
                 if syn.veto is not None:
                     k0, kc, nv, vetoed = syn.veto
                     veto = f"  veto check {kc}/{nv} vs default {k0}/{nv}: " + \

@@ -210,6 +210,13 @@ def selection_key(key):
     return jax.random.fold_in(key, SELECTION_STREAM)
 
 
+def veto_key(key):
+    """The draws of :func:`physics_veto` for a task certified with ``key``: a
+    stream apart from the selection's, the tie-break's (``fold_in(selection_key(key),
+    1)``) and the certification's."""
+    return jax.random.fold_in(selection_key(key), 2)
+
+
 def _settings(base: PushOptions, margins_deg, safety_factors, strategies, supports,
               min_fence_mu) -> list:
     out = [base]
@@ -460,26 +467,30 @@ def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key,
     the one with the most successes is chosen (ties: the lower cost).  A check
     on tens of samples, not a certificate: the verdict is still taken on fresh
     draws.  Returns the :class:`Synthesis` with ``chosen`` and ``physics`` set."""
-    from robustness.evaluation import evaluate
-
     s = syn.scores
     k = s.n_success
     tied = [i for i in range(len(k)) if k[i] >= k[syn.chosen] - 1]
     tied = sorted(tied, key=lambda i: (i != syn.chosen, s.cost[i], s.steps[i], i))[:max(1, top)]
     if len(tied) < 2:
         return syn
-    got = []
-    for i in tied:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            ev = evaluate(syn.candidates[i].plan, sampler, int(n), key, criterion,
-                          Model("mujoco", physics=physics))
-        got.append(int(np.sum(ev.columns["success"])))
+    got = [int(np.sum(_rollouts(syn.candidates[i].plan, sampler, n, key, criterion, physics)))
+           for i in tied]
     best = max(range(len(tied)), key=lambda j: (got[j], -s.cost[tied[j]], -s.steps[tied[j]],
                                                  -tied[j]))
     return dataclasses.replace(syn, chosen=tied[best],
                                why=f"{syn.why}; of the {len(tied)} tied, the best in MuJoCo",
                                physics=(tuple(tied), tuple(got), int(n)))
+
+
+def _rollouts(plan, sampler, n, key, criterion, physics) -> np.ndarray:
+    """Per-draw successes (bool, (n,)) of ``plan`` rolled out in MuJoCo on ``n``
+    draws of ``key`` (:func:`robustness.evaluate`, ``model="mujoco"``)."""
+    from robustness.evaluation import evaluate
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ev = evaluate(plan, sampler, int(n), key, criterion, Model("mujoco", physics=physics))
+    return np.asarray(ev.columns["success"], bool)
 
 
 def contradicts(default, chosen) -> bool:
@@ -509,17 +520,10 @@ def physics_veto(syn: Synthesis, sampler: Sampler, n: int, key,
     says it.  A check on tens of samples, not a certificate: the verdict is
     still taken on fresh draws of the model.  Nothing to check (the default
     chosen, ``n`` 0): ``syn`` unchanged."""
-    from robustness.evaluation import evaluate
-
     if syn.chosen == 0 or int(n) <= 0:
         return syn
-    got = []
-    for i in (0, syn.chosen):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            ev = evaluate(syn.candidates[i].plan, sampler, int(n), key, criterion,
-                          Model("mujoco", physics=physics))
-        got.append(np.asarray(ev.columns["success"], bool))
+    got = [_rollouts(syn.candidates[i].plan, sampler, n, key, criterion, physics)
+           for i in (0, syn.chosen)]
     vetoed = contradicts(got[0], got[1])
     veto = (int(got[0].sum()), int(got[1].sum()), int(n), vetoed)
     if not vetoed:
@@ -608,6 +612,6 @@ SHORTLIST = 8
 
 
 __all__ = ["Candidate", "Scores", "Selection", "Synthesis", "TumbleSetting", "OBJECTIVES", "SHORTLIST",
-           "physics_tiebreak", "physics_veto", "contradicts",
+           "physics_tiebreak", "physics_veto", "contradicts", "veto_key",
            "push_candidates",
            "tumble_candidates", "score_candidates", "select", "selection_key", "synthesize"]

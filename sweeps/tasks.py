@@ -133,12 +133,9 @@ def synthesize_for(cfg, part, start, goal, key):
                                physics=cfg.physics.run(part, cfg.friction),
                                top=sy.physics_candidates)
     if push and sy.veto_samples and syn.chosen != 0 and realisable(cfg):
-        import jax      # the choice confirmed in MuJoCo against the default plan
+        from robustness import physics_veto, veto_key   # the choice confirmed in MuJoCo
 
-        from robustness import physics_veto
-
-        syn = physics_veto(syn, cfg.sampler(), sy.veto_samples,
-                           jax.random.fold_in(selection_key(key), 2), cfg.eps,
+        syn = physics_veto(syn, cfg.sampler(), sy.veto_samples, veto_key(key), cfg.eps,
                            physics=cfg.physics.run(part, cfg.friction))
     return syn
 
