@@ -57,6 +57,10 @@ steps half of a node; the cold fallback 9 % on rigid corners and a third on
 a change.  So ``PANELS`` 16 -> 8: rigid corners 2,200 -> 3,900-4,200
 samples/s, ``any`` 465 -> 760-830; with a batch's calls on both cores
 (:mod:`robustness.replay`, calls of at most 512 samples) 7,700 and 1,300.
+Then the solves stopped once settled and the warm sliding steps were taken
+only by the nodes that slide (:mod:`kernels.limit_surface`, December 2026):
+``bench/robustness.py``, same run before and after, 8,460 -> 11,450 samples/s
+on rigid corners and 1,330 -> 2,405 on ``any``.
 Tried and dropped: the warm sliding
 steps in the slip and rotation per metre of advance (rational conditions, no
 angles; 1.25x more) converged on fewer nodes next to a kink (a smooth sliding
@@ -95,7 +99,8 @@ positions within 8.8e-6 m, and no verdict changed (3 mm, 0.05 rad).  Not fixed
 (a panel split at the switch, located from the sticking force's cone ratio on
 the nodes before it, with nodes graded towards it, would; it costs solves on
 every sample under ``vmap``).  The ellipsoid's closed form is still
-some 30-140 times faster (180,000-230,000 samples/s of the same plan).
+15 times faster on rigid corners and 71 times on ``any`` (170,000 samples/s of
+the same plan, ``bench/robustness.py``).
 
 Assumptions and limits: quasi-static, normal push, fence longer than the part,
 one support coefficient (it cancels), loads fixed during the push (no load
@@ -137,7 +142,7 @@ def _phase(body, normals, rho, points, weights, mu, d, st):
     T1 = _half_to(t0s, t_land)
     T1 = jnp.where(T1 > 0, T1, jnp.inf)                    # a landing past beta = pi: never
     l0 = jnp.log(t0s)
-    l1 = jnp.log(jnp.minimum(T1, 1e300))
+    l1 = jnp.log(jnp.minimum(T1, min(1e300, float(jnp.finfo(dtype).max))))   # no overflow in float32
     x = ((jnp.arange(PANELS, dtype=dtype)[:, None] + jnp.asarray(_GAUSS, dtype)[None])
          / PANELS).reshape(-1)                             # 3 Gauss-Legendre nodes a panel
     T = jnp.exp(l0 + x * (l1 - l0))                        # tan(beta / 2) at the nodes
