@@ -85,7 +85,14 @@ seconds per task 10.5, 4.5, 8.6, 4.0, 29.5, 10.3, 78.1, 77.9 (were 14.8, 7.7,
     tasks_worse_2se_mujoco=0 one_task_s=10.07 design_s=71.37
 
 (the one task: biplus-stable's turn, 8 candidates x 1,000 samples; the design:
-6 axes, 65 evaluations of 1,000 samples).
+6 axes, 65 evaluations of 1,000 samples).  With the limit surface's solves
+stopping once settled and its sliding steps gathered (December 2026; ``--no-design
+--mujoco-samples 0 --veto-samples 0``, quiet machine): the same choices and CP
+lows, seconds per task 5.19, 2.36, 4.84, 1.85, 19.99, 6.11, 53.17, 59.65::
+
+    RESULT model=limit_surface gain_model=0.1261 gain_mujoco=nan length_ratio=1.099
+    seconds_per_task=5.65 tasks_not_worse_model=8/8 tasks_not_worse_mujoco=0/0
+    tasks_worse_2se_mujoco=0 one_task_s=nan design_s=nan
 
 Both runs above are without the physics veto (``--veto-samples 0``).  With it
 (24 common draws, the default), 48 MuJoCo rollouts a plan, 2 cores shared with
