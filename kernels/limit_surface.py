@@ -365,7 +365,7 @@ def _polish(need, q, weights, d, scale, sigma, m, g, w, size, iters=None):
     F, J, _ = conditions(g, w)
     x = (jnp.zeros((), jnp.int32), g, w, F, J, ~need)
     _, g, w, F, _, _ = jax.lax.while_loop(
-        lambda x: (x[0] < (iters or WARM_SLIDE_ITERATIONS)) & ~x[5], trip, x)
+        lambda x: (x[0] < (WARM_SLIDE_ITERATIONS if iters is None else iters)) & ~x[5], trip, x)
     return g, w, jnp.where(need, F, 0.0)
 
 

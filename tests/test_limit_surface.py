@@ -414,19 +414,24 @@ def test_warm_started_motions_equal_the_cold_solve(seed, S):
     np.testing.assert_allclose(np.asarray(ms.v)[ok], np.asarray(cold.v)[ok], atol=1e-8, rtol=1e-7)
 
 
-@pytest.mark.parametrize("starved", [False, True])
-def test_node_motions_equal_the_cold_solve_batched_or_not(starved, monkeypatch):
+@pytest.mark.parametrize("starved,one_by_one", [(False, False), (True, False), (False, True)])
+def test_node_motions_equal_the_cold_solve_batched_or_not(starved, one_by_one, monkeypatch):
     """kernels.quasistatic_points.node_motions: the nodes a warm solve leaves
     unconverged are solved cold, one support's a few at a time, or a batch's
     gathered over the whole batch (its vmap rule); starved of warm iterations
     (every node falls back) the motions are still the cold solve's, batched and
-    unbatched alike."""
+    unbatched alike; and so they are with the sliding nodes' warm polish
+    gathered one lane a loop trip (kernels.limit_surface._warm_polish's vmap
+    rule, several trips a node)."""
     import kernels.limit_surface as lsm
     import kernels.quasistatic_points as qp
 
     if starved:
         monkeypatch.setattr(lsm, "WARM_STICK_ITERATIONS", (0, 0))
         monkeypatch.setattr(lsm, "WARM_SLIDE_ITERATIONS", 0)
+    if one_by_one:
+        monkeypatch.setattr(lsm, "POLISH_MIN", 1)
+        monkeypatch.setattr(lsm, "POLISH_SHARE", 1000)
     rng = np.random.default_rng(11)
     cases = [_sweep(rng, 4, N=12) for _ in range(6)]
     P, w, r, d_b, mu = (np.stack([c[i] for c in cases]) for i in range(5))
