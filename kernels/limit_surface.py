@@ -86,11 +86,10 @@ steps as its slowest member, not the cap.  And the warm sliding steps are
 wanted only where the contact slides with no optimal kink (a tenth of a
 pivot's nodes on rigid corners, nice-stable pentagon): under ``vmap`` those
 are gathered and polished alone (:func:`_warm_polish`, a ``custom_vmap``
-rule), so the others do not take every step too.  Measured on the pentagon's
-7-push plan, 1,024 draws, 2 CPU cores, same process (December 2026): rigid
-corners 3,500 -> 6,400 samples/s in one compiled call, 6,700 -> 10,700-11,800
-with the calls on both cores (``robustness.replay.run_push``); ``any`` 1,210
--> 1,760; final poses equal to 2e-17 m.
+rule), so the others do not take every step too.  The pentagon's 7-push plan
+in one compiled call of 1,024 draws on rigid corners, old and new kernel in
+one process: 3,500 -> 6,400 samples/s, final poses equal to 2e-17 m (the
+replay's figures: :mod:`kernels.quasistatic_points`).
 
 Every rate is per metre of fence travel (``<v_r, d> = 1``).  A rotation sense
 is never reversed by friction: ``sign(w) = sign(r x d)`` (``D'(0) = -(r x d)``
