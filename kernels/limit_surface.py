@@ -382,27 +382,32 @@ def _full(axis_size, args, in_batched):
                  for x, b in zip(args, in_batched))
 
 
-def _gathered(fn, pending, args, outs, chunk):
-    """``outs`` with ``fn(*args)`` (per entry, over the leading axis) put in
-    where ``pending``, ``chunk`` entries a loop trip: the batched work of a few
-    entries of a large batch."""
+def gathered(fn, pending, take, outs, chunk: int):
+    """``outs`` (a pytree of arrays over a flat leading axis) with ``fn``'s
+    results put in where ``pending``, ``chunk`` entries a loop trip:
+    ``jax.vmap(fn)(*take(idx))`` for the entries ``idx`` gathered, so that a
+    few entries of a large batch cost their own work, not the batch's (the
+    batch rules of :func:`_warm_polish` and
+    :func:`kernels.quasistatic_points.node_motions`' cold fallback)."""
     def more(x):
-        idx = jnp.nonzero(x[0], size=chunk, fill_value=0)[0]
-        sel = x[0][idx]
-        out = jax.vmap(fn)(*(a[idx] for a in args))
-        put = lambda a, b: a.at[idx].set(jnp.where(
-            sel.reshape(sel.shape + (1,) * (b.ndim - 1)), b, a[idx]))
-        return (x[0].at[idx].set(False),) + tuple(put(a, b) for a, b in zip(x[1:], out))
+        pend, outs = x
+        idx = jnp.nonzero(pend, size=chunk, fill_value=0)[0]
+        sel = pend[idx]
+        new = jax.vmap(fn)(*take(idx))
+        outs = jax.tree_util.tree_map(lambda a, b: a.at[idx].set(jnp.where(
+            sel.reshape(sel.shape + (1,) * (b.ndim - 1)), b, a[idx])), outs, new)
+        return pend.at[idx].set(False), outs
 
-    return jax.lax.while_loop(lambda x: jnp.any(x[0]), more, (pending,) + tuple(outs))[1:]
+    return jax.lax.while_loop(lambda x: jnp.any(x[0]), more, (pending, outs))[1]
 
 
 @_warm_polish.def_vmap
 def _warm_polish_batched(axis_size, in_batched, *args):
     args = _full(axis_size, args, in_batched)
     need, g, w = args[0], args[7], args[8]
-    out = _gathered(_polish, need, args, (g, w, jnp.zeros(g.shape + (2,), g.dtype)),
-                    max(POLISH_MIN, axis_size // POLISH_SHARE))
+    out = gathered(_polish, need, lambda idx: tuple(a[idx] for a in args),
+                   (g, w, jnp.zeros(g.shape + (2,), g.dtype)),
+                   max(POLISH_MIN, axis_size // POLISH_SHARE))
     return out, (True, True, True)
 
 

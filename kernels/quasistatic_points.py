@@ -111,7 +111,8 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from kernels.limit_surface import Warm, first_start, kink_base, push_motion, warm_motion
+from kernels.limit_surface import (Warm, first_start, gathered, kink_base, push_motion,
+                                   warm_motion)
 from kernels.planar import wrap_angle
 from kernels.polygon import PolygonGeometry
 from kernels.quasistatic import (SimOutcome, _half_between, _half_to,
@@ -220,18 +221,11 @@ def _cold_fix(points, weights, r, d_b, mu, ok, ms, chunk, where):
     """Solve cold, ``chunk`` at a time, the motions ``ms`` (flat over the
     leading axis) not ``ok``; ``where(idx)`` gives the flat entries' support
     index and node index."""
-    def fix(x):
-        ms, ok = x
-        idx = jnp.nonzero(~ok, size=chunk, fill_value=0)[0]
-        sel = ~ok[idx]
+    def take(idx):
         b, n = where(idx)
-        cold = jax.vmap(push_motion)(points[b], weights[b], r[b], d_b[b, n], mu[b])
-        ms = jax.tree_util.tree_map(
-            lambda a, c: a.at[idx].set(jnp.where(sel.reshape(sel.shape + (1,) * (c.ndim - 1)),
-                                                 c, a[idx])), ms, cold)
-        return ms, ok.at[idx].set(True)
+        return points[b], weights[b], r[b], d_b[b, n], mu[b]
 
-    return jax.lax.while_loop(lambda x: ~jnp.all(x[1]), fix, (ms, ok))[0]
+    return gathered(push_motion, ~ok, take, ms, chunk)
 
 
 @jax.custom_batching.custom_vmap
