@@ -2,16 +2,18 @@
 
 Run by hand from the repository root (no assertions)::
 
-    python bench/support_points.py                # uniform and ring, with corners (~16 min)
-    python bench/support_points.py --no-corners   # and each count without them (~30 min)
+    python bench/support_points.py                # uniform and ring as nudge builds them (~16 min)
+    python bench/support_points.py --both         # each count with and without corners (~30 min)
     python bench/support_points.py --families ring --counts 24,48 --reference 128
 
 The ``uniform`` (a compliant pad) and ``ring`` (a rim) families of
 :mod:`kernels.support` stand a part on ``UNIFORM_FEET`` / ``RING_FEET`` feet
-and its corners, loaded as equal springs; the MuJoCo scene stands it on the
+(and, before December 2026, ``kernels.support.FEET_AT_CORNERS``, on its
+corners too), loaded as equal springs; the MuJoCo scene stands it on the
 same feet.  A pad or rim is continuous, so the question is how far a count
 leaves a plan's outcome from the continuous limit.  For each family and count
-(``--counts``, with the corners as today and, ``--no-corners``, without), in a
+(``--counts``, as nudge builds them and, ``--both``, with and without the
+corners), in a
 child process with :mod:`kernels.support`'s count set: the default plans of
 the four bundled polygons to fixed goals (``GOALS``), ``--samples`` draws each
 at fence friction 0.5, 0.8 and 1.5 (the tolerances of ``bench/throughput.py``;
@@ -25,11 +27,13 @@ the replay's samples per second (the nice-stable pentagon at fence friction
 0.8, ``TIMED`` draws, timed on a second call) and its cost against today's
 count.
 
-Measured 2026-12-06 (``python bench/support_points.py --no-corners``, 2 cores,
+Measured 2026-12-06, when the feet stood on the corners too
+(``python bench/support_points.py --no-corners``, today ``--both``, 2 cores,
 quiet, 29 min): worst / median final position difference against 256 feet
 without corners (mm), the share of samples whose 3 mm and 1 mm verdicts
-differ, samples/s of the timed case and its cost (today's samples/s over
-the count's; below 1: faster; * today's counts)::
+differ, samples/s of the timed case and its cost (the samples/s of the
+counts then, with corners, over the count's; below 1: faster; * those
+counts)::
 
     family  feet  corners  worst  median  flip 3 mm  flip 1 mm  samples/s  cost
     uniform   12   yes      3.91   0.706      0.138      0.005      1,567  0.32x
@@ -48,6 +52,9 @@ the count's; below 1: faster; * today's counts)::
     ring      48   no       0.05   0.007      0.005      0.003        491  1.64x
     ring     128   yes      0.16   0.039      0.010      0.005        130  6.19x
     ring     128   no       0.01   0.000      0.000      0.000        120  6.71x
+
+(the RESULT line then, of the rows with corners; it now reports the rows
+as nudge builds them)
 
 ``RESULT uniform_12_mm=3.91 uniform_12_flip3mm=0.138 uniform_25_mm=2.72
 uniform_25_flip3mm=0.117 uniform_48_mm=1.63 uniform_48_flip3mm=0.029
@@ -70,14 +77,13 @@ What it says:
   the rim's 24 feet 0.16 mm and 1 % at 1.4x.  The pad converges slowly in
   the count (a quasi-random set in the area), the rim fast (equal spacing on
   a line).
-* **Not changed yet.**  Dropping the corners changes the sampler's ``c``,
-  the MuJoCo scenes and every figure pinned on these families, and loses the
-  corners' guarantee that an off-centre centre of mass stands inside the
-  feet (a fallback onto the corners is needed); ``bench/fidelity.py`` and
-  ``bench/calibration.py`` have to be rerun after it.  Until then a
-  ``uniform`` or ``ring`` certificate is a certificate for the part on those
-  feet and corners (which MuJoCo rolls out alike), within the figures above
-  of a continuous pad or rim.
+* **Changed since** (``FEET_AT_CORNERS = False``): the pad and rim stand on
+  their 25 and 24 feet alone, the rows marked "no" above; a part whose
+  centre of mass falls outside the feet's hull stands on its corners in
+  place of some feet (``kernels.support.standing_feet``).  The sampler's
+  ``c`` and the MuJoCo scene follow (both read ``family_points``);
+  ``bench/fidelity.py`` and ``bench/calibration.py`` were rerun after it
+  (their docstrings).
 
 Last line: ``RESULT <family>_<count>_mm=<worst position difference> ...
 <family>_<count>_flip3mm=<fraction of samples whose 3 mm success differs>``.
@@ -176,8 +182,8 @@ def main() -> None:
     ap.add_argument("--reference", type=int, default=256,
                     help="the reference count (without corners)")
     ap.add_argument("--samples", type=int, default=32, help="draws per part and fence friction")
-    ap.add_argument("--no-corners", action="store_true",
-                    help="measure each count without the corners too")
+    ap.add_argument("--both", action="store_true",
+                    help="measure each count with and without the corners")
     ap.add_argument("--child", nargs=4, metavar=("FAMILY", "COUNT", "CORNERS", "OUT"),
                     help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -208,16 +214,16 @@ def main() -> None:
             base = None
             rows = []
             for count in counts:
-                for corners in ((True, False) if args.no_corners else (True,)):
+                for corners in ((True, False) if args.both else (ks.FEET_AT_CORNERS,)):
                     r = measure(fam, count, corners)
                     rows.append((count, corners, compare(r, ref), float(r["rate"])))
-            base = next((rate for count, corners, _, rate in rows if corners and count == today),
-                        rows[0][3])
+            base = next((rate for count, corners, _, rate in rows
+                         if corners == ks.FEET_AT_CORNERS and count == today), rows[0][3])
             for count, corners, c, rate in rows:
                 print(f"{count:5d} {'yes' if corners else 'no':>7} {c['worst'] * 1e3:9.2f} "
                       f"{c['median'] * 1e3:9.3f} {c['flip3mm']:8.3f} {c['flip1mm']:8.3f} "
                       f"{rate:9.0f} {base / rate:5.2f}x", flush=True)
-                if corners:
+                if corners == ks.FEET_AT_CORNERS:
                     result.append(f"{fam}_{count}_mm={c['worst'] * 1e3:.2f} "
                                   f"{fam}_{count}_flip3mm={c['flip3mm']:.3f}")
     print("RESULT " + " ".join(result))

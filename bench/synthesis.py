@@ -163,7 +163,7 @@ def main() -> int:
     from planning import plan_pose
     from robustness import (DEFAULT_MODEL, Requirement, Selection, SuccessCriterion, evaluate,
                             one_sided_lower, physics_tiebreak, physics_veto, selection_key,
-                            synthesize, veto_key)
+                            synthesize, tiebreak_key, veto_key)
     from sweeps.executors import enable_compilation_cache
     from sweeps.study import load_part_ref
 
@@ -211,7 +211,7 @@ def main() -> int:
                              requirement=req, model=model)
             if args.physics_samples:
                 syn = physics_tiebreak(syn, sampler, args.physics_samples,
-                                       jax.random.fold_in(selection_key(key), 1), **eps)
+                                       tiebreak_key(key), **eps)
             dt = time.perf_counter() - t0
             veto = ""
             if args.veto_samples:             # rollouts: timed apart

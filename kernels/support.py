@@ -22,16 +22,17 @@ and realised by the MuJoCo scene (:mod:`robustness.physics`):
     (its vertices are the triangles; enumerated).  Only the ORDER of the lifts
     matters, not their size (the programme is homogeneous in ``lift``).
 ``uniform``
-    A compliant pad: pressure over the whole footprint.  The corners and
-    ``UNIFORM_FEET`` points of a fixed quasi-uniform set in the polygon
-    (:func:`uniform_points`),
+    A compliant pad: pressure over the whole footprint.  ``UNIFORM_FEET``
+    points of a fixed quasi-uniform set in the polygon (:func:`uniform_points`;
+    corners in place of some where the centre of mass is outside their hull),
     moved ``FOOT_INSET`` inside the outline, loaded as equal springs under a
     rigid body are: the minimum-norm loads that balance the weight
     (:func:`equilibrium_weights`, affine in position: uniform when the centre
     of mass is the points' centroid).
 ``ring``
     Pressure along the rim (a part with a raised edge, a dished underside):
-    the corners and ``RING_FEET`` points equally spaced along the outline, inset like the
+    ``RING_FEET`` points equally spaced along the outline (corners in place of
+    some where the centre of mass is outside their hull), inset like the
     uniform points, with equilibrium loads (:func:`ring_points`).
 ``tripod``
     Three feet on a circle of radius ``c`` about the centre of mass, an
@@ -121,9 +122,13 @@ VARYING_SUPPORTS = (ANY,) + tuple(f.name for f in TABLE if f.varies)
 #: by ``bench/support_points.py`` (its docstring has the figures)
 UNIFORM_FEET = 25
 RING_FEET = 24
-#: the uniform and ring families stand on the corners too (they keep the centre
-#: of mass inside the feet however far off-centre it is); read when traced
-FEET_AT_CORNERS = True
+#: the uniform and ring families stand on their feet alone (False, the default
+#: since December 2026: closer to the continuous pad and rim and faster, per
+#: ``bench/support_points.py``; a part whose centre of mass falls outside the
+#: feet's hull stands on its corners in place of some feet,
+#: :func:`standing_feet`), or on the feet and every corner (True, as before);
+#: read when traced
+FEET_AT_CORNERS = False
 #: how far (m) the uniform, ring and tripod feet stay inside the outline
 #: (at least the MuJoCo feet's radius, ``PhysicsSettings.foot_radius``)
 FOOT_INSET = 1.0e-3
@@ -160,14 +165,34 @@ def _inset(points, body, inset: float):
     return lam * points
 
 
+def standing_feet(feet, body):
+    """The feet a part stands on: ``feet`` (F, 2; body frame, the centre of
+    mass at the origin; m) when the centre of mass is inside their hull, else
+    the same feet with ``h`` of them (indices ``round(i F / h)``, spread over
+    the sequence) replaced by the corners of ``body`` (h, 2, CCW, the centre
+    of mass inside), so that the centre of mass stands inside whatever the
+    feet (a part overhanging its pad rests on its corners).  The centre of
+    mass is outside the feet's hull when their directions from it leave a
+    gap of at least pi.  Needs ``h <= F``."""
+    feet, body = jnp.asarray(feet), jnp.asarray(body)
+    F, h = feet.shape[0], body.shape[0]
+    if h > F:
+        raise ValueError(f"standing_feet: {F} feet cannot take the {h} corners")
+    ang = jnp.sort(jnp.arctan2(feet[:, 1], feet[:, 0]))
+    gaps = jnp.diff(ang, append=ang[:1] + 2.0 * math.pi)
+    outside = jnp.max(gaps) >= math.pi
+    idx = np.round(np.arange(h) * F / h).astype(np.int64)
+    return jnp.where(outside, feet.at[idx].set(body.astype(feet.dtype)), feet)
+
+
 def uniform_points(body, inset: float = FOOT_INSET):
-    """(h + UNIFORM_FEET, 2) points spread over the CCW polygon ``body`` (h
-    vertices; body frame, the centre of mass inside; m): its corners and a
-    fixed Kronecker sequence mapped through the triangle fan from the origin
-    (a triangle chosen by area, a point uniform in it), all moved ``inset``
-    inside the outline (the corners keep the centre of mass inside the
-    points' hull however far off-centre it is; without them, ``UNIFORM_FEET``
-    points, when :data:`FEET_AT_CORNERS` is False)."""
+    """(UNIFORM_FEET, 2) points spread over the CCW polygon ``body`` (h
+    vertices; body frame, the centre of mass inside; m): a fixed Kronecker
+    sequence mapped through the triangle fan from the origin (a triangle
+    chosen by area, a point uniform in it), corners in place of some of them
+    when the centre of mass falls outside their hull (:func:`standing_feet`),
+    all moved ``inset`` inside the outline.  With :data:`FEET_AT_CORNERS`
+    (h + UNIFORM_FEET, 2): the corners and the sequence."""
     body = jnp.asarray(body)
     u = jnp.asarray(kronecker_points(UNIFORM_FEET), body.dtype)
     nxt = jnp.roll(body, -1, axis=0)
@@ -176,14 +201,17 @@ def uniform_points(body, inset: float = FOOT_INSET):
     tri = jnp.minimum(jnp.searchsorted(cdf, u[:, 0], side="right"), body.shape[0] - 1)
     a, b = jnp.sqrt(u[:, 1]), u[:, 2]          # uniform in the triangle (0, v_i, v_i+1)
     pts = (a * (1.0 - b))[:, None] * body[tri] + (a * b)[:, None] * nxt[tri]
-    return _inset(jnp.concatenate([body, pts]) if FEET_AT_CORNERS else pts, body, inset)
+    feet = jnp.concatenate([body, pts]) if FEET_AT_CORNERS else standing_feet(pts, body)
+    return _inset(feet, body, inset)
 
 
 def ring_points(body, inset: float = FOOT_INSET):
-    """(h + RING_FEET, 2) points on the outline of the CCW polygon ``body``
-    (h vertices, m): its corners and RING_FEET equally spaced by arc length
-    (half a spacing from vertex 0), all moved ``inset`` inside it (the
-    ``RING_FEET`` alone when :data:`FEET_AT_CORNERS` is False)."""
+    """(RING_FEET, 2) points on the outline of the CCW polygon ``body`` (h
+    vertices, m), equally spaced by arc length (half a spacing from vertex
+    0), corners in place of some of them when the centre of mass falls
+    outside their hull (:func:`standing_feet`), all moved ``inset`` inside
+    it.  With :data:`FEET_AT_CORNERS` (h + RING_FEET, 2): the corners and
+    the rim."""
     body = jnp.asarray(body)
     nxt = jnp.roll(body, -1, axis=0)
     length = jnp.linalg.norm(nxt - body, axis=1)
@@ -192,7 +220,8 @@ def ring_points(body, inset: float = FOOT_INSET):
     e = jnp.clip(jnp.searchsorted(cum, s, side="right") - 1, 0, body.shape[0] - 1)
     t = ((s - cum[e]) / jnp.maximum(length[e], 1e-300))[:, None]
     rim = body[e] * (1.0 - t) + nxt[e] * t
-    return _inset(jnp.concatenate([body, rim]) if FEET_AT_CORNERS else rim, body, inset)
+    feet = jnp.concatenate([body, rim]) if FEET_AT_CORNERS else standing_feet(rim, body)
+    return _inset(feet, body, inset)
 
 
 def _tripod_dirs(rot):
@@ -335,8 +364,9 @@ def family_points(family: str, body, c=None):
 def family_point_count(family: str, n_corners: int, n_sampled: int) -> int:
     """How many support points :func:`family_support` builds for ``family`` on a
     part of ``n_corners`` hull corners (``points``: the ``n_sampled`` sampled)."""
-    return {"rigid": n_corners, "uniform": UNIFORM_FEET, "ring": RING_FEET, "tripod": 3,
-            "points": n_sampled}[family]
+    extra = n_corners if FEET_AT_CORNERS else 0
+    return {"rigid": n_corners, "uniform": extra + UNIFORM_FEET, "ring": extra + RING_FEET,
+            "tripod": 3, "points": n_sampled}[family]
 
 
 def family_c_range(family: str, body) -> tuple[float, float]:

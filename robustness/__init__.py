@@ -46,7 +46,8 @@ from robustness.stats import (CONFIDENCE, REQUIRED_PROBABILITY, clopper_pearson,
 from robustness.summary import summarise
 from robustness.synthesis import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES,
                                   SHORTLIST, Candidate, Scores, Selection, Synthesis, physics_tiebreak, physics_veto, push_candidates,
-                                  score_candidates, select, selection_key, synthesize, veto_key)
+                                  score_candidates, select, selection_key, synthesize, tiebreak_key,
+                                  veto_key)
 from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTolerance,
                                    Requirement, SuccessCriterion)
 
@@ -73,7 +74,7 @@ from robustness.sensorless import is_sensorless, start_set
 from robustness.tables import FAILURE_MODES, to_arrow
 
 __all__ = [
-    "synthesize", "veto_key", "physics_tiebreak", "physics_veto", "push_candidates", "score_candidates", "select", "selection_key", "Candidate",
+    "synthesize", "tiebreak_key", "veto_key", "physics_tiebreak", "physics_veto", "push_candidates", "score_candidates", "select", "selection_key", "Candidate",
     "Scores", "Selection", "Synthesis", "GRID_MARGINS_DEG", "GRID_SAFETY_FACTORS", "GRID_STRATEGIES",
     "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Requirement", "Model", "Sampler",
     "CONFIDENCE", "REQUIRED_PROBABILITY", "plan_kind", "KINDS", "NOT_EVALUATED", "PlanKind",

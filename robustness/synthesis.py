@@ -210,10 +210,16 @@ def selection_key(key):
     return jax.random.fold_in(key, SELECTION_STREAM)
 
 
+def tiebreak_key(key):
+    """The draws of :func:`physics_tiebreak` for a task certified with ``key``:
+    a stream apart from the selection's, the veto's and the certification's."""
+    return jax.random.fold_in(selection_key(key), 1)
+
+
 def veto_key(key):
     """The draws of :func:`physics_veto` for a task certified with ``key``: a
-    stream apart from the selection's, the tie-break's (``fold_in(selection_key(key),
-    1)``) and the certification's."""
+    stream apart from the selection's, the tie-break's (:func:`tiebreak_key`)
+    and the certification's."""
     return jax.random.fold_in(selection_key(key), 2)
 
 
@@ -612,6 +618,6 @@ SHORTLIST = 8
 
 
 __all__ = ["Candidate", "Scores", "Selection", "Synthesis", "TumbleSetting", "OBJECTIVES", "SHORTLIST",
-           "physics_tiebreak", "physics_veto", "contradicts", "veto_key",
+           "physics_tiebreak", "physics_veto", "contradicts", "tiebreak_key", "veto_key",
            "push_candidates",
            "tumble_candidates", "score_candidates", "select", "selection_key", "synthesize"]

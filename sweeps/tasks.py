@@ -124,12 +124,9 @@ def synthesize_for(cfg, part, start, goal, key):
                                          sy.objective),
                      requirement=cfg.requirement(), model=cfg.model_spec(model), **grid)
     if push and sy.physics_samples:   # the kinematic model's tie broken in MuJoCo
-        import jax
+        from robustness import physics_tiebreak, tiebreak_key
 
-        from robustness import physics_tiebreak
-
-        syn = physics_tiebreak(syn, cfg.sampler(), sy.physics_samples,
-                               jax.random.fold_in(selection_key(key), 1), cfg.eps,
+        syn = physics_tiebreak(syn, cfg.sampler(), sy.physics_samples, tiebreak_key(key), cfg.eps,
                                physics=cfg.physics.run(part, cfg.friction),
                                top=sy.physics_candidates)
     if push and sy.veto_samples and syn.chosen != 0 and realisable(cfg):

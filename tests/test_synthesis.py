@@ -2,6 +2,7 @@
 the batched scores are evaluate()'s on the same draws, a plan that should win
 wins, the selection is biased and the certificate is taken on fresh draws."""
 import dataclasses
+import itertools
 import pathlib
 import types
 import warnings
@@ -18,7 +19,7 @@ from robustness import (ExecutionTolerance, FrictionRange, GeometryTolerance, Re
 from robustness.evaluation import goal_errors
 from robustness.replay import run_push
 from robustness.synthesis import (Scores, push_candidates, score_candidates, select,
-                                  selection_key, synthesize)
+                                  selection_key, synthesize, tiebreak_key, veto_key)
 from tests.commandline import nudge_here
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -143,13 +144,18 @@ def test_selection_is_biased_so_the_certificate_uses_fresh_draws():
         fresh_rates.append((rng.random(n) < p).mean())   # the chosen one, on fresh draws
     assert np.mean(chosen_rates) > p + 0.04            # optimistic: the maximum of 40
     assert abs(np.mean(fresh_rates) - p) < 0.02        # unbiased
-    # the selection stream is not any certification block's stream
+    # the selection's, the tie-break's and the veto's streams are none of the
+    # certification blocks' streams nor each other's
     key = jax.random.fold_in(jax.random.key(0), 1)
-    sel = jax.random.uniform(selection_key(key), (1000,))
-    for b in range(4):
-        blk = jax.random.uniform(jax.random.fold_in(key, b), (1000,))
-        assert not np.any(np.isin(np.asarray(sel), np.asarray(blk)))
-        assert abs(np.corrcoef(np.asarray(sel), np.asarray(blk))[0, 1]) < 0.1
+    keys = [k(key) for k in (selection_key, tiebreak_key, veto_key)]
+    keys += [jax.random.fold_in(key, b) for b in range(4)]
+    streams = [np.asarray(jax.random.bits(k, (1000,), jnp.uint32)) for k in keys]
+    for s, t in itertools.combinations(streams, 2):
+        assert not np.any(np.isin(s, t))
+        assert abs(np.corrcoef(s.astype(float), t.astype(float))[0, 1]) < 0.1
+    # the tie-break's stream as results written before it had a name drew it
+    assert np.array_equal(jax.random.key_data(tiebreak_key(key)),
+                          jax.random.key_data(jax.random.fold_in(selection_key(key), 1)))
 
 
 def _config(tmp_path, extra=""):
