@@ -131,10 +131,6 @@ class Planner(Strict):
             raise ValueError("min_fence_mu: slip-aware plans need the support's range too; "
                              "add planner.support_c: [lo, hi] (m) or planner.support: rigid "
                              "(uniform, ring)")
-        w = self.workspace
-        if w is not None and not (w[0] < w[1] and w[2] < w[3]):
-            raise ValueError(f"workspace: expected [xmin, xmax, ymin, ymax] with xmin < xmax and "
-                             f"ymin < ymax (m), got {list(w)}")
         self.push_options()   # the planner's own checks (planning.PushOptions), before any work
         return self
 
@@ -148,13 +144,14 @@ class Planner(Strict):
                            min_fence_mu=self.min_fence_mu, workspace=self.workspace,
                            max_reorients=self.max_reorients, extra_steps=self.extra_steps)
 
-    margin_deg: float = Field(PUSH_DEFAULTS.margin_deg, gt=0, lt=90)
-    safety_factor: float = Field(PUSH_DEFAULTS.safety_factor, ge=1)
+    # margin_deg, safety_factor, min_fence_mu, workspace: bounds checked by PushOptions
+    margin_deg: float = PUSH_DEFAULTS.margin_deg
+    safety_factor: float = PUSH_DEFAULTS.safety_factor
     objective: Literal["distance", "pushes"] = PUSH_DEFAULTS.objective
     strategy: Literal["search", "paper"] = PUSH_DEFAULTS.strategy
     support_c: Optional[tuple[float, float]] = None
     support: Literal[PLAN_SUPPORTS] = "any"
-    min_fence_mu: Optional[float] = Field(None, ge=0)
+    min_fence_mu: Optional[float] = None
     workspace: Optional[tuple[float, float, float, float]] = None
     max_reorients: StrictInt = Field(PUSH_DEFAULTS.max_reorients,
                                      ge=EFFORT_BOUNDS["max_reorients"][0],
@@ -580,7 +577,7 @@ def _one(e: dict, model) -> str:
         head, sep, rest = msg.partition(": ")
         if sep and head in _fields(_model_at(model, loc)):
             path = _loc(loc + (head,))
-            hint = HINTS.get(path, HINTS.get(head))
+            hint = None if "; " in rest else HINTS.get(path, HINTS.get(head))   # its own wins
             return f"{path}: {rest}" + (f"; give {hint}" if hint else "")
         return msg if field == "(top level)" else f"{field}: {msg}"
     return f"{field}: {msg}, got {got!r}{tail}"

@@ -86,6 +86,29 @@ def test_push_defaults_have_one_home():
     assert p.push_options() == d == _push_options(args)
 
 
+@pytest.mark.parametrize("setting, says", [
+    ("planner.margin_deg=0", "planner.margin_deg: must be > 0, got 0; at zero a reorient"),
+    ("planner.margin_deg=95", "planner.margin_deg: must be < 90, got 95; it is taken off"),
+    ("planner.safety_factor=0.5", "planner.safety_factor: must be >= 1, got 0.5; below 1 the"),
+    ("planner.workspace=[0.1,-0.1,0,1]", "planner.workspace: expected [xmin, xmax, ymin, ymax] "
+                                          "(m) with xmin < xmax"),
+])
+def test_the_planners_bounds_have_one_home_and_say_why(setting, says):
+    """A study's planner bounds are PushOptions' own (the config does not declare
+    them again): `sweeps.run --dry-run` names the field and gives the reason of
+    the bound it breaks, once."""
+    from sweeps import run
+    from tests.commandline import in_process
+
+    r = in_process(run.main, "margins.yaml", "--dry-run", "--set", setting)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert says in r.stderr and "; give" not in r.stderr, r.stderr
+    from sweeps.config import Planner
+
+    for f in ("margin_deg", "safety_factor", "min_fence_mu"):
+        assert not Planner.model_fields[f].metadata, f      # no second set of bounds
+
+
 def test_plan_pose_takes_one_options_value_that_travels():
     """The planner's options are one value: plan_pose takes it, the plan carries
     it (plan.options plans the same plan again), anything else is refused."""

@@ -30,9 +30,12 @@ SOLVERS = ("closed_form", "cvxpy")
 STRATEGIES = ("search", "paper")
 
 
-def check_number(value, field: str, lo=None, hi=None, lo_open=False, hint="") -> float:
+def check_number(value, field: str, lo=None, hi=None, lo_open=False, lo_hint="",
+                 hi_hint="") -> float:
     """``value`` as a finite float in ``[lo, hi)`` (``(lo, hi)`` with
-    ``lo_open``), else a ValueError naming ``field``."""
+    ``lo_open``), else a ValueError naming ``field``, with ``lo_hint`` or
+    ``hi_hint`` (why that bound; each starts with "; ") after the bound it
+    breaks."""
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -40,10 +43,35 @@ def check_number(value, field: str, lo=None, hi=None, lo_open=False, hint="") ->
     if not math.isfinite(v):
         raise ValueError(f"{field}: must be finite, got {v}")
     if lo is not None and (v < lo or (lo_open and v == lo)):
-        raise ValueError(f"{field}: must be {'>' if lo_open else '>='} {lo}, got {v}{hint}")
+        raise ValueError(f"{field}: must be {'>' if lo_open else '>='} {lo:g}, got {v:g}{lo_hint}")
     if hi is not None and v >= hi:
-        raise ValueError(f"{field}: must be < {hi}, got {v}{hint}")
+        raise ValueError(f"{field}: must be < {hi:g}, got {v:g}{hi_hint}")
     return v
+
+
+def check_margin_deg(value) -> float:
+    """The margin angle (degrees), ``0 < margin_deg < 90``, else a ValueError
+    that says why the bound it breaks is there."""
+    return check_number(
+        value, "margin_deg", 0.0, 90.0, lo_open=True,
+        lo_hint="; at zero a reorient from the divergent orientation needs an infinite push "
+                "(the paper uses 7 degrees)",
+        hi_hint="; it is taken off reorient angles below 90 degrees, and 90 or more leaves "
+                "none (the paper uses 7 degrees)")
+
+
+def check_safety_factor(value) -> float:
+    """The reorient distance rule's multiplier, ``>= 1``, else a ValueError
+    that says why."""
+    return check_number(value, "safety_factor", 1.0,
+                        lo_hint="; below 1 the distance rule's guarantee is lost (paper: 1.15)")
+
+
+def check_min_fence_mu(value) -> float:
+    """The lowest fence friction coefficient a slip-aware plan must stick at, ``>= 0``."""
+    return check_number(value, "min_fence_mu", 0.0,
+                        lo_hint="; it is the lowest fence friction coefficient the plan must "
+                                "stick at")
 
 
 def _count(value, field: str, lo: int) -> int:
@@ -155,20 +183,15 @@ class PushOptions:
 
     def __post_init__(self):
         put = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731
-        put("margin_deg", check_number(
-            self.margin_deg, "margin_deg", 0.0, 90.0, lo_open=True,
-            hint="; at zero a reorient from the divergent orientation needs an infinite push "
-                 "(the paper uses 7 degrees)"))
-        put("safety_factor", check_number(
-            self.safety_factor, "safety_factor", 1.0,
-            hint="; below 1 the distance rule's guarantee is lost (paper: 1.15)"))
+        put("margin_deg", check_margin_deg(self.margin_deg))
+        put("safety_factor", check_safety_factor(self.safety_factor))
         for name, choices in (("objective", OBJECTIVES), ("solver", SOLVERS),
                               ("strategy", STRATEGIES)):
             if getattr(self, name) not in choices:
                 raise ValueError(f"{name}: expected one of {choices}, got {getattr(self, name)!r}")
         put("support", PlanSupport.of(self.support))
         if self.min_fence_mu is not None:
-            put("min_fence_mu", check_number(self.min_fence_mu, "min_fence_mu", 0.0))
+            put("min_fence_mu", check_min_fence_mu(self.min_fence_mu))
             if not self.support.planned:
                 raise ValueError(
                     "min_fence_mu: slip-aware plans need the support's limit-surface ratio range: "
@@ -191,7 +214,8 @@ def check_workspace(workspace) -> Optional[tuple[float, float, float, float]]:
         raise ValueError(f"workspace: expected four finite numbers (xmin, xmax, ymin, ymax) in metres, "
                          f"got {workspace!r}")
     if not (vals[0] < vals[1] and vals[2] < vals[3]):
-        raise ValueError(f"workspace: need xmin < xmax and ymin < ymax, got {list(vals)}")
+        raise ValueError(f"workspace: expected [xmin, xmax, ymin, ymax] (m) with xmin < xmax and "
+                         f"ymin < ymax, got {list(vals)}")
     return vals
 
 
@@ -209,4 +233,5 @@ def options_of(options) -> PushOptions:
 
 
 __all__ = ["PushOptions", "PlanSupport", "DEFAULTS", "OBJECTIVES", "SOLVERS", "STRATEGIES",
-           "check_number", "check_workspace", "options_of"]
+           "check_margin_deg", "check_min_fence_mu", "check_number", "check_safety_factor", "check_workspace",
+           "options_of"]

@@ -35,8 +35,8 @@ from kernels import (as_points, CCW, CW, float64, make_polygon, max_reorient_tab
                      object_class as classify_polygon, OBJECT_CLASS_NAMES, PartError, PartWarning,
                      peshkin_length_np, pivot_constants_np, PLANNED_FAMILIES, Polygon,
                      polygon_geometry, PolygonGeometry, step_angle, sticking_angle_limit)
-from planning.pushing.options import DEFAULTS, PlanSupport
-from planning.pushing.options import check_number as _check_number
+from planning.pushing.options import (DEFAULTS, PlanSupport, check_margin_deg,
+                                      check_min_fence_mu, check_safety_factor)
 
 POS_TOL = 1e-9   # x part size: a plan must reach the goal position this closely (replayed)
 ANG_TOL = 1e-9   # rad: and the goal orientation
@@ -304,14 +304,11 @@ def prepare_part(vertices, com=None, margin_deg: float = DEFAULTS.margin_deg,
         coefficient: only reorient pushes whose fence contact sticks throughout
         for every ``c`` in the support range are allowed (needs ``support``).
     """
-    margin_deg = _check_number(margin_deg, "margin_deg", 0.0, 90.0, lo_open=True,
-                               hint="; at zero a reorient from the divergent orientation needs an "
-                                    "infinite push (the paper uses 7 degrees)")
-    safety_factor = _check_number(safety_factor, "safety_factor", 1.0,
-                                  hint="; below 1 the distance rule's guarantee is lost (paper: 1.15)")
+    margin_deg = check_margin_deg(margin_deg)
+    safety_factor = check_safety_factor(safety_factor)
     family, support_c = check_support(support)
     if min_fence_mu is not None:
-        min_fence_mu = _check_number(min_fence_mu, "min_fence_mu", 0.0)
+        min_fence_mu = check_min_fence_mu(min_fence_mu)
     v = as_points(vertices, "vertices", 2)
     ckey = None
     if com is not None:
