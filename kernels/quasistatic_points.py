@@ -60,7 +60,11 @@ samples/s, ``any`` 465 -> 760-830; with a batch's calls on both cores
 Then the solves stopped once settled and the warm sliding steps were taken
 only by the nodes that slide (:mod:`kernels.limit_surface`, December 2026):
 ``bench/robustness.py``, same run before and after, 8,460 -> 11,450 samples/s
-on rigid corners and 1,330 -> 2,405 on ``any``.
+on rigid corners and 1,330 -> 2,405 on ``any``; then the pad and rim stood on
+their feet alone (:data:`kernels.support.FEET_AT_CORNERS`, 30 -> 25 and 29
+-> 24 points on the pentagon): ``any`` 2,240-2,350 -> 2,830-2,890 (two runs
+each, alternating), the pads and rims still about 9 times slower per sample
+than rigid corners (the node's work is linear in the points).
 Tried and dropped: the warm sliding
 steps in the slip and rotation per metre of advance (rational conditions, no
 angles; 1.25x more) converged on fewer nodes next to a kink (a smooth sliding

@@ -13,6 +13,10 @@
   (a :class:`Certificate`: the one-sided Clopper-Pearson bound at the required
   confidence, or why nothing can be claimed); :func:`summarise` summarises any
   set of samples.
+* The block runner's pure half (:mod:`robustness.blocks`): :func:`sample_block`
+  (one block of samples and its statistics), :class:`BlockRun` (a task's blocks
+  grown look by look; ``certify`` runs one, the command line's studies and
+  certifications add files and resume), :func:`summarise_stats`.
 * Robust synthesis: :func:`synthesize` (candidate plans of a push task scored
   on the same draws, :func:`select` by an explicit objective; certify the
   chosen one on fresh draws, :func:`selection_key`).
@@ -70,6 +74,7 @@ from robustness.kinds import (KINDS, NOT_EVALUATED, PlanKind, kind_for_part, kin
 from robustness.models import (DEFAULT_MODEL, PUSH_KINEMATIC, Model, THROUGHPUT, block_samples,
                                decision_model, peak_bytes, samples_per_second)
 from robustness.summary import STAT_COLUMNS, empty_summary
+from robustness.blocks import Block, BlockRun, sample_block, summarise_stats
 from robustness.sensorless import is_sensorless, start_set
 from robustness.tables import FAILURE_MODES, to_arrow
 
@@ -91,4 +96,5 @@ __all__ = [
     "design_samples_needed", "drawing_line", "joint_design", "loosest_tolerances",
     "tolerance_sensitivity", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
     "first_certifying", "grow", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "release_executables", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow", "is_sensorless", "start_set",
+    "Block", "BlockRun", "sample_block", "summarise_stats",
 ]

@@ -428,11 +428,7 @@ def certify(plan, sampler, key, requirement: Optional[Requirement] = None, *,
       ``(certificate, samples, summary)``: the :class:`Certificate`, the
       per-sample frame of every block, and the summary row (dict).
     """
-    import jax
-    import pandas as pd
-
-    from robustness.evaluation import evaluate
-    from robustness.summary import summarise
+    from robustness.blocks import BlockRun
 
     req = (Requirement() if requirement is None else requirement)
     if not isinstance(req, Requirement):
@@ -453,31 +449,13 @@ def certify(plan, sampler, key, requirement: Optional[Requirement] = None, *,
     else:
         raise ValueError(f"samples: expected an integer >= 1, 'auto' or a Schedule, "
                          f"got {samples!r}")
-    block = schedule.counts[0]
-    frames: list = []
-
-    def more(total: int):
-        drawn = sum(len(f) for f in frames)
-        b = len(frames)
-        while drawn < total:
-            m = min(block, total - drawn)
-            ev = evaluate(plan, sampler, m, jax.random.fold_in(key, b), criterion, spec,
-                          task=task, bound=False)
-            df = ev.samples.copy()
-            df["sample_id"] += drawn
-            frames.append(df)
-            drawn += m
-            b += 1
-        df = pd.concat(frames, ignore_index=True)
-        return len(df), int(df["success"].sum())
-
-    grow(more, schedule, req)
-    frame = pd.concat(frames, ignore_index=True)
-    summary = summarise(frame, plan, sampler, kind=kind, model=spec.name,
-                        dtype=spec.dtype.name, criterion=criterion,
-                        confidence=confidence, task=task, bound=bound)
+    run = BlockRun(plan, sampler, key, schedule.counts[0], criterion, spec, task, keep=True)
+    grow(run.extend, schedule, req)
+    summary = run.summary(kind=kind, model=spec.name, dtype=spec.dtype.name,
+                          confidence=confidence, bound=bound)
     cert = decide(summary, req, kind=kind, model=spec.name,
                   perturbed=perturbed_sources(sampler, kind, spec.name), schedule=schedule)
+    frame = run.samples()
     return cert, frame, summary
 
 

@@ -1,30 +1,37 @@
-"""One block of a task's Monte-Carlo samples, and a task's summary from its blocks.
+"""A task's sample blocks on disk: the files half of the block runner.
 
-The block runner shared by a study's units (:mod:`sweeps.work`) and a
-certification's growing sample schedule (:mod:`sweeps.certify`):
+The pure half (evaluating a block, growing a task's blocks, merging their
+statistics into the summary) is :mod:`robustness.blocks`; a study's units
+(:mod:`sweeps.work`) and a certification's growing sample schedule
+(:mod:`sweeps.certify`) add the files:
 
 * :func:`sample_block` evaluates a plan on one block of ``n`` samples drawn with
-  its key, builds the block's ``samples`` table straight from the evaluation's
-  arrays (:func:`robustness.tables.arrow_table`) and returns it with the
-  block's statistics (:data:`robustness.STAT_COLUMNS`: the per-sample values a
-  summary needs, a few columns);
+  its key (:func:`robustness.sample_block`) and builds the block's ``samples``
+  table straight from the evaluation's arrays
+  (:func:`robustness.tables.arrow_table`), returned with the block's
+  statistics (:data:`robustness.STAT_COLUMNS`: the per-sample values a summary
+  needs, a few columns);
 * :func:`block_stats` reads those statistics back from a block's file (a block
   finished by an earlier, interrupted run);
 * :func:`summarise_blocks` merges the blocks' statistics into the task's
-  ``summary`` row (:func:`robustness.summarise`): the samples are never read back
-  from disk to be summarised.
+  ``summary`` row (:func:`robustness.summarise_stats`): the samples are never
+  read back from disk to be summarised;
+* :class:`StoredBlocks` grows a certification's task block by block
+  (:class:`robustness.BlockRun` with these files, resume and Ctrl-C).
 """
 from __future__ import annotations
 
 import dataclasses
 import pathlib
+import warnings
 from typing import Mapping, Optional, Sequence
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from robustness import arrow_table, evaluate, model_for, samples_columns, STAT_COLUMNS, summarise
+from robustness import (BlockRun, SAMPLES_SCHEMA, STAT_COLUMNS, arrow_table, model_for,
+                        sample_block as evaluate_block, summarise_stats)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -69,10 +76,10 @@ def sample_block(plan, cfg, physics, task: str, n: int, key, *, lo: int, run_id:
     Returns:
       :class:`Block`.
     """
-    ev = evaluate(plan, cfg.sampler(), n, key, cfg.eps, cfg.model_spec(model, physics), task=task)
-    data = {"run_id": run_id, **dict(columns), **samples_columns(ev, lo)}
-    return Block(arrow_table(data, schema, n),
-                 {c: np.asarray(data[c]) for c in STAT_COLUMNS})
+    block = evaluate_block(plan, cfg.sampler(), n, key, cfg.eps, cfg.model_spec(model, physics),
+                           first=lo, task=task)
+    return Block(arrow_table({"run_id": run_id, **dict(columns), **block.columns}, schema, n),
+                 block.stats)
 
 
 def block_stats(path: pathlib.Path) -> dict:
@@ -86,10 +93,75 @@ def summarise_blocks(stats: Sequence[dict], plan, cfg, task: str, *, model: Opti
     """The ``summary`` row of a task from its blocks' statistics (any order: the
     summary sorts by ``sample_id``), as :func:`robustness.summarise` gives it for
     the concatenated samples."""
-    import pandas as pd
-
     kind = plan.kind
-    df = pd.DataFrame({c: np.concatenate([s[c] for s in stats]) for c in STAT_COLUMNS})
-    return summarise(df, plan, cfg.sampler(), kind=kind, model=model_for(model or cfg.model, kind),
-                     dtype=cfg.dtype, criterion=cfg.eps, confidence=cfg.required.confidence,
-                     task=task, bound=bound)
+    return summarise_stats(stats, plan, cfg.sampler(), kind=kind,
+                           model=model_for(model or cfg.model, kind), dtype=cfg.dtype,
+                           criterion=cfg.eps, confidence=cfg.required.confidence, task=task,
+                           bound=bound)
+
+
+class StoredBlocks(BlockRun):
+    """A certification's task's samples as resumable blocks of ``size`` (the
+    pure runner, :class:`robustness.BlockRun`, with files; ``cfg`` the
+    certification's config, ``store`` its run folder, ``ti`` the task's index,
+    ``done`` the units an earlier run finished, ``flag.stop`` set by Ctrl-C):
+    each block written to the run's ``samples`` table and marked done; a block
+    an earlier run finished is read back (its statistics); Ctrl-C stops before
+    the next block."""
+
+    def __init__(self, cfg, store, plan, name, ti, key, size, model, done, flag):
+        super().__init__(plan, cfg.sampler(), key, size, cfg.eps,
+                         cfg.model_spec(model, cfg.physics_run()), name)
+        self.cfg, self.store, self.ti, self.model_name = cfg, store, ti, model
+        self.done, self.flag = done, flag
+
+    def stopped(self) -> bool:
+        """Ctrl-C was pressed."""
+        return self.flag.stop
+
+    def stored(self, b: int, m: int):
+        """Block ``b``'s statistics read back from its file when an earlier run
+        finished it; a file of another size is refused (another version)."""
+        unit = block_stem(self.ti, b)
+        if unit not in self.done:
+            return None
+        path = self.store.table_path("samples", 0, unit)
+        st = block_stats(path)
+        if len(st["success"]) != m:
+            from sweeps.store import RunError
+
+            raise RunError(f"{path}: holds {len(st['success'])} samples, the schedule of "
+                           f"this run draws {m} in this block (drawn by another version of"
+                           f" nudge?): certify into a new --out folder")
+        return st
+
+    def extend(self, total: int) -> tuple[int, int]:
+        """:meth:`robustness.BlockRun.extend`, the blocks' warnings reported."""
+        from sweeps.terminal import report_warnings
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            out = super().extend(total)
+        report_warnings(caught)
+        return out
+
+    def finished(self, b: int, block) -> None:
+        """Block ``b`` written to the run's ``samples`` table and marked done."""
+        unit = block_stem(self.ti, b)
+        path = self.store.table_path("samples", 0, unit)
+        table = arrow_table({"run_id": self.store.run_id, **block.columns}, SAMPLES_SCHEMA,
+                            block.n)
+        self.store.write("samples", 0, unit, table, SAMPLES_SCHEMA)
+        self.store.mark_done(unit, [path], rows=block.n)
+
+    def task_summary(self) -> dict:
+        """The task's summary row (:func:`summarise_blocks` under the config),
+        its warnings reported."""
+        from sweeps.terminal import report_warnings
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            s = summarise_blocks(self.stats, self.plan, self.cfg, self.task,
+                                 model=self.model_name)
+        report_warnings(caught)
+        return s

@@ -361,6 +361,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     from robustness import (auto_schedule, block_samples, decide, grow, is_sensorless,
                             kind_for_part, model_for, no_plan, perturbed_sources, PLANS_SCHEMA,
                             rows_table, Schedule, start_set)
+    from sweeps.blocks import StoredBlocks
     from sweeps.config import ConfigError
     from sweeps.tasks import PlanInputError, plan_row, plan_task
 
@@ -394,11 +395,11 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         _write_summary(store, ti, s)
         return {**row, **no_plan(reason, req, model, schedule).to_row()}
     size = min(schedule.counts[0], block_samples(kind, model, cfg.friction.support))
-    blocks = Blocks(cfg, store, plan, name, ti, key, size, model, done, flag)
+    blocks = StoredBlocks(cfg, store, plan, name, ti, key, size, model, done, flag)
     grow(blocks.extend, schedule, req)
     if flag.stop:
         return None
-    summary = blocks.summary()
+    summary = blocks.task_summary()
     _write_summary(store, ti, summary)
     sensorless = is_sensorless(plan)
     cert = decide(summary, req, kind=kind, model=model,
@@ -466,64 +467,6 @@ def design_task(cfg, part, plan, name, key, store, ti) -> str:
     schema = DESIGN_SCHEMA
     store.write("design", 0, f"t{ti:04d}", rows_table(rows, schema), schema)
     return line
-
-
-class Blocks:
-    """A task's samples as resumable blocks of ``size`` (block ``b`` drawn with
-    ``fold_in(key, b)``: growing the count keeps the samples drawn before), run
-    by the block runner of studies (:mod:`sweeps.blocks`); each block's
-    statistics are kept for the summary (read back from the file for a block of
-    an earlier run)."""
-
-    def __init__(self, cfg, store, plan, name, ti, key, size, model, done, flag):
-        self.cfg, self.store, self.plan, self.name, self.ti = cfg, store, plan, name, ti
-        self.key, self.size, self.model, self.done, self.flag = key, size, model, done, flag
-        self.n = self.k = 0
-        self.stats: list = []
-
-    def extend(self, total: int) -> tuple[int, int]:
-        import jax
-        import numpy as np
-
-        from robustness import SAMPLES_SCHEMA
-        from sweeps.blocks import block_stats, block_stem, sample_block
-
-        while self.n < total and not self.flag.stop:
-            m = min(self.size, total - self.n)
-            unit = block_stem(self.ti, len(self.stats))
-            path = self.store.table_path("samples", 0, unit)
-            if unit in self.done:
-                st = block_stats(path)
-                if len(st["success"]) != m:
-                    from sweeps.store import RunError
-
-                    raise RunError(f"{path}: holds {len(st['success'])} samples, the schedule of "
-                                   f"this run draws {m} in this block (drawn by another version of"
-                                   f" nudge?): certify into a new --out folder")
-            else:
-                with warnings.catch_warnings(record=True) as caught:
-                    warnings.simplefilter("always")
-                    b = sample_block(self.plan, self.cfg, self.cfg.physics_run(), self.name, m,
-                                     jax.random.fold_in(self.key, len(self.stats)), lo=self.n,
-                                     run_id=self.store.run_id, schema=SAMPLES_SCHEMA,
-                                     model=self.model)
-                report_warnings(caught)
-                self.store.write("samples", 0, unit, b.table, SAMPLES_SCHEMA)
-                self.store.mark_done(unit, [path], rows=b.n)
-                st = b.stats
-            self.stats.append(st)
-            self.n += len(st["success"])
-            self.k += int(np.sum(st["success"]))
-        return self.n, self.k
-
-    def summary(self) -> dict:
-        from sweeps.blocks import summarise_blocks
-
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            s = summarise_blocks(self.stats, self.plan, self.cfg, self.name, model=self.model)
-        report_warnings(caught)
-        return s
 
 
 def _write_summary(store, ti, s: dict) -> None:
