@@ -94,6 +94,20 @@ a default plan (nice-stable at 0.8 rigid, the synthesized plan nearly the
 same) and the uni-stable synthesized plan at 0.5 rigid, where the veto saw no
 contradiction (the default plan, CP low 0.27 under the model, did not do
 better by two standard errors on the veto's 24 draws).
+
+After the pad and rim stood on their feet alone (December 2026,
+``kernels.support.FEET_AT_CORNERS``; only the ``any`` cells can change),
+``--no-qs``, full (1,527 s beside other work: synthesis 249 s, certificates
+149 s, MuJoCo 1,001 s)::
+
+    RESULT certified=20 calibration_failures=3 calibration_failure_rate=0.150
+    mujoco_success_certified=0.960 rollouts=100 stroke=planned
+
+As many plans certified and the same three failures (rigid support: the
+nice-stable pentagon's two plans at 0.8 and the uni-stable synthesized plan
+at 0.5, 82/100 each); in the ``any`` cells MuJoCo gives the certified plans
+96/100 (the nice-stable pentagon at 0.8) and 100/100, and the veto fires in
+the same three cells (1/24, 12/24 and 6/24 against the default's 24/24).
 """
 from __future__ import annotations
 
