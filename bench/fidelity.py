@@ -42,6 +42,17 @@ seeded random walk of 4 tumbles from ``(0, 0, 0, 0)``, planned with
 ``plan_tumble`` (eps 1 mm), rolled out with pads of friction 1.5; the
 fraction of plans that land every planned face.
 
+Measured 2026-12-07 (CPU, ``--no-tumbles --no-mjx``: four plan kinds, supports
+rigid and any, 288 runs, 901 s beside other work), after the pad and rim stood on
+their feet alone (``kernels.support.FEET_AT_CORNERS``)::
+
+    RESULT push_ok=0.306 qs_agreement=0.795 qs_agreement_rigid=0.660 ls_agreement=0.969
+    ls_agreement_rigid=0.951 c_vs_mjx_mm=nan tumble_faces_ok=nan
+
+Under ``any`` (its draws here: rings and tripods) the limit-surface model agrees
+on 142 of 144 runs (the two others: the ``c4-8`` plan on a ring, where physics
+leaves a reorientation incomplete), the ellipsoid on 0.93.
+
 ``--thickness-mm T``: the scenes' parts ``T`` mm thick instead of the
 scene's 3 mm, their mass kept (the fence pushes at half the thickness: the
 moment of the push about the support, which the planar models do not have).
