@@ -173,11 +173,13 @@ def standing_feet(feet, body):
     of mass inside), so that the centre of mass stands inside whatever the
     feet (a part overhanging its pad rests on its corners).  The centre of
     mass is outside the feet's hull when their directions from it leave a
-    gap of at least pi.  Needs ``h <= F``."""
+    gap of at least pi.  A part of more corners than feet (``h > F``, a
+    rounded outline) stands on its corners and the feet, (h + F, 2), always
+    (:func:`family_point_count`)."""
     feet, body = jnp.asarray(feet), jnp.asarray(body)
     F, h = feet.shape[0], body.shape[0]
     if h > F:
-        raise ValueError(f"standing_feet: {F} feet cannot take the {h} corners")
+        return jnp.concatenate([body.astype(feet.dtype), feet])
     ang = jnp.sort(jnp.arctan2(feet[:, 1], feet[:, 0]))
     gaps = jnp.diff(ang, append=ang[:1] + 2.0 * math.pi)
     outside = jnp.max(gaps) >= math.pi
@@ -191,8 +193,9 @@ def uniform_points(body, inset: float = FOOT_INSET):
     sequence mapped through the triangle fan from the origin (a triangle
     chosen by area, a point uniform in it), corners in place of some of them
     when the centre of mass falls outside their hull (:func:`standing_feet`),
-    all moved ``inset`` inside the outline.  With :data:`FEET_AT_CORNERS`
-    (h + UNIFORM_FEET, 2): the corners and the sequence."""
+    all moved ``inset`` inside the outline.  With :data:`FEET_AT_CORNERS`, or
+    more corners than feet, (h + UNIFORM_FEET, 2): the corners and the
+    sequence."""
     body = jnp.asarray(body)
     u = jnp.asarray(kronecker_points(UNIFORM_FEET), body.dtype)
     nxt = jnp.roll(body, -1, axis=0)
@@ -210,8 +213,8 @@ def ring_points(body, inset: float = FOOT_INSET):
     vertices, m), equally spaced by arc length (half a spacing from vertex
     0), corners in place of some of them when the centre of mass falls
     outside their hull (:func:`standing_feet`), all moved ``inset`` inside
-    it.  With :data:`FEET_AT_CORNERS` (h + RING_FEET, 2): the corners and
-    the rim."""
+    it.  With :data:`FEET_AT_CORNERS`, or more corners than feet,
+    (h + RING_FEET, 2): the corners and the rim."""
     body = jnp.asarray(body)
     nxt = jnp.roll(body, -1, axis=0)
     length = jnp.linalg.norm(nxt - body, axis=1)
@@ -364,8 +367,10 @@ def family_points(family: str, body, c=None):
 def family_point_count(family: str, n_corners: int, n_sampled: int) -> int:
     """How many support points :func:`family_support` builds for ``family`` on a
     part of ``n_corners`` hull corners (``points``: the ``n_sampled`` sampled)."""
-    extra = n_corners if FEET_AT_CORNERS else 0
-    return {"rigid": n_corners, "uniform": extra + UNIFORM_FEET, "ring": extra + RING_FEET,
+    def feet(count):    # the corners too with FEET_AT_CORNERS or more corners than feet
+        return count + (n_corners if FEET_AT_CORNERS or n_corners > count else 0)
+
+    return {"rigid": n_corners, "uniform": feet(UNIFORM_FEET), "ring": feet(RING_FEET),
             "tripod": 3, "points": n_sampled}[family]
 
 

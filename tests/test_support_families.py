@@ -172,6 +172,27 @@ def test_a_part_overhanging_its_feet_stands_on_its_corners(family):
         assert np.min(np.linalg.norm(pts - lam * corner, axis=1)) < 1e-15
 
 
+@pytest.mark.slow
+def test_a_part_of_more_corners_than_feet_stands_on_both():
+    """A rounded outline (a 40-gon ellipse, more corners than the pad's and the
+    rim's feet) stands on its corners and the feet: the count
+    family_point_count gives, balanced loads, and a limit-surface evaluation
+    under ``any`` runs (it raised before the count was handled)."""
+    from robustness import evaluate
+
+    a = np.linspace(0.0, 2.0 * np.pi, 40, endpoint=False)
+    outline = np.c_[0.03 * np.cos(a), 0.02 * np.sin(a)]
+    for family in ("uniform", "ring"):
+        pts = _x64(getattr(ks, f"{family}_points"), outline)
+        assert pts.shape == (ks.family_point_count(family, 40, 0), 2)
+        assert len(pts) == 40 + (ks.UNIFORM_FEET if family == "uniform" else ks.RING_FEET)
+        np.testing.assert_allclose(_x64(ks.equilibrium_weights, pts) @ pts, 0.0, atol=1e-12)
+    plan = plan_pose(outline, (0.0, 0.0, 0.0), (0.05, 0.02, 1.0))
+    sampler = Sampler(GeometryTolerance(tau_v=1e-5), FrictionRange(mu_f=(0.5, 0.8), support="any"))
+    ev = evaluate(plan, sampler, 8, jax.random.key(0), None, "limit_surface")
+    assert ev.n == 8 and np.all(np.isfinite(ev.samples["final_x_m"]))
+
+
 def test_rigid_rectangle_rests_on_a_diagonal():
     """A centred rectangle on its corners: two opposite corners carry it, c is
     the corner radius (Peshkin's worst case) whatever the flatness errors."""
