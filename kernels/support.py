@@ -173,12 +173,12 @@ def standing_feet(feet, body):
     of mass inside), so that the centre of mass stands inside whatever the
     feet (a part overhanging its pad rests on its corners).  The centre of
     mass is outside the feet's hull when their directions from it leave a
-    gap of at least pi.  A part of more corners than feet (``h > F``, a
-    rounded outline) stands on its corners and the feet, (h + F, 2), always
-    (:func:`family_point_count`)."""
+    gap of at least pi.  With :data:`FEET_AT_CORNERS`, or on a part of more
+    corners than feet (``h > F``, a rounded outline), it stands on its
+    corners and the feet, (h + F, 2), always (:func:`family_point_count`)."""
     feet, body = jnp.asarray(feet), jnp.asarray(body)
     F, h = feet.shape[0], body.shape[0]
-    if h > F:
+    if FEET_AT_CORNERS or h > F:
         return jnp.concatenate([body.astype(feet.dtype), feet])
     ang = jnp.sort(jnp.arctan2(feet[:, 1], feet[:, 0]))
     gaps = jnp.diff(ang, append=ang[:1] + 2.0 * math.pi)
@@ -204,8 +204,7 @@ def uniform_points(body, inset: float = FOOT_INSET):
     tri = jnp.minimum(jnp.searchsorted(cdf, u[:, 0], side="right"), body.shape[0] - 1)
     a, b = jnp.sqrt(u[:, 1]), u[:, 2]          # uniform in the triangle (0, v_i, v_i+1)
     pts = (a * (1.0 - b))[:, None] * body[tri] + (a * b)[:, None] * nxt[tri]
-    feet = jnp.concatenate([body, pts]) if FEET_AT_CORNERS else standing_feet(pts, body)
-    return _inset(feet, body, inset)
+    return _inset(standing_feet(pts, body), body, inset)
 
 
 def ring_points(body, inset: float = FOOT_INSET):
@@ -223,8 +222,7 @@ def ring_points(body, inset: float = FOOT_INSET):
     e = jnp.clip(jnp.searchsorted(cum, s, side="right") - 1, 0, body.shape[0] - 1)
     t = ((s - cum[e]) / jnp.maximum(length[e], 1e-300))[:, None]
     rim = body[e] * (1.0 - t) + nxt[e] * t
-    feet = jnp.concatenate([body, rim]) if FEET_AT_CORNERS else standing_feet(rim, body)
-    return _inset(feet, body, inset)
+    return _inset(standing_feet(rim, body), body, inset)
 
 
 def _tripod_dirs(rot):

@@ -78,8 +78,13 @@ def sample_block(plan, cfg, physics, task: str, n: int, key, *, lo: int, run_id:
     """
     block = evaluate_block(plan, cfg.sampler(), n, key, cfg.eps, cfg.model_spec(model, physics),
                            first=lo, task=task)
-    return Block(arrow_table({"run_id": run_id, **dict(columns), **block.columns}, schema, n),
-                 block.stats)
+    return Block(block_table(block, run_id, schema, columns), block.stats)
+
+
+def block_table(block, run_id: str, schema: pa.Schema, columns: Mapping = ()) -> pa.Table:
+    """The ``samples`` table of a :class:`robustness.Block`: its columns with
+    the ``run_id`` and a study's swept ``columns`` (constant) in ``schema``."""
+    return arrow_table({"run_id": run_id, **dict(columns), **block.columns}, schema, block.n)
 
 
 def block_stats(path: pathlib.Path) -> dict:
@@ -149,9 +154,8 @@ class StoredBlocks(BlockRun):
         """Block ``b`` written to the run's ``samples`` table and marked done."""
         unit = block_stem(self.ti, b)
         path = self.store.table_path("samples", 0, unit)
-        table = arrow_table({"run_id": self.store.run_id, **block.columns}, SAMPLES_SCHEMA,
-                            block.n)
-        self.store.write("samples", 0, unit, table, SAMPLES_SCHEMA)
+        self.store.write("samples", 0, unit, block_table(block, self.store.run_id, SAMPLES_SCHEMA),
+                         SAMPLES_SCHEMA)
         self.store.mark_done(unit, [path], rows=block.n)
 
     def task_summary(self) -> dict:
