@@ -67,7 +67,7 @@ from robustness.tolerance_design import (AXES as DESIGN_AXES, HEADROOM as DESIGN
                                          sensitivity as tolerance_sensitivity)
 from robustness.compiled import release_executables
 from robustness.confirmation import NO_PHYSICS, PhysicsCheck, confirm_in_physics, confirmation_key
-from robustness.certificates import (Schedule, auto_schedule, decide, first_certifying, grow,
+from robustness.certificates import (Schedule, auto_schedule, decide, grow,
                                      no_plan, perturbed_sources)
 from robustness.kinds import (KINDS, NOT_EVALUATED, PlanKind, kind_for_part, kind_of, model_for,
                               plan_kind)
@@ -75,6 +75,7 @@ from robustness.models import (DEFAULT_MODEL, PUSH_KINEMATIC, Model, THROUGHPUT,
                                decision_model, peak_bytes, samples_per_second)
 from robustness.summary import STAT_COLUMNS, empty_summary
 from robustness.blocks import Block, BlockRun, sample_block, summarise_stats
+from robustness.margins import MarginRecommendation, MarginTrial, recommend_margins
 from robustness.sensorless import is_sensorless, start_set
 from robustness.tables import FAILURE_MODES, to_arrow
 
@@ -95,6 +96,6 @@ __all__ = [
     "DESIGN_AXES", "DESIGN_HEADROOM", "DesignJudge", "design_axes_for", "design_key",
     "design_samples_needed", "drawing_line", "joint_design", "loosest_tolerances",
     "tolerance_sensitivity", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
-    "first_certifying", "grow", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "release_executables", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow", "is_sensorless", "start_set",
+    "grow", "MarginRecommendation", "MarginTrial", "recommend_margins", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "release_executables", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow", "is_sensorless", "start_set",
     "Block", "BlockRun", "sample_block", "summarise_stats",
 ]

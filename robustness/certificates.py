@@ -390,15 +390,6 @@ def grow(evaluate_more: Callable[[int], tuple[int, int]], schedule: Schedule,
     return n, k
 
 
-def first_certifying(candidates, evaluate_one: Callable) -> Optional[object]:
-    """The first candidate (in order) whose evaluation certifies:
-    ``evaluate_one(candidate) -> bool``; None if none does."""
-    for c in candidates:
-        if evaluate_one(c):
-            return c
-    return None
-
-
 #: the most samples an ``"auto"`` certification draws (:func:`auto_schedule`'s cap)
 MAX_SAMPLES = 100_000
 
@@ -411,7 +402,10 @@ def certify(plan, sampler, key, requirement: Optional[Requirement] = None, *,
       plan: a :class:`~planning.PushPlan` or :class:`~planning.TumblePlan`.
       sampler: the :class:`~robustness.Sampler` of the tolerances.
       key: a ``jax.random`` key; block ``b`` of samples uses ``fold_in(key, b)``, so
-        growing the sample count keeps the samples drawn before.
+        growing the sample count keeps the samples drawn before; blocks of
+        :func:`robustness.block_samples` (at most the first look's count), as
+        ``nudge certify`` draws them, so the same key certifies on the same
+        samples in both.
       requirement: the :class:`~robustness.Requirement` (probability, confidence,
         success criterion; default ``Requirement()``: 0.9 at 95 %, the plan kind's
         criterion).
@@ -429,6 +423,7 @@ def certify(plan, sampler, key, requirement: Optional[Requirement] = None, *,
       per-sample frame of every block, and the summary row (dict).
     """
     from robustness.blocks import BlockRun
+    from robustness.models import block_samples
 
     req = (Requirement() if requirement is None else requirement)
     if not isinstance(req, Requirement):
@@ -449,7 +444,9 @@ def certify(plan, sampler, key, requirement: Optional[Requirement] = None, *,
     else:
         raise ValueError(f"samples: expected an integer >= 1, 'auto' or a Schedule, "
                          f"got {samples!r}")
-    run = BlockRun(plan, sampler, key, schedule.counts[0], criterion, spec, task, keep=True)
+    # the command line's blocks (sweeps.certify): the same key draws the same samples
+    size = min(schedule.counts[0], block_samples(kind, spec.name, sampler.friction.support))
+    run = BlockRun(plan, sampler, key, size, criterion, spec, task, keep=True)
     grow(run.extend, schedule, req)
     summary = run.summary(kind=kind, model=spec.name, dtype=spec.dtype.name,
                           confidence=confidence, bound=bound)

@@ -25,8 +25,10 @@ all looks, and the certificate names the procedure (``procedure``,
 ``look_confidence``, ``n_looks``, ``look``).  A fixed ``--n-samples N`` is one
 look, the plain one-sided bound.  With a
 ``margin_search`` section, a push task that is not certified is re-planned over
-a grid of margin angles and safety factors and the first setting that
-certifies is recommended.  ``--synthesize`` (a ``synthesize:`` section) replaces
+a grid of margin angles and safety factors, judged on selection draws, and the
+first setting that passes is certified on the task's own draws and, if
+certified, recommended (:func:`robustness.recommend_margins`; a re-run with it
+gives that verdict).  ``--synthesize`` (a ``synthesize:`` section) replaces
 the default plan of a push task by the best of many candidates scored on the
 same selection draws (:mod:`robustness.synthesis`), certified on fresh draws
 (a choice MuJoCo contradicts against the default plan on
@@ -124,24 +126,31 @@ def _task_samples(cfg: CertifyConfig) -> int:
 DESIGN_EVALUATIONS_PER_AXIS, DESIGN_EVALUATIONS_BESIDES = 10, 12
 
 
-def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> float:
+def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0,
+                     sensorless: int = 0) -> float:
     """The certification's time (s) on 2 CPU cores from the measured throughput
     of each model on its support (:func:`robustness.models.samples_per_second`):
     every task's samples (``auto``: up to ``max_samples``) under the config's
-    model, less the ``kept`` samples of an interrupted run's finished blocks;
+    model (``sensorless`` of the ``n_tasks`` at a sensorless plan's rate: one
+    rollout a sample from its own start under MuJoCo), less the ``kept``
+    samples of an interrupted run's finished blocks;
     the synthesis's selection draws over its candidate cap under the model that
     chooses (:func:`robustness.decision_model`; the exact limit surface scores
     a shortlist that the quasi-static model draws up), or the margin search's
-    grid; the tolerance design's evaluations; plus a few seconds a task of
-    planning and compilation."""
+    grid and its recommendation's certification (every task failing); the
+    tolerance design's evaluations; plus a few seconds a task of planning and
+    compilation."""
     from robustness import (decision_model, DESIGN_AXES, kind_for_part, samples_per_second,
                             SHORTLIST)
 
     kind = kind_for_part(part.kind)
     support = cfg.friction.support
-    rate = lambda model: samples_per_second(kind, model, support)  # noqa: E731
+    rate = lambda model, k=kind: samples_per_second(k, model, support)  # noqa: E731
     choose = decision_model(cfg.model, kind)
-    secs = max(n_tasks * _task_samples(cfg) - kept, 0) / rate(cfg.model)
+    # seconds a sample, averaged over the tasks (a sensorless plan replays slower in MuJoCo)
+    per = ((n_tasks - sensorless) / rate(cfg.model)
+           + sensorless / rate(cfg.model, "sensorless")) / max(n_tasks, 1)
+    secs = max(n_tasks * _task_samples(cfg) - kept, 0) * per
     if cfg.synthesize is not None and cfg.synthesize.enabled:
         s = cfg.synthesize
         scored = s.max_candidates
@@ -151,7 +160,8 @@ def estimate_seconds(cfg: CertifyConfig, part, n_tasks: int, kept: int = 0) -> f
         secs += n_tasks * s.n_samples * scored / rate(choose)
     elif kind == "push" and cfg.margin_search is not None and cfg.margin_search.enabled:
         m = cfg.margin_search
-        secs += n_tasks * m.n_samples * len(m.margins_deg) * len(m.safety_factors) / rate(cfg.model)
+        grid = len(m.margins_deg) * len(m.safety_factors)
+        secs += n_tasks * (m.n_samples * grid + _task_samples(cfg)) * per
     if cfg.design is not None and cfg.design.enabled:
         axes = len(cfg.design.axes or DESIGN_AXES[kind])
         evals = DESIGN_EVALUATIONS_PER_AXIS * axes + DESIGN_EVALUATIONS_BESIDES
@@ -272,7 +282,10 @@ def main(argv=None, prog: str = "nudge certify") -> int:
     out = pathlib.Path(args.out) if args.out else pathlib.Path("results") / f"certify-{path.stem}" / run_id
     # a resumed run: the samples its finished blocks hold are not drawn again
     kept = sum(int(r.get("rows") or 0) for r in finished_units(out).values())
-    secs = estimate_seconds(cfg, part, len(tasks), kept)
+    from sweeps.config import SensorlessStart
+
+    secs = estimate_seconds(cfg, part, len(tasks), kept,
+                            sum(isinstance(start, SensorlessStart) for _, start, _ in tasks))
     peak = estimate_peak(cfg, part)
     no = refusal(secs, f"certifying {len(tasks)} task(s) of {path.name} with model {cfg.model}",
                  args.yes, "lower --n-samples / --max-samples or choose a faster model", peak,
@@ -287,7 +300,6 @@ def main(argv=None, prog: str = "nudge certify") -> int:
         return fail(str(exc))
     if code == Exit.INTERRUPTED:
         return code
-    from sweeps.config import SensorlessStart
 
     # a sensorless task: --synthesize and --design need a known start, never suggested
     unknown = {name for name, start, _ in tasks if isinstance(start, SensorlessStart)}
@@ -359,7 +371,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     import jax
 
     from robustness import (auto_schedule, block_samples, decide, grow, is_sensorless,
-                            kind_for_part, model_for, no_plan, perturbed_sources, PLANS_SCHEMA,
+                            kind_for_part, kind_of, model_for, no_plan, perturbed_sources, PLANS_SCHEMA,
                             rows_table, Schedule, start_set)
     from sweeps.blocks import StoredBlocks
     from sweeps.config import ConfigError
@@ -394,7 +406,8 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         s = empty_summary(name, kind, model, cfg.dtype, cfg.eps, conf)
         _write_summary(store, ti, s)
         return {**row, **no_plan(reason, req, model, schedule).to_row()}
-    size = min(schedule.counts[0], block_samples(kind, model, cfg.friction.support))
+    # blocks as robustness.certify draws them (the plan's kind: a sensorless plan's own rate)
+    size = min(schedule.counts[0], block_samples(kind_of(plan).kind, model, cfg.friction.support))
     blocks = StoredBlocks(cfg, store, plan, name, ti, key, size, model, done, flag)
     grow(blocks.extend, schedule, req)
     if flag.stop:
@@ -420,17 +433,18 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
             row.update(check.to_row())
             row["note"] = "; ".join(x for x in (row["note"], check.sentence()) if x)
             _log(quiet, f"[{name}] {check.sentence()}")
+    _log(quiet, f"[{name}] {cert.verdict}: {cert.claim}")
     if cert.verdict != "certified" and kind == "push" and cfg.margin_search is not None \
             and cfg.margin_search.enabled and syn is None:
-        rec = margin_search(part, start, goal, cfg, key, model)
-        if rec is not None:
-            row.update(recommended_margin_deg=rec[0], recommended_safety_factor=rec[1])
-            row["note"] = "; ".join(x for x in (row["note"], f"margin {rec[0]:g} deg, safety "
-                                                f"factor {rec[1]:g} certifies") if x)
-        else:
-            row["note"] = "; ".join(x for x in (row["note"], "no margin / safety factor of the "
-                                                "grid certifies") if x)
-    _log(quiet, f"[{name}] {cert.verdict}: {cert.claim}")
+        rec, trials = margin_search(part, start, goal, cfg, key, model, schedule)
+        if rec is not None and rec.certified:
+            row.update(recommended_margin_deg=rec.margin_deg,
+                       recommended_safety_factor=rec.safety_factor)
+        line = (rec.sentence() if rec is not None else
+                f"no margin / safety factor of the grid certifies ({len(trials)} settings, "
+                f"{cfg.margin_search.n_samples} search draws each)")
+        row["note"] = "; ".join(x for x in (row["note"], line) if x)
+        _log(quiet, f"[{name}] margin search: {line}")
     if cfg.design is not None and cfg.design.enabled:
         line = design_task(cfg, part, plan, name, key, store, ti)
         row["note"] = "; ".join(x for x in (row["note"], f"tolerance design: {line}") if x)
@@ -548,31 +562,30 @@ def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
                 recommended_margin_deg=math.nan, recommended_safety_factor=math.nan)
 
 
-def margin_search(part, start, goal, cfg, key, model):
-    """Smallest ``(margin_deg, safety_factor)`` of the grid whose plan certifies
-    (one-sided bound at the required confidence); None if none does."""
-    import numpy as np
+def margin_search(part, start, goal, cfg, key, model, schedule):
+    """The margin recommendation of a push task that did not certify
+    (:func:`robustness.recommend_margins`): the config's grid searched on
+    ``margin_search.n_samples`` selection draws of the task's ``key``, the
+    chosen plan certified on the task's own draws (``schedule``, ``model``).
 
-    from robustness import first_certifying, evaluate, one_sided_lower
+    Returns:
+      ``(recommendation or None, trials)``.
+    """
+    from robustness import recommend_margins
     from sweeps.tasks import plan_task
 
     ms = cfg.margin_search
-    grid = [(m, sf) for m in ms.margins_deg for sf in ms.safety_factors]
 
-    def ok(setting):
-        planner = cfg.planner.model_copy(update={"margin_deg": setting[0],
-                                                 "safety_factor": setting[1]})
-        plan, _ = plan_task(part, start, goal, planner, cfg.eps)
-        if plan is None:
-            return False
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            ev = evaluate(plan, cfg.sampler(), ms.n_samples, key, cfg.eps,
-                          cfg.model_spec(model, cfg.physics_run()), bound=False)
-        return one_sided_lower(int(np.sum(ev.columns["success"])), ev.n,
-                               cfg.required.confidence) >= cfg.required.probability
+    def replan(margin_deg, safety_factor):
+        planner = cfg.planner.model_copy(update={"margin_deg": margin_deg,
+                                                 "safety_factor": safety_factor})
+        return plan_task(part, start, goal, planner, cfg.eps)[0]
 
-    return first_certifying(grid, ok)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return recommend_margins(replan, [(m, sf) for m in ms.margins_deg for sf in ms.safety_factors],
+                                 cfg.sampler(), ms.n_samples, key, cfg.requirement(),
+                                 samples=schedule, model=cfg.model_spec(model, cfg.physics_run()))
 
 
 def next_steps(cert: dict, support: str = "any", synthesized: bool = False,
@@ -595,6 +608,11 @@ def next_steps(cert: dict, support: str = "any", synthesized: bool = False,
     from sweeps.remedies import remedies
 
     steps = remedies(kind, cert.get("dominant_failure_mode"), support, synthesized, designed)
+    margin, safety = cert.get("recommended_margin_deg"), cert.get("recommended_safety_factor")
+    if margin is not None and margin == margin:   # the margin search's setting certified
+        steps = [f"the margin search's setting, planner: {{margin_deg: {margin:g}, safety_factor: "
+                 f"{safety:g}}} (its plan certified on this task's draws; a re-run with it gives "
+                 "that verdict)", *steps]
     head = ("more samples cannot certify this plan; try" if reason == "below_requirement"
             else "to certify it, try")
     return f"next: {head} " + "; ".join(steps) if steps else ""

@@ -278,3 +278,68 @@ def test_a_physics_certification_of_a_hundred_thousand_samples_is_refused_at_onc
     assert len(lines) == 1 and "estimated at about" in lines[0] and "--yes" in lines[0], lines
     assert "model mujoco" in lines[0]
     assert not (tmp_path / "out").exists()
+
+
+MARGIN_SEARCH = f"""part: {ROOT / 'examples' / 'biplus_stable.yaml'}
+tolerances: {{tau_v: 1.5e-4, tau_com: 3.0e-4}}
+friction: {{mu_f: [3.0, 4.0], support: any}}
+execution: {{start_xy: 5.0e-4, start_theta: 0.01, fence_angle: 0.003}}
+eps: {{pos_eps_m: 0.003, theta_eps_rad: 0.05}}
+required: {{probability: 0.97}}
+n_samples: 300
+model: quasistatic
+margin_search: {{margins_deg: [3, 7], safety_factors: [1.15, 2.0], n_samples: 200}}
+tasks:
+  - {{name: turn, start: [0, 0, 0], goal: [0.10, 0.05, 60deg]}}
+"""
+
+
+@pytest.mark.slow
+def test_the_margin_search_recommends_what_a_re_run_certifies(tmp_path):
+    """The triangle's turn at 7 deg and 1.15 does not reach 0.97 (288/300); the
+    margin search judges the grid on its own draws (3 deg / 1.15 fails there,
+    3 deg / 2.0 passes), certifies that plan on the task's draws and recommends
+    it; re-run with that setting, ``nudge certify`` draws the same samples and
+    states the same claim, word for word."""
+    cfg = tmp_path / "search.yaml"
+    cfg.write_text(MARGIN_SEARCH)
+    r = nudge_here("certify", cfg, "--out", tmp_path / "a")
+    assert r.returncode == 1, (r.stdout, r.stderr)
+    c = pd.read_parquet(tmp_path / "a" / "certificates").iloc[0]
+    assert c["verdict"] == "not certified"
+    assert (c["recommended_margin_deg"], c["recommended_safety_factor"]) == (3.0, 2.0)
+    assert "margin 3 deg, safety factor 2: 200/200 on the search draws" in c["note"]
+    nxt = next(ln for ln in r.stdout.splitlines() if "next:" in ln)
+    assert "planner: {margin_deg: 3, safety_factor: 2}" in nxt
+    again = tmp_path / "again.yaml"
+    again.write_text(MARGIN_SEARCH.replace(
+        "margin_search: {margins_deg: [3, 7], safety_factors: [1.15, 2.0], n_samples: 200}",
+        "planner: {margin_deg: 3, safety_factor: 2.0}"))
+    r = nudge_here("certify", again, "--out", tmp_path / "b", "--quiet")
+    assert r.returncode == 0, (r.stdout, r.stderr)
+    b = pd.read_parquet(tmp_path / "b" / "certificates").iloc[0]
+    assert b["verdict"] == "certified"
+    assert f"on the task's own draws, not the search's: {b['claim']}" in c["note"]
+
+
+def test_recommend_margins_judges_each_setting_and_skips_the_unplannable():
+    """Settings without a plan are recorded and skipped; none passing gives no
+    recommendation; bad arguments are refused before any work."""
+    import jax
+
+    from robustness import Requirement, Sampler, recommend_margins
+
+    calls = []
+
+    def replan(m, sf):
+        calls.append((m, sf))
+        return None
+
+    rec, trials = recommend_margins(replan, [(3, 1.15), (7, 2.0)], Sampler(), 8,
+                                    jax.random.key(0), Requirement())
+    assert rec is None and calls == [(3.0, 1.15), (7.0, 2.0)]
+    assert [(t.margin_deg, t.safety_factor, t.n) for t in trials] == [(3.0, 1.15, 0), (7.0, 2.0, 0)]
+    with pytest.raises(ValueError, match="n: expected an integer >= 1"):
+        recommend_margins(replan, [(3, 1.15)], Sampler(), 0, jax.random.key(0))
+    with pytest.raises(ValueError, match="requirement"):
+        recommend_margins(replan, [(3, 1.15)], Sampler(), 8, jax.random.key(0), 0.9)

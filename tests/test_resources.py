@@ -203,3 +203,24 @@ def test_a_resumed_run_is_estimated_on_what_is_left(tmp_path):
 
     rate = samples_per_second("push", "mujoco", "any")
     assert whole > 3600 > left and whole - left == pytest.approx(3000 / rate, rel=0.01)
+
+
+def test_sensorless_tasks_and_the_margin_search_are_estimated_at_their_own_cost(tmp_path):
+    """A sensorless task replays one MuJoCo rollout a sample from its own start,
+    slower than a known-start push (its measured rate, not the push's); the
+    margin search adds its grid's search draws and the chosen plan's
+    certification on the task's draws."""
+    from robustness import samples_per_second
+    from sweeps import certify
+
+    cfg, _, _, part, _ = certify.load(_config(tmp_path, "mujoco"), n_samples=100)
+    one = certify.estimate_seconds(cfg, part, 2)
+    mixed = certify.estimate_seconds(cfg, part, 2, sensorless=1)
+    per = 1 / samples_per_second("sensorless", "mujoco") - 1 / samples_per_second("push", "mujoco")
+    assert mixed - one == pytest.approx(100 * per, rel=1e-9) and mixed > 10 * one
+    from sweeps.config import MarginSearch
+
+    grid = MarginSearch(margins_deg=[3, 7], safety_factors=[1.15], n_samples=50)
+    searched = certify.estimate_seconds(cfg.model_copy(update={"margin_search": grid}), part, 2)
+    rate = samples_per_second("push", "mujoco", cfg.friction.support)
+    assert searched - one == pytest.approx(2 * (2 * 50 + 100) / rate, rel=1e-9)
