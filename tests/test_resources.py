@@ -217,7 +217,7 @@ def test_sensorless_tasks_and_the_margin_search_are_estimated_at_their_own_cost(
     one = certify.estimate_seconds(cfg, part, 2)
     mixed = certify.estimate_seconds(cfg, part, 2, sensorless=1)
     per = 1 / samples_per_second("sensorless", "mujoco") - 1 / samples_per_second("push", "mujoco")
-    assert mixed - one == pytest.approx(100 * per, rel=1e-9) and mixed > 10 * one
+    assert mixed - one == pytest.approx(100 * per, rel=1e-9) and mixed > 5 * one
     from sweeps.config import MarginSearch
 
     grid = MarginSearch(margins_deg=[3, 7], safety_factors=[1.15], n_samples=50)
