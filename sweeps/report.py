@@ -80,12 +80,9 @@ def write_report(store, design) -> pathlib.Path:
     top = design.top
     kind = top.kind
     cols = [f.name for f in swept_fields(design)]
-    # of the samples, only what the error figure draws (a study's samples table can be
-    # larger than memory; every other figure reads the summary and plans)
+    # the summary and plans only: a study's samples table can be larger than memory
     summary, plans = store.read("summary"), store.read("plans")
-    samples = (store.read("samples", columns=["config_id", *cols, "err_pos_m"]) if kind == "push"
-               else pd.DataFrame())
-    for df in (summary, plans, samples):
+    for df in (summary, plans):
         if "config_id" in df:
             df["config_id"] = df["config_id"].astype(int)
     labels = [", ".join(figs.fmt(pt[p]) for p in design.paths) or f"config {i}"
@@ -99,7 +96,7 @@ def write_report(store, design) -> pathlib.Path:
         sweep = [("Success rate", [(f"success vs {p}", figs.success_vs_param(
                       summary, c, p, conf, *_by_effect(summary, axes, p))) for p, c in axes if c]),
                  ("Errors", [(f"errors vs {p or 'configuration'}",
-                              figs.error_quantiles(samples, c, p or "", top.eps.pos_eps_m))
+                              figs.error_quantiles(summary, c, p or "", top.eps.pos_eps_m))
                              for p, c in axes]),
                  ("Failure modes", [("failure modes", figs.failure_modes(summary, labels, axis_label))]),
                  ("Plans", [(f"plan length vs {p or 'configuration'}",

@@ -112,12 +112,15 @@ def readable(fig, categorical: bool):
     assert fig.get_figwidth() * figs.DPI >= 1000      # drawn for the page's full width
 
 
-def _samples():
+def _errors():
+    """A summary's error quantiles: 2 configurations x 4 tasks."""
     rng = np.random.default_rng(0)
-    return pd.DataFrame(dict(config_id=np.repeat([0, 1], 200),
-                             strategy=np.repeat(["paper", "search"], 200),
-                             margin=np.repeat([3.0, 7.0], 200),
-                             err_pos_m=rng.lognormal(np.log(2e-3), 1.0, 400)))
+    q = np.sort(rng.lognormal(np.log(2e-3), 1.0, (8, 4)), axis=1)
+    return pd.DataFrame(dict(config_id=np.repeat([0, 1], 4), task=np.tile(range(4), 2),
+                             strategy=np.repeat(["paper", "search"], 4),
+                             margin=np.repeat([3.0, 7.0], 4),
+                             **{f"err_pos_m_{n}": q[:, i]
+                                for i, n in enumerate(("q50", "q90", "q99", "max"))}))
 
 
 @pytest.mark.parametrize("column, categorical", [("strategy", True), ("margin", False),
@@ -127,16 +130,39 @@ def test_the_error_figure_has_no_negative_ticks_and_readable_text(monkeypatch, c
     """A symmetric-log axis showed "0" and "-10^-1" ticks for a positive error,
     lines joined the categories "paper" and "search", and the text was 7-8 pt."""
     monkeypatch.setattr(figs, "_png", lambda fig: fig)
-    fig = figs.error_quantiles(_samples(), column, column or "", 3e-3)
+    fig = figs.error_quantiles(_errors(), column, column or "", 3e-3)
     readable(fig, categorical)
     ax = fig.axes[0]
     assert ax.get_yscale() == "log" and ax.get_ylim()[0] > 0
     fig.canvas.draw()
     assert all(t.get_position()[1] > 0 for t in ax.get_yticklabels() if t.get_text())
     # a zero error: a linear axis from zero
-    zero = _samples().assign(err_pos_m=lambda d: np.where(d.index % 3 != 0, 0.0, d.err_pos_m))
+    zero = _errors().assign(err_pos_m_q50=0.0)
     ax = figs.error_quantiles(zero, column, column or "", 3e-3).axes[0]
     assert ax.get_yscale() == "linear" and ax.get_ylim()[0] == 0.0
+
+
+def test_the_error_figure_draws_each_value_s_worst_task():
+    """Of each configuration, every quantile is its worst task's (the summary's
+    per-task quantiles; the samples are not read)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    e = _errors()
+    fig = None
+    orig = figs._png
+    try:
+        figs._png = lambda f: f
+        fig = figs.error_quantiles(e, "margin", "margin", 3e-3)
+    finally:
+        figs._png = orig
+    lines = {ln.get_label(): ln.get_ydata() for ln in fig.axes[0].get_lines()}
+    for n in ("q50", "q90", "q99", "max"):
+        want = e.groupby("margin")[f"err_pos_m_{n}"].max().to_numpy() * 1e3
+        assert np.allclose(lines[n], want), n
+    assert figs.error_quantiles(e.assign(**{f"err_pos_m_{n}": np.nan for n in
+                                            ("q50", "q90", "q99", "max")}), "margin", "m",
+                                3e-3) is None
 
 
 def test_every_study_figure_is_readable_and_marks_categories(monkeypatch):
