@@ -14,8 +14,6 @@ from __future__ import annotations
 import dataclasses
 import warnings
 
-import numpy as np
-
 from robustness import stats
 
 
@@ -94,14 +92,13 @@ def confirm_in_physics(plan, sampler, n: int, key, requirement, *, model: str, m
     each judged by the :class:`~robustness.Requirement`'s criterion, and set
     the result beside the ``model``'s ``model_k`` / ``model_n`` (both bounds at
     the requirement's confidence)."""
-    from robustness.evaluation import evaluate
+    from robustness.blocks import sample_block
     from robustness.models import Model
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        ev = evaluate(plan, sampler, int(n), key, requirement.criterion,
-                      Model("mujoco", physics=physics))
-    k = int(np.sum(ev.columns["success"]))
+        k = sample_block(plan, sampler, int(n), key, requirement.criterion,
+                         Model("mujoco", physics=physics)).n_success
     return PhysicsCheck(int(n), k, model, int(model_n), int(model_k),
                         float(requirement.confidence))
 

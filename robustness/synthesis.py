@@ -490,13 +490,15 @@ def physics_tiebreak(syn: Synthesis, sampler: Sampler, n: int, key,
 
 def _rollouts(plan, sampler, n, key, criterion, physics) -> np.ndarray:
     """Per-draw successes (bool, (n,)) of ``plan`` rolled out in MuJoCo on ``n``
-    draws of ``key`` (:func:`robustness.evaluate`, ``model="mujoco"``)."""
-    from robustness.evaluation import evaluate
+    draws of ``key`` (one block of the runner, :func:`robustness.sample_block`,
+    ``model="mujoco"``)."""
+    from robustness.blocks import sample_block
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        ev = evaluate(plan, sampler, int(n), key, criterion, Model("mujoco", physics=physics))
-    return np.asarray(ev.columns["success"], bool)
+        block = sample_block(plan, sampler, int(n), key, criterion,
+                             Model("mujoco", physics=physics))
+    return np.asarray(block.stats["success"], bool)
 
 
 def contradicts(default, chosen) -> bool:

@@ -61,7 +61,7 @@ import jax
 import numpy as np
 
 from robustness import stats
-from robustness.evaluation import evaluate
+from robustness.blocks import sample_block
 from robustness.kinds import kind_of
 from robustness.models import DEFAULT_MODEL, Model
 from robustness.samplers import Sampler
@@ -250,7 +250,7 @@ class Judge:
             raise ValueError(f"requirement: expected a robustness.Requirement, got {requirement!r}")
         self.plan, self.n, self.key = plan, int(n), key
         self.requirement = requirement
-        self.kw = dict(criterion=requirement.criterion, model=Model.of(model), bound=False)
+        self.kw = dict(criterion=requirement.criterion, model=Model.of(model))
         self.calls = 0
 
     @property
@@ -264,9 +264,11 @@ class Judge:
         return self.requirement.confidence
 
     def successes(self, sampler: Sampler, key=None) -> int:
+        """Successes on the ``n`` draws of ``key`` (default the judge's) of
+        ``sampler``: one block of the runner (:func:`robustness.sample_block`)."""
         self.calls += 1
-        ev = evaluate(self.plan, sampler, self.n, self.key if key is None else key, **self.kw)
-        return int(np.sum(ev.columns["success"]))
+        return sample_block(self.plan, sampler, self.n, self.key if key is None else key,
+                            **self.kw).n_success
 
     def low(self, k: int) -> float:
         return stats.one_sided_lower(k, self.n, self.confidence)

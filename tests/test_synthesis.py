@@ -401,7 +401,7 @@ def test_physics_vetoes_a_choice_it_contradicts_and_says_so(monkeypatch):
     sentence says why; confirmed, the choice stays and the sentence says so.
     MuJoCo is replaced by fixed per-draw successes (the rollouts are tested in
     the end-to-end test above)."""
-    import robustness.evaluation
+    import robustness.blocks
     from robustness import physics_veto
 
     part_syn = synthesize(TRIANGLE, START, TURN, None,
@@ -411,13 +411,13 @@ def test_physics_vetoes_a_choice_it_contradicts_and_says_so(monkeypatch):
     calls = []
 
     def fake(results):
-        def evaluate(plan, sampler, n, key, criterion, model):
+        def sample_block(plan, sampler, n, key, criterion, model):
             calls.append((plan, n, model.name))
             ok = results[0 if plan is syn.candidates[0].plan else 1]
-            return types.SimpleNamespace(columns={"success": np.asarray(ok[:n], bool)})
-        return evaluate
+            return types.SimpleNamespace(stats={"success": np.asarray(ok[:n], bool)})
+        return sample_block
 
-    monkeypatch.setattr(robustness.evaluation, "evaluate", fake(([1] * 8, [0] * 4 + [1] * 4)))
+    monkeypatch.setattr(robustness.blocks, "sample_block", fake(([1] * 8, [0] * 4 + [1] * 4)))
     out = physics_veto(syn, SAMPLER, 8, jax.random.key(1), **EPS)
     assert [c[1:] for c in calls] == [(8, "mujoco")] * 2
     assert out.chosen == 0 and out.vetoed_from == 1 and out.veto == (8, 4, 8, True)
@@ -426,7 +426,7 @@ def test_physics_vetoes_a_choice_it_contradicts_and_says_so(monkeypatch):
     assert text.startswith("default plan kept:") and "MuJoCo contradicted it" in text
     assert "4/8 for it against 8/8 for the default plan" in text
 
-    monkeypatch.setattr(robustness.evaluation, "evaluate", fake(([1] * 8, [1] * 7 + [0])))
+    monkeypatch.setattr(robustness.blocks, "sample_block", fake(([1] * 8, [1] * 7 + [0])))
     out = physics_veto(syn, SAMPLER, 8, jax.random.key(1), **EPS)
     assert out.chosen == 1 and out.vetoed_from is None and out.veto == (8, 7, 8, False)
     assert out.describe().startswith("synthesized:")
