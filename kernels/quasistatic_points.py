@@ -39,8 +39,9 @@ The nodes' motions (:func:`node_motions`): the nodes lie along one pivot, a
 few hundredths of a radian apart, so each motion is warm-started from the last
 two (:func:`kernels.limit_surface.warm_motion`, a ``lax.scan`` along the
 nodes): a few Newton steps where the cold solve brackets from scratch.  A node
-whose warm solve does not converge (0.2 % of them on rigid corners, 0.03-0.4 %
-on a ring or pad of 30 feet) is solved cold; under ``vmap`` those of the whole
+whose warm solve does not converge (0.1 % of them on rigid corners and on a
+uniform pad of 25 feet, December 2026; the pad's were 10 % before a rejected
+sliding step was halved, :data:`kernels.limit_surface.BACKTRACK_MIN`) is solved cold; under ``vmap`` those of the whole
 batch are gathered (a ``custom_vmap`` rule), so a rare failure costs its own
 cold solve, not one for every sample.  Measured on the nice-stable pentagon's
 7-push plan, same draws, 2 CPU cores: rigid corners 165 -> 1,550-1,770
@@ -64,7 +65,13 @@ on rigid corners and 1,330 -> 2,405 on ``any``; then the pad and rim stood on
 their feet alone (:data:`kernels.support.FEET_AT_CORNERS`, 30 -> 25 and 29
 -> 24 points on the pentagon): ``any`` 2,240-2,350 -> 2,830-2,890 (two runs
 each, alternating), the pads and rims still about 9 times slower per sample
-than rigid corners (the node's work is linear in the points).
+than rigid corners (the node's work is linear in the points); then a sliding
+Newton step that overshoots was halved, not the last (the pad's nodes solved
+cold 10 % -> 0.1 %, :data:`kernels.limit_surface.BACKTRACK_MIN`): ``any``
+2,360-2,490 -> 3,170-3,270 samples/s in ``bench/robustness.py`` (two runs each,
+alternating, 1,024 samples; 3,180-3,430 -> 4,320-4,410 on a quieter machine),
+a uniform pad alone 1,400 -> 2,700, rigid corners unchanged within noise
+(11,000-16,000).
 Tried and dropped: the warm sliding
 steps in the slip and rotation per metre of advance (rational conditions, no
 angles; 1.25x more) converged on fewer nodes next to a kink (a smooth sliding
@@ -106,8 +113,8 @@ verdict changed of 4,096.  Not fixed
 (a panel split at the switch, located from the sticking force's cone ratio on
 the nodes before it, with nodes graded towards it, would; it costs solves on
 every sample under ``vmap``).  The ellipsoid's closed form is still
-15 times faster on rigid corners and 71 times on ``any`` (170,000 samples/s of
-the same plan, ``bench/robustness.py``).
+15 times faster on rigid corners and 45-50 times on ``any`` (170,000-230,000
+samples/s of the same plan, ``bench/robustness.py``).
 
 Assumptions and limits: quasi-static, normal push, fence longer than the part,
 one support coefficient (it cancels), loads fixed during the push (no load
