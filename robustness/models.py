@@ -140,9 +140,10 @@ def decision_model(model: str, kind: str) -> str:
 #: limit_surface_any=656``, taken as 4,000 and 600 (the replay alone: 7,700 and 1,300); after
 #: the warm sliding polish halved its overshooting steps (December 2026, quiet machine)
 #: ``limit_surface_rigid=9.46e+03 limit_surface_any=572``, taken as 8,000 and 600 (the
-#: replay alone: 11,000-16,000 and 3,200-4,400; ``any``'s gap is not explained yet: in
-#: one process ``evaluate`` of that plan runs 576 samples at 2,700/s, so the study's
-#: per-process work around its calls, not the replay, sets that row).  (The table before
+#: replay alone: 11,000-16,000 and 3,200-4,400; ``any``'s row is what a short run sees: a
+#: run of 4 x 576 samples spent 7.5 s in its calls (cProfile), most of it tracing and
+#: loading each family group's compiled shapes in the fresh process, where one warm
+#: process runs those 576 samples at 2,700/s).  (The table before
 #: December 2026 took a cold whole run for the extra samples' time: quasistatic 800,
 #: limit_surface 8 and 0.85, 6-90 times too slow.)  Families not measured (tripod,
 #: uniform, ring) take the ``"*"`` row.  Tumble rows: the same bench's ``tumble-``
