@@ -424,6 +424,7 @@ def certify(plan, sampler, key, requirement: Optional[Requirement] = None, *,
     """
     from robustness.blocks import BlockRun
     from robustness.models import block_samples
+    from robustness.sensorless import is_sensorless, start_set
 
     req = (Requirement() if requirement is None else requirement)
     if not isinstance(req, Requirement):
@@ -450,8 +451,10 @@ def certify(plan, sampler, key, requirement: Optional[Requirement] = None, *,
     grow(run.extend, schedule, req)
     summary = run.summary(kind=kind, model=spec.name, dtype=spec.dtype.name,
                           confidence=confidence, bound=bound)
+    sensorless = is_sensorless(plan)   # its claim names the start set, as the CLI's does
     cert = decide(summary, req, kind=kind, model=spec.name,
-                  perturbed=perturbed_sources(sampler, kind, spec.name), schedule=schedule)
+                  perturbed=perturbed_sources(sampler, kind, spec.name, sensorless),
+                  schedule=schedule, starts=start_set(plan) if sensorless else "")
     frame = run.samples()
     return cert, frame, summary
 

@@ -441,8 +441,8 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
             row.update(recommended_margin_deg=rec.margin_deg,
                        recommended_safety_factor=rec.safety_factor)
         line = (rec.sentence() if rec is not None else
-                f"no margin / safety factor of the grid certifies ({len(trials)} settings, "
-                f"{cfg.margin_search.n_samples} search draws each)")
+                f"no margin / safety factor of the grid passed the search ({len(trials)} "
+                f"settings, {cfg.margin_search.n_samples} search draws each)")
         row["note"] = "; ".join(x for x in (row["note"], line) if x)
         _log(quiet, f"[{name}] margin search: {line}")
     if cfg.design is not None and cfg.design.enabled:

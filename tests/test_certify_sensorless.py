@@ -317,3 +317,27 @@ def test_mujoco_rolls_sensorless_plans_out_from_the_start_set(tmp_path):
     assert abs(s["err_theta_rad"]) < math.pi / 2    # folded: the rectangle's period is pi
     assert not pd.isna(s["success_exact"])           # the kinematics on the same draw
     assert bool(s["success"]) is (s["failure_mode"] == "none")
+
+
+@pytest.mark.slow
+def test_the_library_certifies_a_sensorless_plan_as_the_command_line_does(tmp_path):
+    """``robustness.certify`` on the task's key draws the blocks ``nudge certify``
+    draws and states the same claim, start set first (it named no start set and
+    sized its blocks apart)."""
+    import jax
+
+    from robustness import certify
+    from sweeps import certify as cli
+    from sweeps.tasks import plan_task
+
+    p = tmp_path / "cfg.yaml"
+    p.write_text(SENSORLESS)
+    r = nudge_here("certify", p, "--out", tmp_path / "o", "--quiet")
+    assert r.returncode in (0, 1), (r.stdout, r.stderr)
+    claim = pd.read_parquet(tmp_path / "o" / "certificates").iloc[0]["claim"]
+    cfg, _, _, part, tasks = cli.load(p)
+    _, start, goal = tasks[0]
+    plan, _ = plan_task(part, start, goal, cfg.planner, cfg.eps)
+    cert, _, _ = certify(plan, cfg.sampler(), jax.random.fold_in(jax.random.key(cfg.seed), 0),
+                         cfg.requirement(), samples=30, model=cfg.model_spec(cfg.model, None))
+    assert cert.claim == claim and claim.startswith("from any heading in [-180, 180] deg")
