@@ -67,8 +67,8 @@ from robustness.tolerance_design import (AXES as DESIGN_AXES, HEADROOM as DESIGN
                                          sensitivity as tolerance_sensitivity)
 from robustness.compiled import release_executables
 from robustness.confirmation import NO_PHYSICS, PhysicsCheck, confirm_in_physics, confirmation_key
-from robustness.certificates import (Schedule, auto_schedule, decide, grow,
-                                     no_plan, perturbed_sources)
+from robustness.certificates import (Schedule, auto_schedule, certify_block_size, decide, grow,
+                                     no_plan, perturbed_sources, plan_certificate)
 from robustness.kinds import (KINDS, NOT_EVALUATED, PlanKind, kind_for_part, kind_of, model_for,
                               plan_kind)
 from robustness.models import (DEFAULT_MODEL, PUSH_KINEMATIC, Model, THROUGHPUT, block_samples,
@@ -96,6 +96,6 @@ __all__ = [
     "DESIGN_AXES", "DESIGN_HEADROOM", "DesignJudge", "design_axes_for", "design_key",
     "design_samples_needed", "drawing_line", "joint_design", "loosest_tolerances",
     "tolerance_sensitivity", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
-    "grow", "MarginRecommendation", "MarginTrial", "recommend_margins", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "release_executables", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow", "is_sensorless", "start_set",
+    "grow", "certify_block_size", "plan_certificate", "MarginRecommendation", "MarginTrial", "recommend_margins", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "release_executables", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow", "is_sensorless", "start_set",
     "Block", "BlockRun", "sample_block", "summarise_stats",
 ]

@@ -390,6 +390,29 @@ def grow(evaluate_more: Callable[[int], tuple[int, int]], schedule: Schedule,
     return n, k
 
 
+def certify_block_size(plan, model: str, support, schedule: "Schedule") -> int:
+    """Samples per block of a certification of ``plan`` under ``model`` (a
+    name) on ``support``: :func:`robustness.block_samples` of the plan's kind,
+    at most the schedule's first look (:func:`certify` and ``nudge certify``
+    alike, so that one key draws the same samples in both)."""
+    from robustness.models import block_samples
+
+    return min(schedule.counts[0], block_samples(kind_of(plan).kind, model, support))
+
+
+def plan_certificate(summary: dict, requirement: Requirement, plan, sampler, model: str,
+                     schedule: "Schedule") -> Certificate:
+    """:func:`decide` for ``plan``'s summary under ``model`` (a name): what
+    varied among ``sampler``'s draws and, for a sensorless plan, its start set
+    first in the claim (:func:`certify` and ``nudge certify`` alike)."""
+    from robustness.sensorless import is_sensorless, start_set
+
+    kind, sensorless = kind_of(plan).kind, is_sensorless(plan)
+    return decide(summary, requirement, kind=kind, model=model,
+                  perturbed=perturbed_sources(sampler, kind, model, sensorless),
+                  schedule=schedule, starts=start_set(plan) if sensorless else "")
+
+
 #: the most samples an ``"auto"`` certification draws (:func:`auto_schedule`'s cap)
 MAX_SAMPLES = 100_000
 
@@ -423,8 +446,6 @@ def certify(plan, sampler, key, requirement: Optional[Requirement] = None, *,
       per-sample frame of every block, and the summary row (dict).
     """
     from robustness.blocks import BlockRun
-    from robustness.models import block_samples
-    from robustness.sensorless import is_sensorless, start_set
 
     req = (Requirement() if requirement is None else requirement)
     if not isinstance(req, Requirement):
@@ -445,20 +466,17 @@ def certify(plan, sampler, key, requirement: Optional[Requirement] = None, *,
     else:
         raise ValueError(f"samples: expected an integer >= 1, 'auto' or a Schedule, "
                          f"got {samples!r}")
-    # the command line's blocks (sweeps.certify): the same key draws the same samples
-    size = min(schedule.counts[0], block_samples(kind, spec.name, sampler.friction.support))
+    size = certify_block_size(plan, spec.name, sampler.friction.support, schedule)
     run = BlockRun(plan, sampler, key, size, criterion, spec, task, keep=True)
     grow(run.extend, schedule, req)
     summary = run.summary(kind=kind, model=spec.name, dtype=spec.dtype.name,
                           confidence=confidence, bound=bound)
-    sensorless = is_sensorless(plan)   # its claim names the start set, as the CLI's does
-    cert = decide(summary, req, kind=kind, model=spec.name,
-                  perturbed=perturbed_sources(sampler, kind, spec.name, sensorless),
-                  schedule=schedule, starts=start_set(plan) if sensorless else "")
+    cert = plan_certificate(summary, req, plan, sampler, spec.name, schedule)
     frame = run.samples()
     return cert, frame, summary
 
 
-__all__ = ["Certificate", "MAX_SAMPLES", "Schedule", "certify", "decide", "no_plan", "perturbed_sources",
+__all__ = ["Certificate", "MAX_SAMPLES", "Schedule", "certify", "certify_block_size", "decide",
+           "plan_certificate", "no_plan", "perturbed_sources",
            "decided", "auto_sample_counts", "auto_schedule", "grow", "VERDICTS", "REASONS",
            "PROCEDURES", "BOUND_MODEL"]

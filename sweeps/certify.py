@@ -370,9 +370,9 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     """Plan, sample (resumable blocks), summarise and decide one task; the certificate row."""
     import jax
 
-    from robustness import (auto_schedule, block_samples, decide, grow, is_sensorless,
-                            kind_for_part, kind_of, model_for, no_plan, perturbed_sources, PLANS_SCHEMA,
-                            rows_table, Schedule, start_set)
+    from robustness import (auto_schedule, certify_block_size, grow, is_sensorless,
+                            kind_for_part, model_for, no_plan, plan_certificate, PLANS_SCHEMA,
+                            rows_table, Schedule)
     from sweeps.blocks import StoredBlocks
     from sweeps.config import ConfigError
     from sweeps.tasks import PlanInputError, plan_row, plan_task
@@ -406,8 +406,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
         s = empty_summary(name, kind, model, cfg.dtype, cfg.eps, conf)
         _write_summary(store, ti, s)
         return {**row, **no_plan(reason, req, model, schedule).to_row()}
-    # blocks as robustness.certify draws them (the plan's kind: a sensorless plan's own rate)
-    size = min(schedule.counts[0], block_samples(kind_of(plan).kind, model, cfg.friction.support))
+    size = certify_block_size(plan, model, cfg.friction.support, schedule)   # robustness.certify's
     blocks = StoredBlocks(cfg, store, plan, name, ti, key, size, model, done, flag)
     grow(blocks.extend, schedule, req)
     if flag.stop:
@@ -415,10 +414,7 @@ def certify_task(cfg, part, ti, name, start, goal, store, done, quiet, flag) -> 
     summary = blocks.task_summary()
     _write_summary(store, ti, summary)
     sensorless = is_sensorless(plan)
-    cert = decide(summary, req, kind=kind, model=model,
-                  perturbed=perturbed_sources(cfg.sampler(), kind, model, sensorless),
-                  schedule=schedule,
-                  starts=start_set(plan) if sensorless else "")
+    cert = plan_certificate(summary, req, plan, cfg.sampler(), model, schedule)
     row.update(cert.to_row())
     ex = cfg.execution
     if sensorless and (ex.start_xy > 0 or ex.start_theta > 0):
