@@ -146,9 +146,8 @@ def creep(backends_settings):
     push = Push("reorient", (1.0, 0.0), 0.15, edge, 0, 0.15, after)
     plan = PushPlan(vertices=tuple(map(tuple, part.vertices)), com=tuple(poly.com),
                     start=(0.0, 0.0, th0), goal=after, pushes=(push,), plan_class="cw",
-                    reorient_edge=edge, object_class="nice-stable", objective="distance",
-                    objective_value=0.15, total_distance=0.15, margin_deg=7.0,
-                    safety_factor=1.15, final_error=(0.0, 0.0))
+                    reorient_edge=edge, object_class="nice-stable", objective_value=0.15,
+                    total_distance=0.15, final_error=(0.0, 0.0))
     sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(0.5, 0.5), c=(0.008, 0.008)))
     draws = _params(plan, sam, 1, seed=2)
     rows = []

@@ -296,9 +296,7 @@ def start_plan(plan, start):
     return PushPlan(vertices=tuple(map(tuple, part.polygon.vertices)), com=tuple(part.polygon.com),
                     start=tuple(float(x) for x in start), goal=goal, pushes=tuple(pushes),
                     plan_class="cw", reorient_edge=None, object_class=part.class_name,
-                    objective="distance", objective_value=0.0,
-                    total_distance=float(sum(p.distance for p in pushes)),
-                    margin_deg=part.margin_deg, safety_factor=part.safety_factor,
+                    objective_value=0.0, total_distance=float(sum(p.distance for p in pushes)),
                     final_error=(0.0, 0.0))
 
 

@@ -72,11 +72,14 @@ import math
 import pathlib
 import sys
 import warnings
-from typing import Literal, Optional, Union
+from typing import TYPE_CHECKING, Optional
 
 from sweeps.budget import MAX_SAMPLES
 from sweeps.errors import Exit, UserError
 from sweeps.terminal import Parser, fail, report_part, report_warnings, run_main
+
+if TYPE_CHECKING:   # the config module imports pydantic: loaded at run time, after the cheap checks
+    from sweeps.config import CertifyConfig
 
 # The config's schema (sweeps.config.CertifyConfig) and the layers below (JAX, MuJoCo,
 # pandas) are imported where a command runs, not here: `nudge certify --help` reads
@@ -505,9 +508,11 @@ def synthesize_task(cfg, part, name, start, goal, key, store, ti):
     for i, c in enumerate(syn.candidates):
         pl = c.plan
         if push:
-            how = dict(margin_deg=pl.margin_deg, safety_factor=pl.safety_factor,
-                       strategy=pl.strategy, distance_rule=pl.distance_rule, support=pl.support,
-                       min_fence_mu=math.nan if pl.min_fence_mu is None else pl.min_fence_mu,
+            o = pl.options
+            how = dict(margin_deg=o.margin_deg, safety_factor=o.safety_factor,
+                       strategy=o.strategy, distance_rule=pl.distance_rule,
+                       support=o.support.family,
+                       min_fence_mu=math.nan if o.min_fence_mu is None else o.min_fence_mu,
                        n_steps=pl.n_steps, total_distance_m=pl.total_distance,
                        tumble_eps=math.nan)
         else:
@@ -550,9 +555,9 @@ def _task_row(cfg, part, name, start, goal, plan, syn=None) -> dict:
                 plan_steps=0 if plan is None else plan.n_steps,
                 plan_distance_m=plan.total_distance if (push and plan is not None) else math.nan,
                 plan_verdict="no_plan" if plan is None else plan.verdict,
-                margin_deg=(plan.margin_deg if plan is not None else cfg.planner.margin_deg)
-                if push else math.nan,
-                safety_factor=(plan.safety_factor if plan is not None
+                margin_deg=(plan.options.margin_deg if plan is not None
+                            else cfg.planner.margin_deg) if push else math.nan,
+                safety_factor=(plan.options.safety_factor if plan is not None
                                else cfg.planner.safety_factor) if push else math.nan,
                 pos_eps_m=cfg.eps.pos_eps_m, theta_eps_rad=cfg.eps.theta_eps_rad,
                 recommended_margin_deg=math.nan, recommended_safety_factor=math.nan)

@@ -230,7 +230,8 @@ def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[
     if plan.kind == "sensorless":   # fence-line pushes in three phases
         total = float(plan.total_travel)
         row.update(verdict="solved", plan_class="sensorless",
-                   distance_rule=plan.pose_plan.distance_rule, support=plan.pose_plan.support,
+                   distance_rule=plan.pose_plan.distance_rule,
+                   support=plan.options.support.family,
                    n_steps=len(plan.pushes), total_distance_m=total,
                    plan_error=float(max(plan.pose_plan.final_error)),
                    length_ratio=total / straight if straight > 0 else math.nan)
@@ -241,8 +242,7 @@ def plan_row(part, name: str, start, goal, plan, reason: str, verdict: Optional[
     else:
         total = float(plan.total_distance)
         row.update(verdict=plan.verdict, plan_class=plan.plan_class, distance_rule=plan.distance_rule,
-                   support=plan.support,
-                   n_steps=plan.n_steps,
+                   support=plan.options.support.family, n_steps=plan.n_steps,
                    total_distance_m=total, plan_error=float(max(plan.final_error)),
                    length_ratio=total / straight if straight > 0 else math.nan)
     return row

@@ -213,9 +213,9 @@ def test_plan_push_max_reorients_and_extra_steps_reach_the_planner():
     rc, out, err = call(plan_push.main, *RECT, "--max-reorients", "1")
     assert rc == 1 and out == "" and "max_reorients" in err, err
     few = _plan("--extra-steps", "0")
-    assert few.extra_steps == 0 and few.max_reorients == 24
+    assert few.options.extra_steps == 0 and few.options.max_reorients == 24
     capped = _plan("--max-reorients", "3")
-    assert capped.max_reorients == 3 and capped.n_reorients <= 3
+    assert capped.options.max_reorients == 3 and capped.n_reorients <= 3
     default = _plan()
     assert few.n_reorients == 2 and default.n_reorients > 3   # both options change the plan
 

@@ -120,7 +120,7 @@ def test_plan_pose_takes_one_options_value_that_travels():
     rect = np.array([[0, 0], [0.04, 0], [0.04, 0.02], [0, 0.02]], float)
     options = PushOptions(margin_deg=9.0, strategy="paper", support="rigid", min_fence_mu=0.8)
     a = plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0), options=options)
-    assert a.options == options and a.margin_deg == 9.0 and a.support == "rigid"
+    assert a.options == options and a.options.margin_deg == 9.0 and a.options.support.family == "rigid"
     assert plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0), None, a.options).to_dict() == a.to_dict()
     c = plan_pose(rect, (0, 0, 0), (0.05, 0.02, 1.0),
                   options=PushOptions(support={"c": [0.01, 0.02]}))

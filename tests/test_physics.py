@@ -87,7 +87,7 @@ def test_reorient_push_ends_flush_on_planned_edge(reorient_plan):
 @pytest.mark.slow
 def test_push_shorter_than_half_peshkin_stays_incomplete(reorient_plan):
     push = reorient_plan.pushes[0]
-    peshkin = push.min_distance / reorient_plan.safety_factor
+    peshkin = push.min_distance / reorient_plan.options.safety_factor
     plan = _single_push(reorient_plan, 0, distance=0.45 * peshkin)
     body = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com)).body
     a = float(np.max(np.linalg.norm(body, axis=1)))

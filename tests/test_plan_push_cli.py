@@ -43,18 +43,19 @@ def _json_plan(capsys, *argv) -> PushPlan:
 def test_options_reach_the_planner_and_the_plan_records_them(capsys):
     plan = _json_plan(capsys, RECT, *POSES, "--strategy", "paper", "--support-c", "0.006", "0.012",
                       "--min-fence-mu", "0.8", "--workspace", "-0.1", "0.15", "-0.1", "0.12")
-    assert plan.strategy == "paper"
+    o = plan.options
+    assert o.strategy == "paper"
     assert plan.distance_rule == "quasi-static"
-    assert plan.support_c == (0.006, 0.012)
-    assert plan.min_fence_mu == 0.8
-    assert plan.workspace == (-0.1, 0.15, -0.1, 0.12)
+    assert plan.support_c == o.support.c == (0.006, 0.012)
+    assert o.min_fence_mu == 0.8
+    assert o.workspace == (-0.1, 0.15, -0.1, 0.12)
     # slip-aware: the rectangle's long edges slip at the landing for c >= 6 mm at mu 0.8
     # (kernels.reorient.sticking_angle_limit), so every reorient push lands a short edge
     short = {(1, 2), (3, 0)}
     assert plan.n_reorients > 0
     assert all(p.edge in short for p in plan.pushes if p.kind == "reorient")
     default = _json_plan(capsys, RECT, *POSES)
-    assert (default.strategy, default.distance_rule, default.workspace) == ("search", "peshkin", None)
+    assert (default.options.strategy, default.distance_rule, default.options.workspace) == ("search", "peshkin", None)
 
 
 def test_support_c_shortens_the_reorient_pushes(capsys):

@@ -4,6 +4,7 @@ planner against the single one, the cvxpy solver, plan classes, objectives,
 serialisation and input validation."""
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import math
@@ -150,12 +151,12 @@ def check_plan(plan: PushPlan, vertices, com, start, goal, margin_deg=7.0, safet
         edges = [q.edge for q in plan.pushes if q.kind == "reorient"]
         assert plan.reorient_edge == max(edges, key=lambda x: (edges.count(x), -edges.index(x)))
     assert plan.total_distance == pytest.approx(sum(q.distance for q in plan.pushes), rel=1e-12, abs=1e-15)
-    if plan.objective == "pushes":
+    if plan.options.objective == "pushes":
         assert plan.objective_value == plan.n_pushes
     else:
         assert plan.objective_value == pytest.approx(plan.total_distance, rel=1e-12, abs=1e-15)
     assert plan.object_class == CLASS_NAMES[oracle.object_class(body)]
-    assert plan.n_reorients == len(senses) <= plan.max_reorients
+    assert plan.n_reorients == len(senses) <= plan.options.max_reorients
     assert plan.distance_rule == ("peshkin" if support_c is None else "quasi-static")
     np.testing.assert_allclose(plan.start, start, atol=0)
     np.testing.assert_allclose(plan.goal, goal, atol=0)
@@ -222,7 +223,8 @@ def test_completeness_other_settings(part, sg, margin_deg, safety, strategy):
                            strategy=strategy)
     if plan is None:
         return
-    assert plan.margin_deg == margin_deg and plan.safety_factor == safety and plan.strategy == strategy
+    o = plan.options
+    assert o.margin_deg == margin_deg and o.safety_factor == safety and o.strategy == strategy
     check_plan(plan, pts, com, start, goal, margin_deg=margin_deg, safety=safety)
 
 
@@ -330,7 +332,7 @@ def _agree(batch, singles, name):
         assert got.total_distance == pytest.approx(single.total_distance, abs=1e-9), ctx
         assert float(batch.total_distance[b]) == pytest.approx(single.total_distance, abs=1e-9), ctx
         assert got.objective_value == pytest.approx(single.objective_value, abs=1e-9), ctx
-        assert got.turns == single.turns and got.strategy == single.strategy, ctx
+        assert got.turns == single.turns and got.options == single.options, ctx
         assert got.to_dict().keys() == single.to_dict().keys()
         if b not in batch.replanned:
             assert np.all(batch.final_error[b] < [POS_TOL, ANG_TOL]), ctx
@@ -354,7 +356,7 @@ def test_pushes_objective_is_fewer_pushes_longer_distance(name):
     for b, (pd, pn) in enumerate(zip(_single_plans(name, "distance"), _single_plans(name, "pushes"))):
         assert pn.n_pushes <= pd.n_pushes, b
         assert pn.total_distance >= pd.total_distance * (1 - 1e-12) - 1e-15, b
-        assert pd.objective == "distance" and pn.objective == "pushes"
+        assert pd.options.objective == "distance" and pn.options.objective == "pushes"
         fewer += pn.n_pushes < pd.n_pushes
         if b % 10 == 0:
             check_plan(pn, pts, com, starts[b], goals[b])
@@ -518,6 +520,29 @@ def test_uni_stable_singularity(seed):
 # --------------------------------------------------------------------------
 # serialisation
 # --------------------------------------------------------------------------
+#: the keys of a plan's JSON (the plans table's ``plan_json``), as written before
+#: the plan carried its options as one value
+PLAN_JSON_KEYS = sorted([
+    "vertices", "com", "start", "goal", "pushes", "plan_class", "reorient_edge", "object_class",
+    "objective", "objective_value", "total_distance", "margin_deg", "safety_factor", "final_error",
+    "strategy", "distance_rule", "support_c", "support", "min_fence_mu", "workspace",
+    "max_reorients", "extra_steps", "turns"])
+
+
+def test_a_plan_records_the_options_its_part_was_prepared_with():
+    """make_plan refuses options other than those the part was prepared with:
+    the plan's options are what planned it."""
+    pts, com = _fixed_parts()["nice"]
+    plan = _plan(pts, [0, 0, 0], [0.05, 0.02, 1.0], com=com)
+    part = pp.prepare_part(pts, com, 7.0, 1.15)
+    with pytest.raises(ValueError, match="settings: the part was prepared with other options"):
+        pp.make_plan(part, PushOptions(margin_deg=9.0), plan.start, plan.goal, plan.pushes, 1, 0,
+                     plan.final_error)
+    again = pp.make_plan(part, PushOptions(), plan.start, plan.goal, plan.pushes,
+                         PLAN_CLASSES.index(plan.plan_class), plan.turns, plan.final_error)
+    assert again.options == PushOptions() and again.to_dict() == plan.to_dict()
+
+
 def test_plan_json_round_trip():
     plans = []
     for name in ("uni", "biplus", "nice"):
@@ -533,16 +558,25 @@ def test_plan_json_round_trip():
     plans.append(_plan(pts, [0, 0, 0.3], goal, com=com, support={"c": [0.2 * size, 0.4 * size]},
                        workspace=(-10.0, 10.0, -10.0, 10.0)))
     classes = {p.plan_class for p in plans}
-    assert {p.strategy for p in plans} == {"search", "paper"}
+    assert {p.options.strategy for p in plans} == {"search", "paper"}
     assert {p.distance_rule for p in plans} == {"peshkin", "quasi-static"}
-    assert any(p.workspace is not None for p in plans) and any(p.turns for p in plans)
+    assert any(p.options.workspace is not None for p in plans) and any(p.turns for p in plans)
     assert {"translation", "cw", "ccw"} <= classes and classes & {"singular-cw", "singular-ccw"}
     assert any(p.n_pushes == 0 for p in plans)
+    plans.append(_plan(pts, [0, 0, 0.3], goal, com=com, support="rigid", min_fence_mu=0.9,
+                       margin_deg=9.0))
     for p in plans:
         d = json.loads(json.dumps(p.to_dict()))
         q = PushPlan.from_dict(d)
-        assert q == p
+        assert q == p and q.options == p.options
         assert q.to_dict() == d
+        # the plans table's JSON keeps its keys (the options flat beside the plan's own)
+        assert sorted(d) == PLAN_JSON_KEYS
+    assert plans[-1].options.support.family == "rigid" and plans[-1].support_c is not None
+    # a plan of the reference LP solver says so (a key only it has), and round-trips
+    ref = dataclasses.replace(plans[0], options=dataclasses.replace(plans[0].options, solver="cvxpy"))
+    d = ref.to_dict()
+    assert d["solver"] == "cvxpy" and PushPlan.from_dict(d) == ref
     # plans written before the options existed read with their defaults
     old = plans[0].to_dict()
     for key in ("strategy", "distance_rule", "support_c", "min_fence_mu", "workspace", "max_reorients",
@@ -550,7 +584,8 @@ def test_plan_json_round_trip():
         old.pop(key)
     for q in old["pushes"]:
         q.pop("rotation")
-    assert PushPlan.from_dict(old).strategy == "search" and PushPlan.from_dict(old).support_c is None
+    assert PushPlan.from_dict(old).options.strategy == "search"
+    assert PushPlan.from_dict(old).support_c is None
     for key, value in (("strategy", "random"), ("distance_rule", "guess")):
         with pytest.raises(ValueError, match=key):
             PushPlan.from_dict({**plans[0].to_dict(), key: value})

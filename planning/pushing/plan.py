@@ -16,7 +16,7 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from kernels import PartWarning, make_polygon
-from planning.pushing.options import STRATEGIES, PlanSupport, PushOptions
+from planning.pushing.options import DEFAULTS, STRATEGIES, PlanSupport, PushOptions
 
 PLAN_CLASSES = ("translation", "cw", "ccw", "singular-cw", "singular-ccw")
 PUSH_KINDS = ("translate", "reorient")
@@ -100,25 +100,22 @@ class PushPlan:
         indices; the first such edge on a tie), ``None`` for a translation
         plan; every push names its own edge.
       object_class: ``uni-stable``, ``biplus-stable`` or ``nice-stable``.
-      objective: ``distance`` or ``pushes``.
       objective_value: the LP objective: total push distance (m) for
         ``distance``; for ``pushes`` the number of pushes.
       total_distance: sum of the push distances, m.
-      margin_deg, safety_factor: the planner's settings.
       final_error: ``(position error m, |angle error| rad)`` of the exact
         replay's final pose against the goal.
-      strategy: ``search`` or ``paper`` (:mod:`planning.pushing.sequences`).
+      options: the :class:`~planning.PushOptions` the plan was made with (margin,
+        safety factor, objective, strategy, support, slip bound, workspace,
+        effort): ``plan_pose(vertices, start, goal, com, plan.options)`` plans
+        it again.
       distance_rule: ``peshkin`` (reorient distances for any support) or
         ``quasi-static`` (for supports with a limit-surface ratio in
         ``support_c``; replay it with ``rate_c = min(support_c[1], radius)``).
-      support_c: ``(lo, hi)`` limit-surface ratio range (m), or ``None``.
-      support: the support the distances are valid for: ``any`` (Peshkin's
-        bound), a family (``rigid``, ``uniform``, ``ring``: every ``c`` it
-        gives the part, in ``support_c``) or ``c`` (the range given).  A plan
-        is only as valid as that assumption.
-      min_fence_mu: fence friction bound of a slip-aware plan, or ``None``.
-      workspace: ``(xmin, xmax, ymin, ymax)`` (m) the plan stays inside, or ``None``.
-      max_reorients, extra_steps: the search's effort budget and depth.
+      support_c: ``(lo, hi)`` limit-surface ratio range (m) the distances are
+        valid for, or ``None`` (Peshkin's bound): the range of
+        ``options.support`` (given, or every ``c`` its family gives the part).
+        A plan is only as valid as that assumption.
       turns: extra full turns of the main reorient run (0 or 1).
 
     The plan interface (:mod:`planning.kinds`): ``kind`` ``"push"``,
@@ -136,20 +133,12 @@ class PushPlan:
     plan_class: str
     reorient_edge: Optional[tuple[int, int]]
     object_class: str
-    objective: str
     objective_value: float
     total_distance: float
-    margin_deg: float
-    safety_factor: float
     final_error: tuple[float, float]
-    strategy: str = "search"
+    options: PushOptions = DEFAULTS
     distance_rule: str = "peshkin"
     support_c: Optional[tuple[float, float]] = None
-    support: str = "any"
-    min_fence_mu: Optional[float] = None
-    workspace: Optional[tuple[float, float, float, float]] = None
-    max_reorients: int = 24
-    extra_steps: int = 3
     turns: int = 0
 
     @property
@@ -182,41 +171,32 @@ class PushPlan:
         return dict(n_vertices=len(self.vertices), dim=2, n_pushes=len(self.pushes))
 
     @property
-    def options(self) -> PushOptions:
-        """The :class:`~planning.PushOptions` this plan was made with:
-        ``plan_pose(vertices, start, goal, com, plan.options)`` plans it again
-        (the LP solver is not recorded; the closed form is named)."""
-        support = (PlanSupport("c", self.support_c) if self.support == "c"
-                   else PlanSupport(self.support))
-        return PushOptions(margin_deg=self.margin_deg, safety_factor=self.safety_factor,
-                           objective=self.objective, strategy=self.strategy, support=support,
-                           min_fence_mu=self.min_fence_mu, workspace=self.workspace,
-                           max_reorients=self.max_reorients, extra_steps=self.extra_steps)
-
-    @property
     def n_reorients(self) -> int:
         """Number of reorient pushes."""
         return sum(p.kind == "reorient" for p in self.pushes)
 
     def to_dict(self) -> dict:
-        """JSON-ready dict (round-trips through :meth:`from_dict`)."""
+        """JSON-ready dict (round-trips through :meth:`from_dict`): the options
+        flat beside the plan's own fields, the LP solver only where it is not
+        the default closed form."""
+        o = self.options
         return {
             "vertices": [list(v) for v in self.vertices], "com": list(self.com),
             "start": list(self.start), "goal": list(self.goal),
             "pushes": [p.to_dict() for p in self.pushes], "plan_class": self.plan_class,
             "reorient_edge": None if self.reorient_edge is None else list(self.reorient_edge),
-            "object_class": self.object_class, "objective": self.objective,
+            "object_class": self.object_class, "objective": o.objective,
             "objective_value": self.objective_value, "total_distance": self.total_distance,
-            "margin_deg": self.margin_deg, "safety_factor": self.safety_factor,
-            "final_error": list(self.final_error), "strategy": self.strategy,
+            "margin_deg": o.margin_deg, "safety_factor": o.safety_factor,
+            "final_error": list(self.final_error), "strategy": o.strategy,
             "distance_rule": self.distance_rule,
             "support_c": None if self.support_c is None else list(self.support_c),
-            "support": self.support,
-            "min_fence_mu": self.min_fence_mu,
-            "workspace": None if self.workspace is None else list(self.workspace),
-            "max_reorients": self.max_reorients, "extra_steps": self.extra_steps,
+            "support": o.support.family,
+            "min_fence_mu": o.min_fence_mu,
+            "workspace": None if o.workspace is None else list(o.workspace),
+            "max_reorients": o.max_reorients, "extra_steps": o.extra_steps,
             "turns": self.turns,
-        }
+        } | ({} if o.solver == DEFAULTS.solver else {"solver": o.solver})
 
     @classmethod
     def from_dict(cls, d: dict) -> "PushPlan":
@@ -230,35 +210,38 @@ class PushPlan:
                              f"{d['distance_rule']!r}")
         re = d.get("reorient_edge")
         sc, ws = d.get("support_c"), d.get("workspace")
+        family = str(d.get("support", "any" if sc is None else "c"))
+        options = PushOptions(
+            margin_deg=float(d["margin_deg"]), safety_factor=float(d["safety_factor"]),
+            objective=d["objective"], solver=d.get("solver", DEFAULTS.solver),
+            strategy=d.get("strategy", "search"),
+            support=PlanSupport("c", _tuple(sc, 2)) if family == "c" else PlanSupport(family),
+            min_fence_mu=None if d.get("min_fence_mu") is None else float(d["min_fence_mu"]),
+            workspace=None if ws is None else _tuple(ws, 4),
+            max_reorients=int(d.get("max_reorients", 24)), extra_steps=int(d.get("extra_steps", 3)))
         return cls(
             vertices=tuple(_tuple(v, 2) for v in d["vertices"]), com=_tuple(d["com"], 2),
             start=_tuple(d["start"], 3), goal=_tuple(d["goal"], 3),
             pushes=tuple(Push.from_dict(p) for p in d["pushes"]), plan_class=d["plan_class"],
             reorient_edge=None if re is None else (int(re[0]), int(re[1])),
-            object_class=d["object_class"], objective=d["objective"],
-            objective_value=float(d["objective_value"]), total_distance=float(d["total_distance"]),
-            margin_deg=float(d["margin_deg"]), safety_factor=float(d["safety_factor"]),
-            final_error=_tuple(d["final_error"], 2), strategy=d.get("strategy", "search"),
-            distance_rule=d.get("distance_rule", "peshkin"),
-            support_c=None if sc is None else _tuple(sc, 2),
-            support=str(d.get("support", "any" if sc is None else "c")),
-            min_fence_mu=None if d.get("min_fence_mu") is None else float(d["min_fence_mu"]),
-            workspace=None if ws is None else _tuple(ws, 4),
-            max_reorients=int(d.get("max_reorients", 24)), extra_steps=int(d.get("extra_steps", 3)),
-            turns=int(d.get("turns", 0)),
+            object_class=d["object_class"], objective_value=float(d["objective_value"]),
+            total_distance=float(d["total_distance"]), final_error=_tuple(d["final_error"], 2),
+            options=options, distance_rule=d.get("distance_rule", "peshkin"),
+            support_c=None if sc is None else _tuple(sc, 2), turns=int(d.get("turns", 0)),
         )
 
     def _support_text(self) -> str:
-        if self.support == "any":
+        family = self.options.support.family
+        if family == "any":
             return "any support"
         lo, hi = self.support_c
-        what = "c" if self.support == "c" else f"{self.support} support, c"
+        what = "c" if family == "c" else f"{family} support, c"
         return f"{what} in [{lo * 1e3:.3g}, {hi * 1e3:.3g}] mm only"
 
     def summary(self) -> str:
         """A short human-readable table of the plan (pushes numbered from 1, as in
         the plan's figure, where pose i is the pose after push i)."""
-        lines = [f"{self.object_class} part, {self.plan_class} plan ({self.strategy} strategy, "
+        lines = [f"{self.object_class} part, {self.plan_class} plan ({self.options.strategy} strategy, "
                  f"{self.distance_rule} distances valid for {self._support_text()}): "
                  f"{self.n_pushes} pushes "
                  f"({self.n_reorients} reorient), total {self.total_distance:.6g} m; replay error "

@@ -457,7 +457,14 @@ def assemble(part: PushPart, settings: PushOptions, start, goal, cand: Candidate
 
 def make_plan(part: PushPart, settings: PushOptions, start, goal, pushes, cls: int, turns: int,
               err) -> PushPlan:
-    """A :class:`PushPlan` with every setting recorded."""
+    """A :class:`PushPlan` carrying ``settings`` (the options ``part`` was
+    prepared with: its margin, safety factor, support and slip bound; refused
+    otherwise) and the distance rule and ``c`` range the part gave."""
+    if (part.margin_deg, part.safety_factor, part.min_fence_mu) != (
+            settings.margin_deg, settings.safety_factor, settings.min_fence_mu) \
+            or part.support != settings.support.family:
+        raise ValueError("settings: the part was prepared with other options (margin, safety "
+                         "factor, support or fence friction bound) than the plan would record")
     from planning.pushing.plan import PLAN_CLASSES
 
     total = float(sum(p.distance for p in pushes))
@@ -467,12 +474,7 @@ def make_plan(part: PushPart, settings: PushOptions, start, goal, pushes, cls: i
         vertices=tuple((float(a), float(b)) for a, b in part.polygon.vertices),
         com=(float(part.polygon.com[0]), float(part.polygon.com[1])),
         start=tuple(float(x) for x in start), goal=tuple(float(x) for x in goal), pushes=pushes,
-        plan_class=PLAN_CLASSES[cls], reorient_edge=main,
-        object_class=part.class_name, objective=settings.objective,
+        plan_class=PLAN_CLASSES[cls], reorient_edge=main, object_class=part.class_name,
         objective_value=float(len(pushes)) if settings.objective == "pushes" else total,
-        total_distance=total, margin_deg=part.margin_deg, safety_factor=part.safety_factor,
-        final_error=(float(err[0]), float(err[1])), strategy=settings.strategy,
-        distance_rule=part.distance_rule, support_c=part.support_c, support=part.support,
-        min_fence_mu=part.min_fence_mu,
-        workspace=settings.workspace, max_reorients=settings.max_reorients,
-        extra_steps=settings.extra_steps, turns=turns)
+        total_distance=total, final_error=(float(err[0]), float(err[1])), options=settings,
+        distance_rule=part.distance_rule, support_c=part.support_c, turns=turns)

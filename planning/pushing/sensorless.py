@@ -142,12 +142,10 @@ class SensorlessPlan:
         return self.total_travel
 
     @property
-    def margin_deg(self) -> float:
-        return self.pose_plan.margin_deg
-
-    @property
-    def safety_factor(self) -> float:
-        return self.pose_plan.safety_factor
+    def options(self):
+        """The pose phase's :class:`~planning.PushOptions` (the orient and
+        register pushes use Peshkin's distances and its safety factor)."""
+        return self.pose_plan.options
 
     @property
     def n_steps(self) -> int:

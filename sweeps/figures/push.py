@@ -276,10 +276,9 @@ def plot_psd(part_or_vertices, path, margin_deg: float = PushOptions.margin_deg,
       The :class:`PushStability` data drawn.
     """
     if plan is not None:
-        part_or_vertices = prepare_part(
-            plan.vertices, plan.com, plan.margin_deg, plan.safety_factor,
-            support=None if plan.support_c is None else {"c": list(plan.support_c)},
-            min_fence_mu=plan.min_fence_mu)
+        o = plan.options
+        part_or_vertices = prepare_part(plan.vertices, plan.com, o.margin_deg, o.safety_factor,
+                                        support=o.support, min_fence_mu=o.min_fence_mu)
     part, file_name = _as_part(part_or_vertices, margin_deg, com)
     name = name or file_name
     data = planning_push_stability(part, n_grid=n_grid)
