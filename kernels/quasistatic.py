@@ -564,15 +564,24 @@ def _push(pp: _Part, pose, direction, distance, expected_edge) -> SimOutcome:
         lambda v: _event(pp, d, tv, v), st)
     truncated = (st["s_left"] > 0) & (~st["final"])
     st = _finish(pp, d, tv, st)
-    pos, theta, flush = st["pos"], st["theta"], st["flush"]
-    # final line contact that translates
-    fl = jnp.maximum(flush, 0)
-    c, s = st["c"], st["s"]
+    return push_outcome(g.body, pose, d, distance, h0, st, expected_edge, truncated)
+
+
+def push_outcome(body, pose, d, distance, h0, st, expected_edge, truncated) -> SimOutcome:
+    """A push's :class:`SimOutcome` from its loop's final state ``st`` (both
+    push kernels: this one and :mod:`kernels.quasistatic_points`): the edge flush
+    at the end if it translates (the fence direction strictly between its
+    vertices' directions from the centre of mass), the final pose (world; the
+    start pose where the fence never moved), rotation, slip, landings, the
+    fence's final line ``h0 + distance`` (m, along ``d``)."""
+    n = body.shape[0]
+    c, s, flush = st["c"], st["s"], st["flush"]
     d_b = jnp.stack([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
-    hold = (flush >= 0) & (cross2(g.body[fl], d_b) * cross2(g.body[(fl + 1) % n], d_b) < 0.0)
+    fl = jnp.maximum(flush, 0)
+    hold = (flush >= 0) & (cross2(body[fl], d_b) * cross2(body[(fl + 1) % n], d_b) < 0.0)
     edge = jnp.where(hold, flush, -1).astype(jnp.int32)
     moved = distance > 0
-    out_pose = jnp.where(moved, jnp.concatenate([pos, wrap_angle(theta)[None]]), pose)
+    out_pose = jnp.where(moved, jnp.concatenate([st["pos"], wrap_angle(st["theta"])[None]]), pose)
     expected_edge = jnp.asarray(expected_edge, jnp.int32)
     slip = st["slip"]
     return SimOutcome(pose=out_pose, edge=edge, complete=edge >= 0,

@@ -72,6 +72,23 @@ cold 10 % -> 0.1 %, :data:`kernels.limit_surface.BACKTRACK_MIN`): ``any``
 alternating, 1,024 samples; 3,180-3,430 -> 4,320-4,410 on a quieter machine),
 a uniform pad alone 1,400 -> 2,700, rigid corners unchanged within noise
 (11,000-16,000).
+Where a phase's nodes are (same plan, 64 draws): on rigid corners 82 % of
+the nodes stick, 7 % turn about a support point and 11 % slide smoothly, and
+74 % of the phases stick throughout (``any``: 51 / 11 / 39 %, 36 %).  A phase
+that sticks throughout and lands on an edge that holds would be exact at any
+node count (no slip, and its travel cancels against the translation after
+the landing), but a coarse rule cannot tell such a phase: of 1,792 phases
+(256 draws on rigid corners) whose 3 nodes (one panel) all stuck at 80 % of
+the friction cone or less, 144 slid somewhere on 96 nodes (32 panels), and at
+2 panels 103 (December 2026).  Tried and dropped (December 2026): a phase no
+wider than 0.05 in ``ell`` on one panel (3 solves in place of 24: the
+pentagon plan's translation pushes turned by their fence angle error, 0.002-0.02
+wide, where its reorient pushes are 0.3), each sample its own rule under
+``vmap`` (a ``custom_vmap`` switch over one panel, both rules gathered, the
+panels): warm, 1,024 draws, 1.2-1.25x on rigid corners and 1.15x on ``any``,
+final poses within 5e-8 m; but the phase's compiled code grew three copies of
+the node solves, and ``bench/throughput.py``'s ``any`` row (short runs, where
+loading the compiled shapes counts) fell from 583 to 102-118 samples/s.
 Tried and dropped: the warm sliding
 steps in the slip and rotation per metre of advance (rational conditions, no
 angles; 1.25x more) converged on fewer nodes next to a kink (a smooth sliding
@@ -127,10 +144,9 @@ import jax.numpy as jnp
 
 from kernels.limit_surface import (Warm, first_start, gathered, kink_base, push_motion,
                                    warm_motion)
-from kernels.planar import wrap_angle
 from kernels.polygon import PolygonGeometry
-from kernels.quasistatic import (SimOutcome, _half_between, _half_to,
-                                 pivot_contact, push_start, scan_pushes)
+from kernels.quasistatic import (SimOutcome, _half_between, _half_to, pivot_contact,
+                                 push_outcome, push_start, scan_pushes)
 
 #: quadrature panels per phase (3 PANELS motion solves; accuracy against 64
 #: panels in the module docstring)
@@ -397,23 +413,7 @@ def simulate_push(geom: PolygonGeometry, pose, direction, distance, points, weig
     st = jax.lax.while_loop(
         lambda v: (v["s_left"] > 0) & (v["phases"] < cap),
         lambda v: _step(body, normals, rho, points, weights, mu, d, tv, v), st)
-    truncated = st["s_left"] > 0
-    c, s, flush = st["c"], st["s"], st["flush"]
-    d_b = jnp.stack([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
-    fl = jnp.maximum(flush, 0)
-    x1 = body[fl, 0] * d_b[1] - body[fl, 1] * d_b[0]
-    nx = body[(fl + 1) % n]
-    x2 = nx[0] * d_b[1] - nx[1] * d_b[0]
-    edge = jnp.where((flush >= 0) & (x1 * x2 < 0.0), flush, -1).astype(jnp.int32)
-    moved = distance > 0
-    out_pose = jnp.where(moved, jnp.concatenate([st["pos"], wrap_angle(st["theta"])[None]]), pose)
-    expected_edge = jnp.asarray(expected_edge, jnp.int32)
-    slip = st["slip"]
-    return SimOutcome(pose=out_pose, edge=edge, complete=edge >= 0,
-                      rotation=jnp.where(moved, st["rot"], 0.0), slip=slip, slipped=slip > 0,
-                      landed_other_edge=(expected_edge >= 0) & (edge >= 0) & (edge != expected_edge),
-                      landings=jnp.where(moved, st["landings"], 0), fence=h0 + distance,
-                      phases=st["phases"], truncated=truncated)
+    return push_outcome(body, pose, d, distance, h0, st, expected_edge, st["s_left"] > 0)
 
 
 def simulate_pushes(geom: PolygonGeometry, pose, directions, distances, points, weights, mu_f,
