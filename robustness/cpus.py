@@ -1,4 +1,5 @@
-"""The CPU threads one process runs its compiled replays and MuJoCo rollouts on."""
+"""The CPU threads one process runs its MuJoCo rollouts on (its compiled replays run
+one call after the other: :func:`robustness.replay._map_calls`)."""
 from __future__ import annotations
 
 import os

@@ -9,8 +9,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import threading
-from concurrent.futures import ThreadPoolExecutor
 from typing import Optional
 
 import jax
@@ -18,7 +16,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from kernels import edge_motion, polygon_geometry, polygon_hull_changed, rot2, wrap_angle
-from robustness.cpus import cpu_threads
 from robustness.hulls import polyhedron_combinatorics_changed
 
 
@@ -173,43 +170,26 @@ def _pad_axis(x, k: int, axis: int = 1):
     return jnp.pad(x, widths)
 
 
-#: thread pools by size (made on first use, kept for the process)
-_POOL: dict = {}
-
-
 def _map_calls(call, items):
-    """``[call(x) for x in items]``, run on :func:`robustness.cpus.cpu_threads`
-    threads when there are several (serially inside one of those threads: no
-    nested wait), each under the caller's ``jax_enable_x64`` (a thread-local
-    setting: the calls see the caller's float width).  An interrupt cancels
-    the calls not started."""
-    k = min(len(items), cpu_threads())
-    if k <= 1 or threading.current_thread().name.startswith("nudge-replay"):
-        return [call(x) for x in items]
-    pool = _POOL.get(k)
-    if pool is None:
-        pool = _POOL[k] = ThreadPoolExecutor(max_workers=k, thread_name_prefix="nudge-replay")
-    x64 = bool(jax.config.jax_enable_x64)
+    """``[call(x) for x in items]``, one call after the other in this thread.
 
-    def scoped(x):
-        with jax.enable_x64(x64):
-            return call(x)
-
-    futs = [pool.submit(scoped, x) for x in items]
-    try:
-        return [f.result() for f in futs]
-    except BaseException:
-        for f in futs:
-            f.cancel()
-        raise
+    Not on several threads, as it was (one call's vmapped loops run on one
+    core, so a batch's calls on two threads ran up to twice as fast): with
+    jaxlib 0.10.2, two compiled replays executing at once on the CPU deadlock
+    now and then.  ``nudge certify examples/certify_plate.yaml`` hung in 7 of
+    8 runs (December 2026; old and new kernels alike, with XLA's Eigen pool
+    single-threaded and with asynchronous dispatch off): both threads waited
+    for their results in ``np.asarray`` while XLA's worker threads waited for
+    work; with the calls one after the other it finished in 4 runs of 4.  A
+    study's cores are its Dask workers' (processes)."""
+    return [call(x) for x in items]
 
 
 def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0,
                 whole: bool = False):
     """``fn(nom, rows_chunk, *args)`` over chunks of the per-sample pytree
-    ``rows`` (each padded by repeating its first sample; the calls run on
-    :func:`robustness.cpus.cpu_threads` threads: XLA runs one call's vmapped
-    loops on one core; the outcomes are the same whatever runs them); returns
+    ``rows`` (each padded by repeating its first sample; :func:`_map_calls`:
+    one after the other); returns
     the outcome pytree with numpy arrays of n rows (along the outcomes'
     ``sample_axis``).  ``whole``: every call ``chunk`` samples (the last
     padded), one compiled shape."""
@@ -369,17 +349,17 @@ BLOCK = 512   # samples per block inside a compiled call
 #: 512 than of 256 (4,000-4,500 against 5,700-6,000 samples/s; December 2026)
 LIMIT_SURFACE_BLOCK = 256
 #: the most samples in one compiled limit-surface call: a batch of more runs
-#: as several calls on :func:`robustness.cpus.cpu_threads` threads (4,096
-#: samples of the plan above, 2 cores: 1 call 4,300 samples/s; on 2 threads
-#: 4 calls of 1,024 7,800, 8 of 512 8,100-8,400, 16 of 256 7,200)
+#: as several calls of one compiled shape, one after the other
+#: (:func:`_map_calls`; on 2 threads, before they deadlocked: 4,096 samples of
+#: the plan above, 2 cores, 1 call 4,300 samples/s, 8 calls of 512 8,100-8,400)
 LIMIT_SURFACE_CALL = 512
 
 
 def limit_surface_calls(model, n: int, chunk: int) -> tuple:
     """``(chunk, whole)`` for :func:`_run_chunks` of a batch of ``n`` samples
     under the static ``model``: a limit-surface batch of more than
-    :data:`LIMIT_SURFACE_CALL` samples runs in whole calls of that many (on
-    every core, one compiled shape whatever ``n``); others as asked."""
+    :data:`LIMIT_SURFACE_CALL` samples runs in whole calls of that many (one
+    compiled shape whatever ``n``); others as asked."""
     if isinstance(model, tuple):
         call = min(chunk, LIMIT_SURFACE_CALL)
         if n > call:

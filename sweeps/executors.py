@@ -219,7 +219,7 @@ class DaskExecutor:
         from distributed import Client, LocalCluster
 
         d = cache_dir()
-        # a worker's compiled replays and MuJoCo rollouts run on its own threads only (cpu_threads)
+        # a worker's MuJoCo rollouts run on its own threads only (cpu_threads)
         env = {"JAX_PLATFORMS": "cpu", "NUDGE_THREADS": str(self.threads)}
         if d:  # worker processes inherit the environment, and JAX reads its flags from it
             env.update(JAX_COMPILATION_CACHE_DIR=d, JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0")

@@ -456,17 +456,27 @@ def test_edge_pairs_are_the_hull_edges_vertex_pairs():
 
 @pytest.mark.slow
 @pytest.mark.float64
-def test_threaded_chunks_are_the_serial_ones(plan, monkeypatch):
-    """A batch of several compiled calls gives the same outcomes, bit for bit and in
-    float64, whether its calls run on one thread or several (the worker threads see
-    the caller's scoped x64, not their own default), and a limit-surface batch the
+def test_a_batch_of_several_calls_runs_them_in_this_thread(plan, monkeypatch):
+    """A batch of several compiled calls runs them one after the other in the
+    caller's thread, whatever ``NUDGE_THREADS`` says (two replays executing at
+    once on the CPU deadlocked now and then: robustness.replay._map_calls), with
+    the same outcomes, bit for bit and in float64, and a limit-surface batch the
     same whatever its calls' size."""
+    import threading
+
     from kernels import polygon as pg
     from robustness.cpus import cpu_threads
 
     body = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com)).body
     draws = TOL.sample(jax.random.key(3), 40, body=body, dtype=jnp.float64,
                        n_vertices=len(plan.vertices), dim=2, n_pushes=len(plan.pushes))
+    seen, batch = [], batches._push_batch
+
+    def spy(*a, **k):
+        seen.append(threading.get_ident())
+        return batch(*a, **k)
+
+    monkeypatch.setattr(batches, "_push_batch", spy)
     runs = {}
     for threads in ("1", "3"):
         monkeypatch.setenv("NUDGE_THREADS", threads)
@@ -474,12 +484,13 @@ def test_threaded_chunks_are_the_serial_ones(plan, monkeypatch):
         _, _, r = batches.run_push(plan, draws, "quasistatic", jnp.float64, 8)   # 5 calls
         runs[threads] = np.stack([r.x, r.y, r.theta], axis=1)
         assert runs[threads].dtype == np.float64
+    assert len(seen) == 10 and set(seen) == {threading.get_ident()}
     assert np.all(np.isfinite(runs["1"])) and np.array_equal(runs["1"], runs["3"])
     assert batches.limit_surface_calls(("limit_surface", ("rigid",)), 600, 4096) == (512, True)
     assert batches._chunks(600, 512, True) == [(0, 512, 512), (512, 600, 512)]  # one shape
     assert batches.limit_surface_calls("quasistatic", 600, 4096) == (4096, False)
     ls = {}
-    for call in (16, 64):   # 3 whole calls of 16 on 3 threads / one call of 64
+    for call in (16, 64):   # 3 whole calls of 16 / one call of 64
         monkeypatch.setattr(batches, "LIMIT_SURFACE_CALL", call)
         _, _, r = batches.run_push(plan, draws, "limit_surface", jnp.float64, 4096)
         ls[call] = np.stack([r.x, r.y, r.theta], axis=1)
