@@ -550,7 +550,9 @@ def run_design(ctx: Context, unit: Unit) -> dict:
 
 #: The summary's finding columns: ``(column, kind, the bound's columns)``.
 FINDINGS = (("bound_violated", "bound violated", ("bound_position_m", "bound_theta_rad")),
-            ("paper_bound_violated", "paper bound violated",
+            ("paper_bound_violated",
+             "paper bound violated (Marigo & Bicchi's eqs. 5-6 as printed, evaluated in metres: "
+             "they raise lengths to powers, so their value depends on the unit of length)",
              ("paper_bound_position_m", "paper_bound_theta_rad")))
 
 

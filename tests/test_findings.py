@@ -37,3 +37,19 @@ def test_no_finding_without_a_violation(tmp_path, capsys):
     assert run.main([str(p), "--out", str(tmp_path / "out"), "--quiet"]) == 0
     assert "finding:" not in capsys.readouterr().err
     assert not pd.read_parquet(tmp_path / "out" / "summary")["bound_violated"].fillna(False).any()
+
+
+def test_the_paper_bound_finding_says_what_its_figure_is():
+    """tolerances.yaml's finding printed the paper's bound as "1.1494e-113 m /
+    3.70947e+10 rad" with nothing to say that this is the printed expression in
+    metres, not a bug: the finding's kind says so."""
+    from sweeps.work import findings
+
+    row = dict(task="goal000", bound_violated=False, paper_bound_violated=True,
+               emp_max_pos_in_model_m=7.63e-5, emp_max_theta_in_model_rad=2.76e-4,
+               n_in_bound_model=100, bound_position_m=2e-4, bound_theta_rad=6e-4,
+               paper_bound_position_m=1.1494e-113, paper_bound_theta_rad=3.70947e10)
+    (kind, line), = findings(row)
+    assert kind.startswith("paper bound violated (") and "evaluated in metres" in kind
+    assert "depends on the unit of length" in kind
+    assert "bound 1.1494e-113 m / 3.70947e+10 rad" in line
