@@ -26,9 +26,9 @@ every returned plan has been replayed by the exact kinematics of
 """
 from planning.pushing.alternatives import plan_alternatives
 from planning.pushing.batch import PushPlanBatch, plan_pose_batch
-from planning.pushing.options import PushOptions
+from planning.pushing.options import STRATEGIES, PushOptions
 from planning.pushing.part import PlanningError, PushPart, WorkspaceError, prepare_part
-from planning.pushing.plan import STRATEGIES, Push, PushPlan
+from planning.pushing.plan import Push, PushPlan
 from planning.pushing.planner import plan_pose
 from planning.pushing.funnel import Funnel, PushFunction, exhaustive_length, orient, push_function
 from planning.pushing.sensorless import (FencePush, SensorlessPlan, plan_sensorless,

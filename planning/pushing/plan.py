@@ -16,7 +16,7 @@ from typing import ClassVar, Optional
 import numpy as np
 
 from kernels import PartWarning, make_polygon
-from planning.pushing.options import DEFAULTS, STRATEGIES, PlanSupport, PushOptions
+from planning.pushing.options import DEFAULTS, PlanSupport, PushOptions
 
 PLAN_CLASSES = ("translation", "cw", "ccw", "singular-cw", "singular-ccw")
 PUSH_KINDS = ("translate", "reorient")
@@ -200,11 +200,9 @@ class PushPlan:
 
     @classmethod
     def from_dict(cls, d: dict) -> "PushPlan":
-        """Inverse of :meth:`to_dict`."""
+        """Inverse of :meth:`to_dict` (the options check themselves: :class:`PushOptions`)."""
         if d["plan_class"] not in PLAN_CLASSES:
             raise ValueError(f"plan_class: expected one of {PLAN_CLASSES}, got {d['plan_class']!r}")
-        if d.get("strategy", "search") not in STRATEGIES:
-            raise ValueError(f"strategy: expected one of {STRATEGIES}, got {d['strategy']!r}")
         if d.get("distance_rule", "peshkin") not in DISTANCE_RULES:
             raise ValueError(f"distance_rule: expected one of {DISTANCE_RULES}, got "
                              f"{d['distance_rule']!r}")
