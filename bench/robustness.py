@@ -74,6 +74,9 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 # first, even when ROOT is already on PYTHONPATH: the package ``robustness`` must win
 # over bench/robustness.py (this script's folder is sys.path[0])
 sys.path.insert(0, str(ROOT))
+# a CPU device per core, as nudge's command lines have (sweeps.terminal.run_main): a
+# batch's compiled replays spread over them (robustness.replay.replay_devices)
+os.environ.setdefault("JAX_NUM_CPU_DEVICES", str(len(os.sched_getaffinity(0))))
 
 import jax  # noqa: E402
 
@@ -410,8 +413,9 @@ def main(argv=None) -> int:
     n_np = args.numpy or (8 if q else 64)
     repeat = 2 if q else 3
     print(f"# bench/robustness.py {'--quick' if q else '(full)'}: jax {jax.__version__}, backend "
-          f"{jax.default_backend()}, {os.cpu_count()} CPUs (no accelerator lent to this task: "
-          "CPU figures only); quasi-static kernel: event-driven, closed-form phases")
+          f"{jax.default_backend()}, {os.cpu_count()} CPUs, {len(jax.devices())} devices (a batch's "
+          "calls spread over them; JAX_NUM_CPU_DEVICES=1: one core) (no accelerator lent to this "
+          "task: CPU figures only); quasi-static kernel: event-driven, closed-form phases")
     pr = push_bench(n_push, n_np, repeat)
     np_rate = pr["rows"][-1]["rate"]
     print_table(f"{pr['n_pushes']}-push plan (goal {pr['goal']}), quasi-static model (samples/s)",

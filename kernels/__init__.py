@@ -14,7 +14,9 @@ for one part and lifted with ``jax.vmap`` at the call site.
   on, drawn by the sampler and realised by the MuJoCo scene):
   :func:`corner_weights`, :func:`equilibrium_weights`, :func:`family_c_range`,
   :func:`tripod_fit`, :func:`family_support` (a sample's points and loads).
-* Shared formulas: :mod:`kernels.planar` (angle wraps, rotations).
+* Shared formulas: :mod:`kernels.planar` (angle wraps, rotations),
+  :func:`solve2` (closed-form 2 x 2 solves; :mod:`kernels.linsolve`: no LAPACK
+  custom calls in a compiled replay).
 
 Kernels take the dtype of their inputs (float32 or float64); planners and
 bounds run them under :func:`kernels.precision.float64`.  Units: metres,
@@ -22,6 +24,7 @@ radians, CCW positive.
 """
 from kernels.facets import TOLERANCE_MERGE_FACTOR
 from kernels.planar import rot2, wrap_angle
+from kernels.linsolve import solve2
 from kernels.polygon import PartError, PartWarning, Polygon, PolygonGeometry, make_polygon, polygon_geometry
 from kernels.polyhedron import Polyhedron, make_polyhedron
 from kernels.tumble_geometry import TumbleGeometry, tumble_geometry
@@ -52,7 +55,7 @@ from kernels.support import (ANY_COMPONENTS, FAMILIES, FAMILY, FOOT_INSET, PLAN_
 from kernels.tumble import replay_trajectory
 
 __all__ = [
-    "TOLERANCE_MERGE_FACTOR", "wrap_angle", "rot2", "PartError", "PartWarning", "Polygon", "PolygonGeometry", "make_polygon",
+    "TOLERANCE_MERGE_FACTOR", "wrap_angle", "rot2", "solve2", "PartError", "PartWarning", "Polygon", "PolygonGeometry", "make_polygon",
     "polygon_geometry", "Polyhedron", "TumbleGeometry", "make_polyhedron", "tumble_geometry",
     "PushOutcome", "replay_push", "replay_pushes", "SimOutcome", "limit_surface_ratio",
     "simulate_push", "simulate_pushes", "Motion", "push_motion", "simulate_push_on_points",

@@ -106,6 +106,8 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 
+from kernels.linsolve import solve2
+
 #: iterations of the sticking line solve (from one Weiszfeld step; converged to
 #: rounding in 10-12 on random supports, near-kink lines included)
 STICK_ITERATIONS = 12
@@ -140,24 +142,6 @@ class Motion:
 
 def _perp(a):
     return jnp.stack([-a[..., 1], a[..., 0]], -1)
-
-
-def _det2(A):
-    """Determinants of (..., 2, 2) matrices, in closed form."""
-    return A[..., 0, 0] * A[..., 1, 1] - A[..., 0, 1] * A[..., 1, 0]
-
-
-def _solve2(A, b):
-    """``A^-1 b`` for (..., 2, 2) ``A`` and (..., 2) ``b`` by Cramer's rule.
-
-    Closed form, not ``jnp.linalg.solve``: LAPACK's batched custom calls on the
-    CPU deadlock in XLA's thread pool when nested in the push's loops over
-    large batches (seen at 1024 samples under ``lax.map``), and for 2 x 2 the
-    algebra is cheaper anyway."""
-    det = _det2(A)
-    x0 = A[..., 1, 1] * b[..., 0] - A[..., 0, 1] * b[..., 1]
-    x1 = A[..., 0, 0] * b[..., 1] - A[..., 1, 0] * b[..., 0]
-    return jnp.stack([x0, x1], -1) / det[..., None]
 
 
 def _velocities(points, V):
@@ -354,7 +338,7 @@ def _polish(need, q, weights, d, scale, sigma, m, g, w, size, iters=None):
 
     def trip(x):
         k, g, w, F, J, done, lam = x
-        dg, dw = _solve2(J, F)
+        dg, dw = solve2(J, F)
         small = (jnp.abs(dg) <= tol) & (jnp.abs(dw) * size <= tol * (1.0 + jnp.abs(w) * size))
         g2, w2 = g - lam * dg, w - lam * dw
         F2, J2, _ = conditions(g2, w2)

@@ -56,6 +56,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from kernels.linsolve import det3, solve3
+
 @dataclasses.dataclass(frozen=True)
 class Family:
     """One support family: a row of :data:`TABLE`, the one place a family is
@@ -282,7 +284,7 @@ def equilibrium_weights(points, iterations: int = EQUILIBRIUM_ITERATIONS):
     X = jnp.concatenate([jnp.ones((p.shape[0], 1), p.dtype), p / scale], axis=1)   # (S, 3)
     b = jnp.asarray([1.0, 0.0, 0.0], p.dtype)
     ridge = 1e-13 * jnp.eye(3, dtype=p.dtype)
-    lam0 = jnp.linalg.solve(X.T @ X + ridge, b)
+    lam0 = solve3(X.T @ X + ridge, b)
 
     ts = 2.0 ** -jnp.arange(12, dtype=p.dtype)           # candidate step lengths
 
@@ -294,7 +296,7 @@ def equilibrium_weights(points, iterations: int = EQUILIBRIUM_ITERATIONS):
         on = (z > 0).astype(p.dtype)
         grad = b - X.T @ jnp.maximum(z, 0.0)
         hess = (X * on[:, None]).T @ X + ridge
-        d = jnp.linalg.solve(hess, grad)
+        d = solve3(hess, grad)
         gs = jax.vmap(lambda t: dual(lam + t * d))(ts)
         ok = gs >= dual(lam) + 1e-4 * ts * (grad @ d)
         return lam + ts[jnp.argmax(ok)] * jnp.any(ok) * d
@@ -316,12 +318,12 @@ def _corner_triangles(corners, tol):
     idx = jnp.asarray(_triples(p.shape[0]))                     # (T, 3)
     P = p[idx]                                                   # (T, 3, 2)
     A = jnp.concatenate([jnp.swapaxes(P, 1, 2), jnp.ones((idx.shape[0], 1, 3), p.dtype)], 1)
-    det = jnp.linalg.det(A)
+    det = det3(A)
     size = jnp.maximum(jnp.max(jnp.abs(p)), 1e-300)
     ok_det = jnp.abs(det) > 1e-9 * size * size
     Asafe = jnp.where(ok_det[:, None, None], A, jnp.eye(3, dtype=p.dtype))
-    lam = jnp.linalg.solve(Asafe, jnp.broadcast_to(jnp.asarray([0.0, 0.0, 1.0], p.dtype),
-                                                   (idx.shape[0], 3))[..., None])[..., 0]
+    lam = solve3(Asafe, jnp.broadcast_to(jnp.asarray([0.0, 0.0, 1.0], p.dtype),
+                                         (idx.shape[0], 3)))
     return idx, lam, ok_det & jnp.all(lam >= -tol, axis=1)
 
 

@@ -1,5 +1,5 @@
-"""The CPU threads one process runs its MuJoCo rollouts on (its compiled replays run
-one call after the other: :func:`robustness.replay._map_calls`)."""
+"""The CPU threads one process runs its MuJoCo rollouts on (its compiled replays spread
+over JAX's devices instead: :func:`robustness.replay.replay_devices`)."""
 from __future__ import annotations
 
 import os

@@ -170,46 +170,113 @@ def _pad_axis(x, k: int, axis: int = 1):
     return jnp.pad(x, widths)
 
 
-def _map_calls(call, items):
-    """``[call(x) for x in items]``, one call after the other in this thread.
+def replay_devices() -> tuple:
+    """The devices a batch's compiled calls are spread over: every local device
+    of JAX's default backend.  On the CPU that is one device unless
+    ``jax_num_cpu_devices`` (``JAX_NUM_CPU_DEVICES``) asks for more before JAX
+    starts: nudge's command lines and Dask workers set it to their cores
+    (:func:`robustness.cpus.cpu_threads`); a library caller may set it too."""
+    return tuple(jax.local_devices())
 
-    Not on several threads, as it was (one call's vmapped loops run on one
-    core, so a batch's calls on two threads ran up to twice as fast): with
-    jaxlib 0.10.2, two compiled replays executing at once on the CPU deadlock
-    now and then.  ``nudge certify examples/certify_plate.yaml`` hung in 7 of
-    8 runs (December 2026; old and new kernels alike, with XLA's Eigen pool
-    single-threaded and with asynchronous dispatch off): both threads waited
-    for their results in ``np.asarray`` while XLA's worker threads waited for
-    work; with the calls one after the other it finished in 4 runs of 4.  A
-    study's cores are its Dask workers' (processes)."""
-    return [call(x) for x in items]
+
+@functools.lru_cache(maxsize=128)
+def _spread_call(fn, statics: tuple, n_args: int, sample_axis: int, devices: tuple):
+    """``fn(nom, rows, *args)`` as one compiled call over ``devices``: the rows
+    (sample axis 0) split evenly, one share per device, ``nom`` and the array
+    arguments copied to each (``statics``: the other arguments, ``(position,
+    value)``); the outcomes' shares joined along ``sample_axis``.  Each device
+    runs its share's loops on its own, as the plain call runs them: the
+    outcomes are the plain calls' bit for bit."""
+    spec = jax.sharding.PartitionSpec
+    mesh = jax.sharding.Mesh(np.asarray(devices, dtype=object), ("samples",))
+    fixed = dict(statics)
+
+    def share(nom, rows, traced):
+        it = iter(traced)
+        args = [fixed[i] if i in fixed else next(it) for i in range(n_args)]
+        return fn(nom, rows, *args)
+
+    return jax.jit(jax.shard_map(share, mesh=mesh, in_specs=(spec(), spec("samples"), spec()),
+                                 out_specs=spec(*(None,) * sample_axis, "samples"),
+                                 check_vma=False))
+
+
+def _map_calls(fn, nom, rows, args, calls, sample_axis: int):
+    """The outcomes (numpy pytrees) of ``fn(nom, cut(rows), *args)`` for each
+    ``(cut, size)`` in ``calls``, in this thread.  With several devices
+    (:func:`replay_devices`) each run of as many calls of one size is ONE
+    compiled call spread over the devices (:func:`_spread_call`; a short run
+    padded by repeating its last call), so that a batch's calls use every
+    core; with one device, one call after the other.
+
+    In this thread: JAX runs the spread call's shares on its own threads, one
+    per device.  (Two Python threads ran a batch's calls until December 2026;
+    ``nudge certify examples/certify_plate.yaml`` then hung in 7 of 8 runs, and
+    one call over two devices hung too: LAPACK's batched LU in the support
+    kernels blocked every XLA worker thread.  Those solves are closed form now,
+    :mod:`kernels.linsolve`, and a test holds LAPACK out of the compiled
+    replays.)"""
+    tm = jax.tree_util.tree_map
+    devices = replay_devices()
+    D = len(devices)
+    if D == 1 or len(calls) == 1:
+        return [tm(np.asarray, fn(nom, tm(cut, rows), *args)) for cut, _ in calls]
+    is_array = [isinstance(a, (jax.Array, np.ndarray)) for a in args]
+    statics = tuple((i, a) for i, a in enumerate(args) if not is_array[i])
+    traced = tuple(a for i, a in enumerate(args) if is_array[i])
+    outs = []
+    i = 0
+    while i < len(calls):
+        size, run = calls[i][1], []
+        while i < len(calls) and len(run) < D and calls[i][1] == size:
+            run.append(calls[i][0])
+            i += 1
+        group = run + [run[-1]] * (D - len(run))
+        spread = _spread_call(fn, statics, len(args), sample_axis, devices)
+        both = tm(lambda *xs: np.concatenate(xs), *[tm(cut, rows) for cut in group])
+        out = tm(np.asarray, spread(nom, both, traced))
+        lead = (slice(None),) * sample_axis
+        outs += [tm(lambda x, k=k: x[lead + (slice(k * size, (k + 1) * size),)], out)
+                 for k in range(len(run))]
+    return outs
+
+
+#: a batch that fits one call is cut into a share per device (:func:`replay_devices`)
+#: when every share holds at least this many samples
+SPREAD_MIN_SAMPLES = 64
 
 
 def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0,
                 whole: bool = False):
     """``fn(nom, rows_chunk, *args)`` over chunks of the per-sample pytree
     ``rows`` (each padded by repeating its first sample; :func:`_map_calls`:
-    one after the other); returns
+    over every device, else one after the other); returns
     the outcome pytree with numpy arrays of n rows (along the outcomes'
     ``sample_axis``).  ``whole``: every call ``chunk`` samples (the last
-    padded), one compiled shape."""
+    padded), one compiled shape; else a batch of one call on several devices
+    is cut into a share per device (:data:`SPREAD_MIN_SAMPLES`).  ``fn`` is a jitted function (a new one per
+    batch would compile per batch) and the ``args`` hashable or arrays."""
     tm = jax.tree_util.tree_map
-    if n == chunk or (n < chunk and not whole and _bucket(n, 8) == n):   # one call, as they are
+    cuts = _chunks(n, chunk, whole)
+    D = len(replay_devices())
+    if len(cuts) == 1 and not whole and D > 1 and n >= D * SPREAD_MIN_SAMPLES:
+        cuts = _chunks(n, _bucket(-(-n // D), 8), True)     # a share per device
+    elif n == chunk or (n < chunk and not whole and _bucket(n, 8) == n):   # one call, as they are
         return tm(np.asarray, fn(nom, rows, *args))
-    sizes, cuts = [], []
+    sizes, calls = [], []
     # sliced on the host: numpy slices are views, where eager jax slices of the
     # (n, L, 3) slips cost a third of a 200-tumble evaluation
     rows = tm(np.asarray, rows)
-    for lo, hi, size in _chunks(n, chunk, whole):
+    for lo, hi, size in cuts:
         def cut(x, lo=lo, hi=hi, size=size):
             x = x[lo:hi]
             if size > hi - lo:
                 x = np.concatenate([x, np.broadcast_to(x[:1], (size - (hi - lo),) + x.shape[1:])])
             return x
 
-        cuts.append(cut)
+        calls.append((cut, size))
         sizes.append(hi - lo)
-    outs = _map_calls(lambda cut: tm(np.asarray, fn(nom, tm(cut, rows), *args)), cuts)
+    outs = _map_calls(fn, nom, rows, args, calls, sample_axis)
     lead = (slice(None),) * sample_axis
     return tm(lambda *xs: np.concatenate([np.asarray(x)[lead + (slice(0, m),)]
                                           for x, m in zip(xs, sizes)], axis=sample_axis), *outs)
@@ -349,9 +416,9 @@ BLOCK = 512   # samples per block inside a compiled call
 #: 512 than of 256 (4,000-4,500 against 5,700-6,000 samples/s; December 2026)
 LIMIT_SURFACE_BLOCK = 256
 #: the most samples in one compiled limit-surface call: a batch of more runs
-#: as several calls of one compiled shape, one after the other
-#: (:func:`_map_calls`; on 2 threads, before they deadlocked: 4,096 samples of
-#: the plan above, 2 cores, 1 call 4,300 samples/s, 8 calls of 512 8,100-8,400)
+#: as several calls of one compiled shape, spread over the devices
+#: (:func:`_map_calls`; on 2 threads, as they once ran: 4,096 samples of the
+#: plan above, 2 cores, 1 call 4,300 samples/s, 8 calls of 512 8,100-8,400)
 LIMIT_SURFACE_CALL = 512
 
 
@@ -837,8 +904,8 @@ def run_tumble_many(plans, draws, dtype, chunk: int = 4096, merge_tol=None,
                       bool(slip_theta <= SLIP_SERIES_MAX), sample_axis=1)
     res = jax.tree_util.tree_map(lambda x: x[:K], res)
     if merge_tol is not None:
-        ch, und = _run_chunks(lambda v, q, tol: _hull_batch(v, q, tol, topo), walks[0][0].V64,
-                              rows.dv64, n, chunk, jnp.asarray(merge_tol, jnp.float64))
+        ch, und = _run_chunks(_hull_batch, walks[0][0].V64, rows.dv64, n, chunk,
+                              jnp.asarray(merge_tol, jnp.float64), topo)
         changed = _host_hull_check(poly, ch, und, rows.dv64, merge_tol)
     else:
         changed = np.zeros(n, bool)

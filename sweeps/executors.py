@@ -224,9 +224,13 @@ class DaskExecutor:
         if d:  # worker processes inherit the environment, and JAX reads its flags from it
             env.update(JAX_COMPILATION_CACHE_DIR=d, JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0")
         # set for the workers only: put back on exit (a caller's later subprocesses do not inherit them)
-        self._env = [k for k in env if k not in os.environ]
+        self._env = {k: None for k in env if k not in os.environ}
         for k, v in env.items():
             os.environ.setdefault(k, v)
+        # a worker's compiled replays spread over as many CPU devices as it has threads
+        # (robustness.replay.replay_devices), whatever this process was given
+        self._env["JAX_NUM_CPU_DEVICES"] = os.environ.get("JAX_NUM_CPU_DEVICES")
+        os.environ["JAX_NUM_CPU_DEVICES"] = str(self.threads)
         if self.address:
             check_scheduler(self.address)
             self.client = _connect(self.address)
@@ -250,8 +254,11 @@ class DaskExecutor:
             self.client.close()
         if self.cluster is not None:
             self.cluster.close()
-        for k in getattr(self, "_env", {}):
-            os.environ.pop(k, None)
+        for k, v in getattr(self, "_env", {}).items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
         return False
 
     def run(self, fn: Callable, ctx, units: Iterable) -> Iterator:

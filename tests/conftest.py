@@ -40,6 +40,9 @@ os.environ["NUDGE_JAX_CACHE"] = os.environ[SUITE_CACHE_ENV]
 import jax  # noqa: E402
 
 jax.config.update("jax_compilation_cache_dir", os.environ[SUITE_CACHE_ENV])
+# two CPU devices, as a command line has on CI's two cores (sweeps.terminal.run_main):
+# a batch's compiled replays spread over both (robustness.replay.replay_devices)
+jax.config.update("jax_num_cpu_devices", 2)
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 import pytest
 from hypothesis import settings

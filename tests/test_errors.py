@@ -1,4 +1,6 @@
 """One error type for bad input and one exit-status table at the edge."""
+import os
+
 import pytest
 
 from sweeps.config import ConfigError
@@ -30,6 +32,29 @@ def test_running_out_of_memory_is_exit_4_in_one_line(capsys, monkeypatch):
     code, err = _run(big, capsys)
     assert code == 4 and err.count("\n") == 1 and err.startswith("error: out of memory")
     assert "run the same command again to resume" in err
+
+
+def test_a_command_gives_jax_a_cpu_device_per_core(capsys, monkeypatch):
+    """Before the command runs (and imports JAX), ``$JAX_NUM_CPU_DEVICES``
+    defaults to ``$NUDGE_THREADS`` or the cores: a batch's compiled replays
+    spread over them (robustness.replay.replay_devices); a value set is kept."""
+    seen = []
+
+    def record():
+        seen.append(os.environ["JAX_NUM_CPU_DEVICES"])
+        return 0
+
+    monkeypatch.setenv("JAX_NUM_CPU_DEVICES", "-")   # restored after the test, whatever it was
+    for threads, preset, want in (("3", None, "3"), (None, None, str(len(os.sched_getaffinity(0)))),
+                                  ("3", "1", "1")):
+        monkeypatch.delenv("JAX_NUM_CPU_DEVICES")
+        monkeypatch.delenv("NUDGE_THREADS", raising=False)
+        if threads:
+            monkeypatch.setenv("NUDGE_THREADS", threads)
+        if preset:
+            monkeypatch.setenv("JAX_NUM_CPU_DEVICES", preset)
+        code, _ = _run(record, capsys)
+        assert code == 0 and seen[-1] == want
 
 
 def _run(fn, capsys):

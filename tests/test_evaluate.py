@@ -456,46 +456,99 @@ def test_edge_pairs_are_the_hull_edges_vertex_pairs():
 
 @pytest.mark.slow
 @pytest.mark.float64
-def test_a_batch_of_several_calls_runs_them_in_this_thread(plan, monkeypatch):
-    """A batch of several compiled calls runs them one after the other in the
-    caller's thread, whatever ``NUDGE_THREADS`` says (two replays executing at
-    once on the CPU deadlocked now and then: robustness.replay._map_calls), with
-    the same outcomes, bit for bit and in float64, and a limit-surface batch the
-    same whatever its calls' size."""
+def test_a_batch_of_several_calls_runs_in_this_thread_over_every_device(plan, monkeypatch):
+    """A batch of several compiled calls runs in the caller's thread: one call
+    after the other on one device; on several (the suite's processes have two
+    CPU devices: conftest) as calls spread over the devices, a short run of
+    calls padded, and a batch of one call cut into a share per device
+    (robustness.replay._map_calls).  The outcomes are the same bit for bit, in
+    float64, and a limit-surface batch the same whatever its calls' size."""
     import threading
 
     from kernels import polygon as pg
-    from robustness.cpus import cpu_threads
 
+    devices = tuple(jax.devices())
+    assert len(devices) == 2 and all(d.platform == "cpu" for d in devices)
+    assert batches.replay_devices() == devices
     body = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com)).body
     draws = TOL.sample(jax.random.key(3), 40, body=body, dtype=jnp.float64,
                        n_vertices=len(plan.vertices), dim=2, n_pushes=len(plan.pushes))
-    seen, batch = [], batches._push_batch
+    seen, spread, batch, spread_call = [], [], batches._push_batch, batches._spread_call
 
     def spy(*a, **k):
         seen.append(threading.get_ident())
         return batch(*a, **k)
 
+    def spread_spy(*a, **k):
+        spread.append(threading.get_ident())
+        return spread_call(*a, **k)
+
     monkeypatch.setattr(batches, "_push_batch", spy)
+    monkeypatch.setattr(batches, "_spread_call", spread_spy)
     runs = {}
-    for threads in ("1", "3"):
-        monkeypatch.setenv("NUDGE_THREADS", threads)
-        assert cpu_threads() == int(threads)
+    for k in (1, 2):
+        monkeypatch.setattr(batches, "replay_devices", lambda k=k: devices[:k])
         _, _, r = batches.run_push(plan, draws, "quasistatic", jnp.float64, 8)   # 5 calls
-        runs[threads] = np.stack([r.x, r.y, r.theta], axis=1)
-        assert runs[threads].dtype == np.float64
-    assert len(seen) == 10 and set(seen) == {threading.get_ident()}
-    assert np.all(np.isfinite(runs["1"])) and np.array_equal(runs["1"], runs["3"])
+        runs[k] = np.stack([r.x, r.y, r.theta, r.slip], axis=1)
+        assert runs[k].dtype == np.float64
+        if k == 1:
+            assert len(seen) == 5 and not spread
+    assert len(spread) == 3   # 2 + 2 + the last call beside a copy of itself
+    assert set(seen) | set(spread) == {threading.get_ident()}
+    assert np.all(np.isfinite(runs[1])) and np.array_equal(runs[1], runs[2])
+    monkeypatch.setattr(batches, "SPREAD_MIN_SAMPLES", 8)   # one call of 64 -> 2 shares of 32
+    one = {}
+    for k in (1, 2):
+        monkeypatch.setattr(batches, "replay_devices", lambda k=k: devices[:k])
+        spread.clear()
+        _, _, r = batches.run_push(plan, draws, "quasistatic", jnp.float64, 4096)
+        one[k] = np.stack([r.x, r.y, r.theta, r.slip], axis=1)
+        assert len(spread) == k - 1
+    assert np.array_equal(one[1], one[2]) and np.array_equal(one[1], runs[1])
+    monkeypatch.setattr(batches, "replay_devices", lambda: devices)
     assert batches.limit_surface_calls(("limit_surface", ("rigid",)), 600, 4096) == (512, True)
     assert batches._chunks(600, 512, True) == [(0, 512, 512), (512, 600, 512)]  # one shape
     assert batches.limit_surface_calls("quasistatic", 600, 4096) == (4096, False)
     ls = {}
-    for call in (16, 64):   # 3 whole calls of 16 / one call of 64
+    for call in (16, 64):   # 3 whole calls of 16 over 2 devices / one call of 64
         monkeypatch.setattr(batches, "LIMIT_SURFACE_CALL", call)
         _, _, r = batches.run_push(plan, draws, "limit_surface", jnp.float64, 4096)
         ls[call] = np.stack([r.x, r.y, r.theta], axis=1)
     assert ls[16].dtype == np.float64 and np.all(np.isfinite(ls[16]))
     assert np.array_equal(ls[16], ls[64])
+
+
+@pytest.mark.slow
+@pytest.mark.float64
+def test_compiled_replays_hold_no_lapack_call(plan, monkeypatch):
+    """A compiled push replay, limit surface on every support family, holds no
+    LAPACK custom call: batched on the CPU, those block XLA's pool threads until
+    their pieces run, and two replays executing at once (two devices) deadlocked
+    on them (kernels.linsolve).  The check itself finds the call that
+    ``jnp.linalg.solve`` makes."""
+    from kernels import polygon as pg
+
+    def lapack(f, *args, **kw):
+        return "lapack" in jax.jit(f, static_argnames=tuple(kw)).lower(*args, **kw).as_text()
+
+    A = jnp.eye(3, dtype=jnp.float64)[None].repeat(4, 0)
+    assert lapack(jnp.linalg.solve, A, jnp.ones((4, 3, 1)))   # the check can fail
+    texts, batch = [], batches._push_batch
+
+    def spy(nom, q, model):
+        texts.append(batch.lower(nom, q, model=model).as_text())
+        return batch(nom, q, model)
+
+    monkeypatch.setattr(batches, "_push_batch", spy)
+    body = pg.make_polygon(np.asarray(plan.vertices), np.asarray(plan.com)).body
+    sampler = Sampler(TOL.geometry, FrictionRange(mu_f=(0.5, 0.8), mu_s=(0.3, 0.5), support="any"),
+                      TOL.execution)
+    draws = sampler.sample(jax.random.key(5), 8, body=body, dtype=jnp.float64,
+                           n_vertices=len(plan.vertices), dim=2, n_pushes=len(plan.pushes))
+    for model in ("limit_surface", "quasistatic"):
+        batches.run_push(plan, draws, model, jnp.float64, 4096)
+    assert len(texts) == 2 and "while" in texts[0]
+    assert not any("lapack" in t for t in texts)
 
 
 def test_a_bad_thread_count_is_named(monkeypatch):

@@ -512,6 +512,12 @@ def test_local_run_uses_the_cache_cold_and_warm_and_gives_the_same_tables(refere
         assert any(cache.iterdir())
 
 
+def _replay_devices() -> int:
+    from robustness.replay import replay_devices
+
+    return len(replay_devices())
+
+
 def test_the_cache_is_scoped_to_the_run(tmp_path, monkeypatch):
     """A run called from Python leaves JAX's cache settings (and the environment
     its subprocesses inherit) as it found them."""
@@ -526,11 +532,15 @@ def test_the_cache_is_scoped_to_the_run(tmp_path, monkeypatch):
     assert jax.config.jax_compilation_cache_dir == before
     monkeypatch.delenv("NUDGE_THREADS", raising=False)
     env.pop("NUDGE_THREADS", None)
-    with DaskExecutor(workers=1, threads_per_worker=1):
+    monkeypatch.setenv("JAX_NUM_CPU_DEVICES", "3")     # this process's (a command line's)
+    env["JAX_NUM_CPU_DEVICES"] = "3"
+    with DaskExecutor(workers=1, threads_per_worker=2) as ex:
         assert os.environ["JAX_COMPILATION_CACHE_DIR"] == str(tmp_path)
-        assert os.environ["NUDGE_THREADS"] == "1"   # a worker's replays: its own thread
+        assert os.environ["NUDGE_THREADS"] == "2"   # a worker's rollouts: its own threads
+        # ... and its compiled replays a CPU device per thread (robustness.replay.replay_devices)
+        assert ex.client.submit(_replay_devices, pure=False).result() == 2
     ours = ("JAX_COMPILATION_CACHE_DIR", "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "JAX_PLATFORMS",
-            "NUDGE_THREADS")
+            "NUDGE_THREADS", "JAX_NUM_CPU_DEVICES")
     assert {k: os.environ.get(k) for k in ours} == {k: env.get(k) for k in ours}
 
 
