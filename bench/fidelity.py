@@ -203,26 +203,26 @@ def _run_one(args, support, kind, name, gi, goal, plan):
     ls = _model_rows(plan, draws, "limit_surface")
     ex = _model_rows(plan, draws, "exact")
     g = np.asarray(plan.goal)
-    cell_ok = _ok(cell["x"], cell["y"], cell["theta"], g, 0.01 * straight, EPS_TH)
-    ph_s = _ok(con["x"], con["y"], con["theta"], g, EPS_POS, EPS_TH)
+    cell_ok = _ok(cell.x, cell.y, cell.theta, g, 0.01 * straight, EPS_TH)
+    ph_s = _ok(con.x, con.y, con.theta, g, EPS_POS, EPS_TH)
     out = []
     for j, mu in enumerate(MU_F):
         rec = dict(support=support, kind=kind, part=name, goal=gi, mu=mu, pushes=plan.n_pushes,
                    dist=plan.total_distance, cell_ok=bool(cell_ok[j]),
-                   cell_err=(cell["err_pos"][j], cell["err_theta"][j]),
-                   cell_mode=cell["failure_mode"][j], strike=bool(cell["fence_strike"][j]),
+                   cell_err=(cell.err_pos[j], cell.err_theta[j]),
+                   cell_mode=cell.failure_mode[j], strike=bool(cell.fence_strike[j]),
                    secs=secs / 3)
         for tag, m in (("qs", qs), ("ls", ls), ("ex", ex)):
             ok = _ok(m["x"][j], m["y"][j], m["theta"][j], g, EPS_POS, EPS_TH)
-            dpos = math.hypot(con["x"][j] - m["x"][j], con["y"][j] - m["y"][j])
-            dth = abs(wrap_angle_np(con["theta"][j] - m["theta"][j]))
+            dpos = math.hypot(con.x[j] - m["x"][j], con.y[j] - m["y"][j])
+            dth = abs(wrap_angle_np(con.theta[j] - m["theta"][j]))
             rec[tag] = dict(agree=bool(ok) == bool(ph_s[j]), ok=bool(ok), dpos=dpos, dth=dth,
                             slip=float(np.sum(m["slip"][j])), edges=m["edges"][j].tolist())
-        rec["phys"] = dict(ok=bool(ph_s[j]), slip=float(con["slip"][j]),
-                           slips=np.round(con["slip_per_push"][j] * 1e3, 2).tolist(),
-                           edges=con["edges"][j].tolist(), mode=con["failure_mode"][j],
-                           c=float(con["c"][j]), c_phys=float(con["c_physical"][j]),
-                           family=str(con["support"][j]))
+        rec["phys"] = dict(ok=bool(ph_s[j]), slip=float(con.slip[j]),
+                           slips=np.round(con.slip_per_push[j] * 1e3, 2).tolist(),
+                           edges=con.edges[j].tolist(), mode=con.failure_mode[j],
+                           c=float(con.c[j]), c_phys=float(con.c_physical[j]),
+                           family=str(con.support[j]))
         out.append(rec)
     print(f"  {support:<6} {kind:<8} {name:<14} goal {gi}: {plan.n_pushes} pushes, "
           f"{plan.total_distance:.3f} m, {secs:.1f} s; {out[0]['phys']['family']} c "
@@ -310,11 +310,11 @@ def c_vs_mjx():
         m = rollout_push_plan(plan, params, backend="mjx", settings=soft)
         cs = rollout_push_plan(plan, params, backend="c", settings=soft)
         cn = rollout_push_plan(plan, params, backend="c")
-        d = math.hypot(m["x"][0] - cs["x"][0], m["y"][0] - cs["y"][0]) * 1e3
-        dn = math.hypot(m["x"][0] - cn["x"][0], m["y"][0] - cn["y"][0]) * 1e3
+        d = math.hypot(m.x[0] - cs.x[0], m.y[0] - cs.y[0]) * 1e3
+        dn = math.hypot(m.x[0] - cn.x[0], m.y[0] - cn.y[0]) * 1e3
         worst = max(worst, d)
-        print(f"C vs MJX, 2 cm push, {fam:<8}: soft model {d:.3f} mm ({cs['failure_mode'][0]} / "
-              f"{m['failure_mode'][0]}), C noslip vs MJX soft {dn:.3f} mm")
+        print(f"C vs MJX, 2 cm push, {fam:<8}: soft model {d:.3f} mm ({cs.failure_mode[0]} / "
+              f"{m.failure_mode[0]}), C noslip vs MJX soft {dn:.3f} mm")
     return worst
 
 
@@ -351,14 +351,14 @@ def run_tumbles(args):
                                n_tumbles=plan.n_tumbles)
             t0 = time.perf_counter()
             r = rollout_tumble_plan(plan, draws, backend="c")
-            rows.append(dict(part=name, goal=gi, n=plan.n_tumbles, ok=bool(r["faces_ok"][0]),
-                             wrong=int(r["n_wrong_faces"][0]), err=float(r["err_pos"][0]),
-                             eth=float(r["err_theta"][0]), pred=plan.error,
-                             slip=float(np.nanmax(r["slip_per_tumble"][0])),
-                             mode=r["failure_mode"][0]))
+            rows.append(dict(part=name, goal=gi, n=plan.n_tumbles, ok=bool(r.faces_ok[0]),
+                             wrong=int(r.n_wrong_faces[0]), err=float(r.err_pos[0]),
+                             eth=float(r.err_theta[0]), pred=plan.error,
+                             slip=float(np.nanmax(r.slip_per_tumble[0])),
+                             mode=r.failure_mode[0]))
             print(f"  {name:<20} goal {gi}: {plan.n_tumbles} tumbles, faces ok {rows[-1]['ok']}, "
                   f"err {rows[-1]['err'] * 1e3:.2f} mm / {math.degrees(rows[-1]['eth']):.3f} deg, "
-                  f"max pivot slip {rows[-1]['slip'] * 1e3:.2f} mm, {r['failure_mode'][0]}, "
+                  f"max pivot slip {rows[-1]['slip'] * 1e3:.2f} mm, {r.failure_mode[0]}, "
                   f"{time.perf_counter() - t0:.1f} s", flush=True)
     return rows
 

@@ -123,7 +123,7 @@ def mjx_cpu(plan, n, s):
     t0 = time.perf_counter()
     r = rollout_push_plan(one, draws, backend="mjx", settings=s)
     second = time.perf_counter() - t0
-    return first - second, second, n * r["steps"]
+    return first - second, second, n * r.steps
 
 
 def creep(backends_settings):
@@ -153,7 +153,7 @@ def creep(backends_settings):
     rows = []
     for label, backend, s in backends_settings:
         r = rollout_push_plan(plan, draws, backend=backend, settings=s, stroke="contact")
-        rows.append((label, float(r["slip"][0]) * 1e3, float(r["err_pos"][0]) * 1e3))
+        rows.append((label, float(r.slip[0]) * 1e3, float(r.err_pos[0]) * 1e3))
     return rows
 
 
@@ -181,8 +181,8 @@ def main():
     print(f"{'rollout_push_plan (C, threads)':<34}{ours:>9.2f}{sps:>12.0f}{n / ours:>12.3f}")
     print(f"overhead of the layer: {overhead * 100:.1f} %  (per-thread steps/s: "
           f"{sps / min(cpu_threads(), n):.0f})")
-    print(f"outcomes: success {r['success'].mean():.2f}, modes "
-          f"{dict(zip(*np.unique(r['failure_mode'], return_counts=True)))}")
+    print(f"outcomes: success {r.success.mean():.2f}, modes "
+          f"{dict(zip(*np.unique(r.failure_mode, return_counts=True)))}")
     mjx_sps = float("nan")
     if not (args.quick or args.no_mjx):
         compile_s, run_s, msteps = mjx_cpu(plan, args.mjx_n, dataclasses.replace(

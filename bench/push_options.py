@@ -185,15 +185,15 @@ def physics_rows(srows, goals_per_part, seed):
             t0 = time.perf_counter()
             res = rollout_push_plan(plan, Draws(params, ax, 2), backend="c")
             straight = math.hypot(plan.goal[0] - plan.start[0], plan.goal[1] - plan.start[1])
-            ok = (res["err_pos"] <= 0.01 * straight) & (np.abs(res["err_theta"]) <= math.radians(1.0))
-            out.append(dict(part=r["part"], goal=int(i), ok=ok.tolist(), err_mm=(res["err_pos"] * 1e3).tolist(),
-                            err_deg=np.degrees(np.abs(res["err_theta"])).tolist(),
-                            slip_mm=(np.asarray(res["slip"]) * 1e3).tolist(), straight=straight,
-                            mode=list(res["failure_mode"]), secs=time.perf_counter() - t0))
+            ok = (res.err_pos <= 0.01 * straight) & (np.abs(res.err_theta) <= math.radians(1.0))
+            out.append(dict(part=r["part"], goal=int(i), ok=ok.tolist(), err_mm=(res.err_pos * 1e3).tolist(),
+                            err_deg=np.degrees(np.abs(res.err_theta)).tolist(),
+                            slip_mm=(np.asarray(res.slip) * 1e3).tolist(), straight=straight,
+                            mode=list(res.failure_mode), secs=time.perf_counter() - t0))
             print(f"  mujoco {r['part']:<14} goal {i}: ok {ok.astype(int).tolist()}, err "
-                  f"{np.round(res['err_pos'] * 1e3, 2).tolist()} mm of {straight * 1e3:.0f} mm, "
-                  f"{np.round(np.degrees(np.abs(res['err_theta'])), 3).tolist()} deg, slip "
-                  f"{np.round(np.asarray(res['slip']) * 1e3, 3).tolist()} mm, {out[-1]['secs']:.0f} s",
+                  f"{np.round(res.err_pos * 1e3, 2).tolist()} mm of {straight * 1e3:.0f} mm, "
+                  f"{np.round(np.degrees(np.abs(res.err_theta)), 3).tolist()} deg, slip "
+                  f"{np.round(np.asarray(res.slip) * 1e3, 3).tolist()} mm, {out[-1]['secs']:.0f} s",
                   flush=True)
     return out
 

@@ -209,9 +209,9 @@ def mujoco(names, n_starts, seed=41):
             out = rollout_push_plan(pp, draws, backend="c", stroke="contact",
                                     settings=PhysicsSettings())
             g = np.asarray(plan.reached_goal)
-            dth = np.mod(out["theta"] - g[2], per)
+            dth = np.mod(out.theta - g[2], per)
             dth = np.minimum(dth, per - dth)
-            err = np.hypot(out["x"] - g[0], out["y"] - g[1])
+            err = np.hypot(out.x - g[0], out.y - g[1])
             good = (err <= EPS_POS) & (dth <= EPS_TH)
             ok += int(np.sum(good))
             total += len(good)
@@ -220,7 +220,7 @@ def mujoco(names, n_starts, seed=41):
                   f"{pp.total_distance:.2f} m: " + ", ".join(
                       f"mu_f {m}: {'ok' if gd else 'FAIL'} ({e * 1e3:.2f} mm, "
                       f"{math.degrees(t):.2f} deg, {fm})" for m, gd, e, t, fm in
-                      zip(MU_F, good, err, dth, out["failure_mode"]))
+                      zip(MU_F, good, err, dth, out.failure_mode))
                   + f" [{time.perf_counter() - t0:.0f} s]", flush=True)
     return ok / total if total else float("nan")
 

@@ -262,11 +262,10 @@ def _physics_rows(plan, ops, draws, sampler, criterion, merge_factor, physics, k
     r, extra = ops.physics_rows(plan, draws, sampler, criterion, merge_factor, run, common,
                                 key=key)
     out = SampleOutcomes(
-        x=r["x"], y=r["y"], theta=r["theta"], slip=np.asarray(r["slip"], np.float64),
-        model_valid=np.asarray(r["simulated"], bool), in_bound_model=np.zeros(n, bool),
-        success=np.asarray(r["success"], bool), failure_mode=np.asarray(r["failure_mode"]),
-        max_tilt_rad=np.asarray(r.get("max_tilt", np.full(n, np.nan)), np.float64), **extra)
-    return out, jnp.dtype(jnp.float32 if r["backend"] == "mjx" else jnp.float64)
+        x=r.x, y=r.y, theta=r.theta, slip=np.asarray(r.slip, np.float64),
+        model_valid=np.asarray(r.simulated, bool), in_bound_model=np.zeros(n, bool),
+        success=np.asarray(r.success, bool), failure_mode=np.asarray(r.failure_mode), **extra)
+    return out, jnp.dtype(jnp.float32 if r.backend == "mjx" else jnp.float64)
 
 
 def _compare_with_kinematics(data, plan, ops, draws, criterion, chunk, task, sampler,

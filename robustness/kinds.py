@@ -19,7 +19,9 @@ Per kind:
   the evaluation's, for what a kind draws beyond the sampler)
   (:class:`robustness.outcomes.SampleOutcomes`);
 * ``physics_rows(plan, draws, sampler, criterion, merge_factor, run, common, key)``: the
-  MuJoCo rollout and the kind's own outcome columns (``key``: the evaluation's);
+  MuJoCo rollout (a :class:`robustness.physics.PushRollout` or
+  :class:`~robustness.physics.TumbleRollout`) and the kind's own outcome columns
+  (``key``: the evaluation's);
 * ``nominal_final(plan)``: the plan's own prediction of the final pose;
 * ``bound(plan, geometry, execution)``: the first-order analytic bound
   (:class:`robustness.Bound`);

@@ -156,22 +156,24 @@ def tumble_rows(plan, draws, criterion, *, model="exact", dtype, chunk, task=Non
 def push_physics_rows(plan, draws, sampler, criterion, merge_factor, run, common,
                       key=None) -> tuple:
     """A push plan rolled out in MuJoCo (:func:`robustness.physics.rollout_push_plan`):
-    ``(rollout dict, the push columns of its SampleOutcomes)``."""
+    ``(its PushRollout, the push columns of its SampleOutcomes)``."""
     from robustness.physics import rollout_push_plan
 
     r = rollout_push_plan(plan, draws, stroke=run.stroke, **common)
     poly, planned = push_nominal(plan)
-    edges = np.asarray(r["edges"])
-    complete = np.asarray(r["complete"], bool)
+    edges = np.asarray(r.edges)
+    complete = np.asarray(r.complete, bool)
     wrong = complete & (edges != np.asarray(planned, np.int64)[None, :])
     return r, push_physics_columns(r, poly, edges, complete, wrong, planned[-1])
 
 
-def push_physics_columns(r: dict, poly, edges, complete, wrong, planned_last: int) -> dict:
+def push_physics_columns(r, poly, edges, complete, wrong, planned_last: int) -> dict:
     """The push columns of a MuJoCo rollout's :class:`SampleOutcomes` (known-start
-    and sensorless plans): the final and planned edges' vertex pairs, the pushes
-    that ended on no edge (``complete`` (n, P) False) or on another than planned
-    (``wrong`` (n, P)), the rollout's hull check, realised ``c`` (m) and support check."""
+    and sensorless plans; ``r`` a :class:`robustness.physics.PushRollout`): the
+    final and planned edges' vertex pairs, the pushes that ended on no edge
+    (``complete`` (n, P) False) or on another than planned (``wrong`` (n, P)),
+    the rollout's hull check, largest tilt (rad), realised ``c`` (m) and support
+    check."""
     n = len(edges)
     none = np.full(n, -1, np.int64)
     fa, fb = edge_pairs(poly, edges[:, -1])
@@ -179,17 +181,18 @@ def push_physics_columns(r: dict, poly, edges, complete, wrong, planned_last: in
     return dict(final_edge_a=fa, final_edge_b=fb, planned_edge_a=pa, planned_edge_b=pb,
                 final_face=none, planned_face=none, n_incomplete=(~complete).sum(axis=1),
                 first_wrong_step=np.where(wrong.any(axis=1), np.argmax(wrong, axis=1), -1),
-                hull_changed=np.asarray(r["hull_changed"], bool),
-                c_physical_m=np.asarray(r["c_physical"], np.float64),
-                support_ok=np.asarray(r["support_ok"], bool))
+                hull_changed=np.asarray(r.hull_changed, bool),
+                max_tilt_rad=np.asarray(r.max_tilt, np.float64),
+                c_physical_m=np.asarray(r.c_physical, np.float64),
+                support_ok=np.asarray(r.support_ok, bool))
 
 
 def tumble_physics_rows(plan, draws, sampler, criterion, merge_factor, run, common,
                         key=None) -> tuple:
     """A tumble plan rolled out in MuJoCo (:func:`robustness.physics.rollout_tumble_plan`),
     after the check that the pads grip the part
-    (:func:`robustness.physics.settings.check_pad_friction`): ``(rollout dict,
-    the tumble columns of its SampleOutcomes)``."""
+    (:func:`robustness.physics.settings.check_pad_friction`): ``(its
+    TumbleRollout, the tumble columns of its SampleOutcomes)``."""
     from robustness.physics import rollout_tumble_plan
     from robustness.physics.settings import check_pad_friction
     from robustness.physics.tumbling import nominal_polyhedron
@@ -200,10 +203,10 @@ def tumble_physics_rows(plan, draws, sampler, criterion, merge_factor, run, comm
     r = rollout_tumble_plan(plan, draws, merge_factor=merge_factor,
                             tau_v=sampler.geometry.tau_v, **common)
     extra = dict(final_edge_a=none, final_edge_b=none, planned_edge_a=none,
-                 planned_edge_b=none, final_face=np.asarray(r["face"], np.int64),
+                 planned_edge_b=none, final_face=np.asarray(r.face, np.int64),
                  planned_face=np.full(n, int(plan.goal[3]), np.int64),
-                 n_incomplete=np.asarray(r["n_wrong_faces"], np.int64), first_wrong_step=none,
-                 hull_changed=np.asarray(r["combinatorics_changed"], bool))
+                 n_incomplete=np.asarray(r.n_wrong_faces, np.int64), first_wrong_step=none,
+                 hull_changed=np.asarray(r.combinatorics_changed, bool))
     return r, extra
 
 

@@ -308,9 +308,12 @@ def sensorless_physics_rows(plan, draws, sampler, criterion, merge_factor, run, 
     (:func:`start_plan`) on its perturbed part, friction and fence errors,
     contact strokes (:func:`robustness.physics.rollout_push_plan`), judged by
     ``criterion`` against the goal turned by the symmetry period.  One rollout
-    per sample (each start its own strokes): ``(rollout dict, the push columns
-    of its SampleOutcomes)``, the final heading folded as the kinematic rows'
-    (:func:`fold_heading`)."""
+    per sample (each start its own strokes): ``(a PushRollout of the n samples,
+    the push columns of its SampleOutcomes)``, the samples' rows of their
+    rollouts with the final heading folded as the kinematic rows'
+    (:func:`fold_heading`); ``planned_edges`` -1 (each start plans its own
+    edges: :func:`allowed_edges` judges them), ``steps`` the longest rollout's,
+    ``seconds`` their sum."""
     from robustness.outcomes import push_physics_columns
     from robustness.physics import rollout_push_plan
     from robustness.samplers import Draws
@@ -323,14 +326,15 @@ def sensorless_physics_rows(plan, draws, sampler, criterion, merge_factor, run, 
     zeroed = Draws(params, draws.in_axes, n)
     got = [rollout_push_plan(start_plan(plan, starts[i]), zeroed.slice(i, i + 1),
                              stroke="contact", **common) for i in range(n)]
-    # each rollout is of one sample: its arrays have a leading axis of 1
-    r = {k: np.concatenate([np.asarray(g[k]) for g in got])
-         for k in ("x", "y", "theta", "slip", "simulated", "success", "failure_mode", "max_tilt",
-                   "hull_changed", "c_physical", "support_ok", "edges", "complete")}
-    r["theta"] = fold_heading(plan, r["theta"])
-    r["backend"] = got[0]["backend"]
+    # each rollout is of one sample: its per-sample arrays have a leading axis of 1
+    per_rollout = ("planned_edges", "backend", "steps", "seconds")
+    rows = {f.name: np.concatenate([getattr(g, f.name) for g in got])
+            for f in dataclasses.fields(got[0]) if f.name not in per_rollout}
+    rows["theta"] = fold_heading(plan, rows["theta"])
+    r = dataclasses.replace(got[0], **rows, planned_edges=np.full_like(got[0].planned_edges, -1),
+                            steps=max(g.steps for g in got), seconds=sum(g.seconds for g in got))
     poly, allowed = allowed_edges(plan)
-    edges, complete = r["edges"].astype(np.int64), r["complete"].astype(bool)
+    edges, complete = r.edges.astype(np.int64), r.complete.astype(bool)
     return r, push_physics_columns(r, poly, edges, complete,
                                    wrong_pushes(edges, complete, allowed), min(allowed[-1]))
 

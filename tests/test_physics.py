@@ -4,8 +4,10 @@ The MJX backend has its own file (tests/test_physics_mjx.py: one CPU smoke
 test, the rest need an accelerator).
 """
 import dataclasses
+import inspect
 import math
 import pathlib
+import re
 import warnings
 
 import jax
@@ -15,7 +17,8 @@ import pytest
 from kernels import polygon as pg
 from planning import plan_pose, plan_tumble
 from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler, evaluate
-from robustness.physics import PhysicsSettings, rollout_push_plan, rollout_tumble_plan
+from robustness.physics import (PhysicsSettings, PushRollout, TumbleRollout,
+                                rollout_push_plan, rollout_tumble_plan)
 from robustness.physics import geometry as geo
 from robustness.physics.monitor import mat_to_quat, quat_to_mat, yaw_tilt
 from robustness.physics.schedule import Phase, Schedule
@@ -68,20 +71,26 @@ def test_translating_box_neither_turns_nor_walks(rectangle):
     sam = Sampler(friction=FrictionRange(mu_f=(0.8, 0.8), mu_s=(0.5, 0.5)))
     r = rollout_push_plan(plan, _push_params(plan, sam), backend="c")
     d = np.asarray(plan.pushes[0].direction)
-    sideways = abs(-d[1] * r["x"][0] + d[0] * r["y"][0])
+    sideways = abs(-d[1] * r.x[0] + d[0] * r.y[0])
     assert sideways < 1e-4                       # < 0.1 mm over 10 cm
-    assert abs(r["theta"][0]) < math.radians(0.05)
-    assert r["edges"][0, 0] == r["planned_edges"][0]
-    assert r["success"][0] and r["failure_mode"][0] == "none"
-    assert r["slip"][0] < 1e-4 and not r["fence_strike"][0] and not r["tipped"][0]
+    assert abs(r.theta[0]) < math.radians(0.05)
+    assert r.edges[0, 0] == r.planned_edges[0]
+    assert r.success[0] and r.failure_mode[0] == "none"
+    assert r.slip[0] < 1e-4 and not r.fence_strike[0] and not r.tipped[0]
 
 
-def test_reorient_push_ends_flush_on_planned_edge(reorient_plan):
+@pytest.fixture(scope="module")
+def reorient_rollout(reorient_plan):
+    """The reorient push rolled out once (one sample, sticking friction)."""
     sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(0.5, 0.5)))
-    r = rollout_push_plan(reorient_plan, _push_params(reorient_plan, sam), backend="c")
-    assert r["complete"][0, 0] and r["edges"][0, 0] == r["planned_edges"][0]
-    assert abs(r["err_theta"][0]) < math.radians(0.2)
-    assert r["err_pos"][0] < 1e-3
+    return rollout_push_plan(reorient_plan, _push_params(reorient_plan, sam), backend="c")
+
+
+def test_reorient_push_ends_flush_on_planned_edge(reorient_rollout):
+    r = reorient_rollout
+    assert r.complete[0, 0] and r.edges[0, 0] == r.planned_edges[0]
+    assert abs(r.err_theta[0]) < math.radians(0.2)
+    assert r.err_pos[0] < 1e-3
 
 
 @pytest.mark.slow
@@ -93,8 +102,8 @@ def test_push_shorter_than_half_peshkin_stays_incomplete(reorient_plan):
     a = float(np.max(np.linalg.norm(body, axis=1)))
     sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), c=(a, a)))   # the slowest rotation
     r = rollout_push_plan(plan, _push_params(plan, sam), backend="c")
-    assert not r["complete"][0, 0] and r["edges"][0, 0] == -1
-    assert r["failure_mode"][0] == "incomplete_reorientation"
+    assert not r.complete[0, 0] and r.edges[0, 0] == -1
+    assert r.failure_mode[0] == "incomplete_reorientation"
     qs = evaluate(plan, sam, 1, jax.random.key(0), model="quasistatic", bound=False).samples
     assert qs["n_incomplete"].iloc[0] == 1
 
@@ -107,9 +116,9 @@ def test_sticking_push_agrees_with_quasistatic_model(reorient_plan):
     assert qs["slip_m"].iloc[0] == 0.0               # the model predicts sticking
     params = _push_params(reorient_plan, sam, seed=3)
     r = rollout_push_plan(reorient_plan, params, backend="c", stroke="contact")
-    dpos = math.hypot(r["x"][0] - qs["final_x_m"].iloc[0], r["y"][0] - qs["final_y_m"].iloc[0])
+    dpos = math.hypot(r.x[0] - qs["final_x_m"].iloc[0], r.y[0] - qs["final_y_m"].iloc[0])
     assert dpos < 2e-4
-    assert abs(r["theta"][0] - qs["final_theta_rad"].iloc[0]) < math.radians(0.2)
+    assert abs(r.theta[0] - qs["final_theta_rad"].iloc[0]) < math.radians(0.2)
 
 
 @pytest.mark.slow
@@ -126,9 +135,9 @@ def test_row_semantics_match_the_exact_model(rectangle):
     params = sam.sample(key, 2, n_vertices=4, dim=2, n_pushes=1,
                         body=pg.make_polygon(rectangle.vertices, rectangle.com).body)
     r = rollout_push_plan(plan, params, backend="c", stroke="contact")
-    np.testing.assert_allclose(r["x"], ex["final_x_m"], atol=3e-4)
-    np.testing.assert_allclose(r["y"], ex["final_y_m"], atol=3e-4)
-    np.testing.assert_allclose(r["theta"], ex["final_theta_rad"], atol=math.radians(0.2))
+    np.testing.assert_allclose(r.x, ex["final_x_m"], atol=3e-4)
+    np.testing.assert_allclose(r.y, ex["final_y_m"], atol=3e-4)
+    np.testing.assert_allclose(r.theta, ex["final_theta_rad"], atol=math.radians(0.2))
 
 
 # --------------------------------------------------------------------------
@@ -142,14 +151,47 @@ def cube_plan():
     return plan
 
 
-def test_cube_tumbles_land_the_planned_faces(cube_plan):
+@pytest.fixture(scope="module")
+def cube_rollout(cube_plan):
+    """The cube's two tumbles rolled out once (one sample, the pads gripping)."""
     sam = Sampler(friction=FrictionRange(mu_f=(1.5, 1.5), mu_s=(1.5, 1.5)))
     params = sam.sample(jax.random.key(0), 1, n_vertices=8, dim=3, n_tumbles=cube_plan.n_tumbles)
-    r = rollout_tumble_plan(cube_plan, params, backend="c")
-    assert r["faces_ok"][0] and list(r["faces"][0]) == list(cube_plan.faces)
-    assert r["face"][0] == cube_plan.goal[3]
-    assert r["err_pos"][0] < 1.5e-3 and abs(r["err_theta"][0]) < math.radians(0.2)
-    assert np.all(r["slip_per_tumble"][0] < 1e-3)
+    return rollout_tumble_plan(cube_plan, params, backend="c")
+
+
+def test_cube_tumbles_land_the_planned_faces(cube_plan, cube_rollout):
+    r = cube_rollout
+    assert r.faces_ok[0] and list(r.faces[0]) == list(cube_plan.faces)
+    assert r.face[0] == cube_plan.goal[3]
+    assert r.err_pos[0] < 1.5e-3 and abs(r.err_theta[0]) < math.radians(0.2)
+    assert np.all(r.slip_per_tumble[0] < 1e-3)
+
+
+def test_rollouts_are_frozen_records_of_the_documented_fields(reorient_rollout, cube_rollout):
+    """The rollouts' records (robustness.physics.rollouts): typed, frozen, and exactly
+    the fields their docstrings list (a field added or dropped fails here first)."""
+    push = ("x", "y", "theta", "pose_after", "edges", "complete", "planned_edges", "slip",
+            "slip_per_push", "contact", "max_tilt", "final_tilt", "tipped", "toppled",
+            "fence_strike", "left_workspace", "hull_changed", "simulated", "support_ok",
+            "support", "c", "c_support", "c_physical", "err_x", "err_y", "err_pos", "err_theta",
+            "success", "failure_mode", "backend", "steps", "seconds")
+    tumble = ("x", "y", "theta", "face", "faces", "planned_faces", "faces_ok", "n_wrong_faces",
+              "slip", "slip_per_tumble", "left_workspace", "combinatorics_changed", "simulated",
+              "err_x", "err_y", "err_pos", "err_theta", "success", "failure_mode", "backend",
+              "steps", "seconds", "grip_n")
+    for r, cls, names in ((reorient_rollout, PushRollout, push),
+                          (cube_rollout, TumbleRollout, tumble)):
+        assert type(r) is cls
+        assert tuple(f.name for f in dataclasses.fields(r)) == names
+        doc = inspect.cleandoc(cls.__doc__).split("Attributes:\n")[1]
+        documented = [n for m in re.finditer(r"^  (\w+(?:, \w+)*): ", doc, re.M)
+                      for n in m.group(1).split(", ")]
+        assert tuple(documented) == names   # each field documented, in order
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            r.x = np.zeros(1)
+        with pytest.raises(TypeError):   # a missing (or extra) field fails loudly
+            cls(**{n: getattr(r, n) for n in names[1:]})
+    assert reorient_rollout.backend == "c" and isinstance(reorient_rollout.steps, int)
 
 
 def test_tumble_rows_match_the_exact_model(cube_plan):
@@ -163,10 +205,10 @@ def test_tumble_rows_match_the_exact_model(cube_plan):
     ex = evaluate(cube_plan, sam, 1, key, bound=False).samples
     params = sam.sample(key, 1, n_vertices=8, dim=3, n_tumbles=cube_plan.n_tumbles)
     r = rollout_tumble_plan(cube_plan, params, backend="c")
-    assert r["face"][0] == ex["final_face"].iloc[0]
-    dpos = math.hypot(r["x"][0] - ex["final_x_m"].iloc[0], r["y"][0] - ex["final_y_m"].iloc[0])
+    assert r.face[0] == ex["final_face"].iloc[0]
+    dpos = math.hypot(r.x[0] - ex["final_x_m"].iloc[0], r.y[0] - ex["final_y_m"].iloc[0])
     assert dpos <= 1.5e-3
-    assert abs(r["theta"][0] - ex["final_theta_rad"].iloc[0]) < math.radians(0.1)
+    assert abs(r.theta[0] - ex["final_theta_rad"].iloc[0]) < math.radians(0.1)
 
 
 def test_rolling_plate_squares_a_yawed_cube(cube_plan):
@@ -180,7 +222,7 @@ def test_rolling_plate_squares_a_yawed_cube(cube_plan):
     params = sam.sample(key, 1, n_vertices=8, dim=3, n_tumbles=cube_plan.n_tumbles)
     r = rollout_tumble_plan(cube_plan, params, backend="c")
     assert abs(ex["err_theta_rad"].iloc[0]) > math.radians(0.3)
-    assert abs(r["err_theta"][0]) < 0.25 * abs(ex["err_theta_rad"].iloc[0])
+    assert abs(r.err_theta[0]) < 0.25 * abs(ex["err_theta_rad"].iloc[0])
 
 
 def test_tumble_cell_is_a_gripper(cube_plan):
@@ -239,7 +281,7 @@ def test_tumble_slipped_off_the_jaw_is_reported(cube_plan):
     slip = np.broadcast_to(np.asarray(params.params.execution.tumble_slip), (2, cube_plan.n_tumbles, 3))
     assert np.all(np.abs(slip[:, 0, :2]).max(axis=1) > 0.08)   # past the jaw's 1.7 cm margin
     r = rollout_tumble_plan(cube_plan, params, backend="c", workspace=(-10, 10, -10, 10))
-    assert r["left_workspace"].all() and list(r["failure_mode"]) == ["left_workspace"] * 2
+    assert r.left_workspace.all() and list(r.failure_mode) == ["left_workspace"] * 2
 
 
 # --------------------------------------------------------------------------
@@ -319,7 +361,7 @@ def test_batches_do_not_change_the_rows(rectangle):
     a = rollout_push_plan(plan, params, backend="c")
     b = rollout_push_plan(plan, params, backend="c", settings=PhysicsSettings(batch=1))
     for k in ("x", "y", "theta", "slip", "edges"):
-        np.testing.assert_array_equal(a[k], b[k])
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
     with pytest.raises(ValueError, match=r"draws: the sampled params hold \[2\] samples, not n=3"):
         rollout_push_plan(plan, dataclasses.replace(params, n=3), backend="c")
 
@@ -363,5 +405,5 @@ def test_pads_below_the_derived_friction_drag_the_cube(cube_plan):
         sam = Sampler(friction=FrictionRange(mu_f=(mu, mu), mu_s=(1.5, 1.5)))
         params = sam.sample(jax.random.key(0), 1, n_vertices=8, dim=3,
                             n_tumbles=cube_plan.n_tumbles)
-        ok[mu] = bool(rollout_tumble_plan(cube_plan, params, backend="c")["faces_ok"][0])
+        ok[mu] = bool(rollout_tumble_plan(cube_plan, params, backend="c").faces_ok[0])
     assert ok == {1.2: False, 1.3: True}

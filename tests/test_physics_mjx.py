@@ -85,17 +85,17 @@ def test_mjx_smoke_on_cpu_agrees_with_the_c_engine():
     with jax.enable_x64(True):            # a caller inside a float64 scope is safe
         m = rollout_push_plan(plan, params, backend="mjx", settings=SOFT)
     c = rollout_push_plan(plan, params, backend="c", settings=SOFT)
-    assert m["backend"] == "mjx" and m["steps"] == c["steps"]
-    assert (m["edges"][:, 0] == m["planned_edges"][0]).all()
-    np.testing.assert_array_equal(m["edges"], c["edges"])
-    d = np.hypot(m["x"] - c["x"], m["y"] - c["y"])
+    assert m.backend == "mjx" and m.steps == c.steps
+    assert (m.edges[:, 0] == m.planned_edges[0]).all()
+    np.testing.assert_array_equal(m.edges, c.edges)
+    d = np.hypot(m.x - c.x, m.y - c.y)
     assert np.median(d) < 3e-4 and d.max() < 1.5e-3, d
-    th_m, th_c = np.degrees(m["theta"]), np.degrees(c["theta"])
-    assert np.ptp(th_c) < 0.1 and np.ptp(c["y"]) < 1e-4, th_c  # the oracle is steady
+    th_m, th_c = np.degrees(m.theta), np.degrees(c.theta)
+    assert np.ptp(th_c) < 0.1 and np.ptp(c.y) < 1e-4, th_c  # the oracle is steady
     assert abs(np.median(th_m) - np.median(th_c)) < 0.35, (th_m, th_c)
     assert np.mean(np.abs(th_m - np.median(th_c)) < 0.5) >= 0.75, th_m
     assert np.abs(th_m).max() < 2.5, th_m
-    assert c["success"].all() and m["success"].mean() >= 0.75
+    assert c.success.all() and m.success.mean() >= 0.75
 
 
 @pytest.mark.gpu
@@ -111,10 +111,10 @@ def test_mjx_batch_agrees_with_the_c_engine_on_an_accelerator():
     params = sam.sample(jax.random.key(1), 64, n_vertices=4, dim=2, n_pushes=1, body=body)
     m = rollout_push_plan(plan, params, backend="mjx", settings=SOFT)
     c = rollout_push_plan(plan, params, backend="c", settings=SOFT)
-    np.testing.assert_array_equal(m["edges"], c["edges"])
-    d = np.hypot(m["x"] - c["x"], m["y"] - c["y"])
+    np.testing.assert_array_equal(m.edges, c.edges)
+    d = np.hypot(m.x - c.x, m.y - c.y)
     assert np.median(d) < 5e-4 and np.max(d) < 2e-3, np.sort(d)
-    assert m["success"].mean() >= c["success"].mean() - 0.05
+    assert m.success.mean() >= c.success.mean() - 0.05
 
 
 @pytest.mark.gpu

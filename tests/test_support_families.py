@@ -324,13 +324,13 @@ def test_the_scene_realises_the_drawn_support(name):
     params = sam.sample(jax.random.key(5), n, n_vertices=len(part.vertices), dim=2,
                         n_pushes=plan.n_pushes, body=body)
     r = rollout_push_plan(plan, params, backend="c", settings=PhysicsSettings(batch=n))
-    assert set(r["support"]) == set(ks.ANY_COMPONENTS)
-    sim = r["simulated"]
+    assert set(r.support) == set(ks.ANY_COMPONENTS)
+    sim = r.simulated
     assert sim.all()
-    tol = np.where(r["support"] == "rigid", 1e-3, 2e-4)      # rigid rocks on its corners
-    np.testing.assert_array_less(np.abs(r["c_physical"] - r["c_support"]), tol)
-    np.testing.assert_allclose(r["c_support"], r["c"], atol=2e-4)
-    assert r["support_ok"].all()
+    tol = np.where(r.support == "rigid", 1e-3, 2e-4)      # rigid rocks on its corners
+    np.testing.assert_array_less(np.abs(r.c_physical - r.c_support), tol)
+    np.testing.assert_allclose(r.c_support, r.c, atol=2e-4)
+    assert r.support_ok.all()
 
 
 @pytest.mark.slow

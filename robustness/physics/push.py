@@ -20,6 +20,7 @@ from kernels import wrap_angle_np, FAMILIES
 from robustness.physics import geometry as geo, scene
 from robustness.physics.monitor import Recorder, flush_edge, planar_pose, yaw_quat
 from robustness.physics.pushing import FenceStrokes, PushTracker, nominal_polygon, push_parts
+from robustness.physics.rollouts import PushRollout
 from robustness.physics.runner import check_batch, make_engine, resolve_backend, run_schedule
 from robustness.physics.settings import STROKES, PhysicsSettings
 from robustness.tolerances import SuccessCriterion
@@ -119,7 +120,7 @@ def _simulate(plan, poly, parts, idx, s, backend, workspace, stroke):
 def rollout_push_plan(plan, draws, *, backend: str = "auto",
                       settings: Optional[PhysicsSettings] = None, workspace=None,
                       criterion: Optional[SuccessCriterion] = None,
-                      stroke: str = "planned") -> dict:
+                      stroke: str = "planned") -> PushRollout:
     """Roll a push plan out in MuJoCo on sampled parts and executions.
 
     Args:
@@ -142,26 +143,8 @@ def rollout_push_plan(plan, draws, *, backend: str = "auto",
         quasi-static and exact models; use it to compare rows).
 
     Returns:
-      dict of numpy arrays, one entry per sample (n) unless said:
-      ``x``, ``y``, ``theta`` final pose of the nominal reference point
-      (m, rad, world); ``pose_after`` (n, P, 3) after each push's dwell;
-      ``edges`` (n, P) hull edge flush on the fence at the end of each push
-      (-1: none; hull order of :func:`kernels.polygon.make_polygon`),
-      ``complete`` (n, P), ``planned_edges`` (P,); ``slip`` (m, summed),
-      ``slip_per_push`` (n, P), ``contact`` (n, P) the fence touched the
-      part during push k; ``max_tilt``, ``final_tilt`` (rad); flags
-      ``tipped``, ``toppled``, ``fence_strike`` (the fence touched the part
-      while coming down or moving lifted), ``left_workspace``,
-      ``hull_changed``, ``simulated``, ``support_ok`` (the centre of mass
-      stands inside the loaded support contacts after settling);
-      ``support`` the family's name, ``c`` the sampled limit-surface ratio,
-      ``c_support`` the one the family's loads give on the perturbed part and
-      ``c_physical`` the one MuJoCo's loads realise after settling (m);
-      ``err_x``, ``err_y``, ``err_pos`` (m), ``err_theta`` (rad) against the
-      goal, ``success``, ``failure_mode`` (one of ``PUSH_FAILURE_MODES``);
-      and ``backend`` (str), ``steps`` (physics steps per sample),
-      ``seconds`` (wall time).  Samples not simulated (hull changed) hold NaN
-      / -1 / False.
+      a :class:`~robustness.physics.rollouts.PushRollout` (its fields, one row
+      per sample, with their units and frames documented there).
     """
     s = settings or PhysicsSettings()
     backend = resolve_backend(backend, s)
@@ -194,7 +177,7 @@ def rollout_push_plan(plan, draws, *, backend: str = "auto",
             res[k][grp] = v
     _classify(res, plan, planned, parts, criterion or SuccessCriterion.for_plan(plan), s)
     res.update(backend=backend, steps=int(steps), seconds=time.perf_counter() - t0)
-    return res
+    return PushRollout(**res)
 
 
 def _classify(res, plan, planned, parts, criterion, s) -> None:

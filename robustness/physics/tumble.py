@@ -19,6 +19,7 @@ import numpy as np
 from kernels import wrap_angle_np
 from robustness.physics import geometry as geo, scene, tumbling as tb
 from robustness.physics.monitor import Recorder, mat_to_quat
+from robustness.physics.rollouts import TumbleRollout
 from robustness.physics.runner import check_batch, make_engine, resolve_backend, run_schedule
 from robustness.physics.settings import PhysicsSettings
 from robustness.tolerances import SuccessCriterion
@@ -110,7 +111,7 @@ def rollout_tumble_plan(plan, draws, *, backend: str = "auto",
                         settings: Optional[PhysicsSettings] = None, workspace=None,
                         criterion: Optional[SuccessCriterion] = None,
                         merge_factor: float = 8.0,
-                        tau_v: Optional[float] = None) -> dict:
+                        tau_v: Optional[float] = None) -> TumbleRollout:
     """Roll a tumble plan out in MuJoCo on sampled parts and executions.
 
     Args:
@@ -134,18 +135,8 @@ def rollout_tumble_plan(plan, draws, *, backend: str = "auto",
         exact check).
 
     Returns:
-      dict of numpy arrays (n unless said): ``x``, ``y``, ``theta`` the final
-      configuration of the nominal frame of the face on the support (m, rad,
-      world), ``face`` that face (-1: none flat), ``faces`` (n, L) the face on
-      the support after each tumble, ``planned_faces`` (L,), ``faces_ok``
-      every tumble landed its planned face, ``n_wrong_faces``; ``slip`` (m,
-      summed) and ``slip_per_tumble`` (n, L) the horizontal displacement of
-      the tumble edge's midpoint during each roll (the paper's tumble keeps it
-      fixed); ``left_workspace``, ``combinatorics_changed``, ``simulated``;
-      ``err_x``, ``err_y``, ``err_pos`` (m), ``err_theta`` (rad), ``success``
-      (within eps on the goal face), ``failure_mode`` (one of
-      ``TUMBLE_FAILURE_MODES``); ``backend``, ``steps``, ``seconds``,
-      ``grip_n`` (the grasp force, N).
+      a :class:`~robustness.physics.rollouts.TumbleRollout` (its fields, one row
+      per sample, with their units and frames documented there).
     """
     s = settings or PhysicsSettings()
     backend = resolve_backend(backend, s)
@@ -177,7 +168,7 @@ def rollout_tumble_plan(plan, draws, *, backend: str = "auto",
         res["left_workspace"][grp] = out["left_workspace"]
     _classify(res, plan, parts, criterion or SuccessCriterion.for_plan(plan))
     res.update(backend=backend, steps=int(steps), seconds=time.perf_counter() - t0, grip_n=grip)
-    return res
+    return TumbleRollout(**res)
 
 
 def _classify(res, plan, parts, criterion) -> None:
