@@ -146,7 +146,10 @@ def decision_model(model: str, kind: str) -> str:
 #: process runs those 576 samples at 2,700/s); with a batch's calls one after the other
 #: (:func:`robustness.replay._map_calls`: on two threads they deadlocked now and then,
 #: December 2026) ``limit_surface_rigid=6.07e+03 limit_surface_any=597``, taken as 6,000 and
-#: 600.  (The table before
+#: 600; with a batch's calls spread over a CPU device per core (the cause of the deadlock,
+#: LAPACK's batched LU in the support kernels, removed: :mod:`kernels.linsolve`; December
+#: 2026) ``limit_surface_rigid=1.19e+04 limit_surface_any=697 quasistatic_any=1.44e+04``,
+#: taken as 10,000, 600 and 12,000 (the replay alone: 17,000 and 4,500).  (The table before
 #: December 2026 took a cold whole run for the extra samples' time: quasistatic 800,
 #: limit_surface 8 and 0.85, 6-90 times too slow.)  Families not measured (tripod,
 #: uniform, ring) take the ``"*"`` row.  Tumble rows: the same bench's ``tumble-``
@@ -154,8 +157,8 @@ def decision_model(model: str, kind: str) -> str:
 #: ``RESULT tumble_exact_any=1.04e+05`` (2 tasks), ``tumble_mujoco_any=1.03`` (2 tasks).
 THROUGHPUT = {
     ("push", "exact", "*"): 80_000.0,
-    ("push", "quasistatic", "*"): 5_000.0,
-    ("push", "limit_surface", "rigid"): 6_000.0,
+    ("push", "quasistatic", "*"): 12_000.0,
+    ("push", "limit_surface", "rigid"): 10_000.0,
     ("push", "limit_surface", "*"): 600.0,
     ("push", "mujoco", "rigid"): 6.0,
     ("push", "mujoco", "*"): 1.9,
