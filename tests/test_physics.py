@@ -17,7 +17,7 @@ import pytest
 from kernels import polygon as pg
 from planning import plan_pose, plan_tumble
 from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler, evaluate
-from robustness.physics import (PhysicsSettings, PushRollout, TumbleRollout,
+from robustness.physics import (PhysicsSettings, PushRollout, RolloutVerdict, TumbleRollout,
                                 rollout_push_plan, rollout_tumble_plan)
 from robustness.physics import geometry as geo
 from robustness.physics.monitor import mat_to_quat, quat_to_mat, yaw_tilt
@@ -170,23 +170,27 @@ def test_cube_tumbles_land_the_planned_faces(cube_plan, cube_rollout):
 def test_rollouts_are_frozen_records_of_the_documented_fields(reorient_rollout, cube_rollout):
     """The rollouts' records (robustness.physics.rollouts): typed, frozen, and exactly
     the fields their docstrings list (a field added or dropped fails here first)."""
-    push = ("x", "y", "theta", "pose_after", "edges", "complete", "planned_edges", "slip",
-            "slip_per_push", "contact", "max_tilt", "final_tilt", "tipped", "toppled",
-            "fence_strike", "left_workspace", "hull_changed", "simulated", "support_ok",
-            "support", "c", "c_support", "c_physical", "err_x", "err_y", "err_pos", "err_theta",
-            "success", "failure_mode", "backend", "steps", "seconds")
-    tumble = ("x", "y", "theta", "face", "faces", "planned_faces", "faces_ok", "n_wrong_faces",
-              "slip", "slip_per_tumble", "left_workspace", "combinatorics_changed", "simulated",
-              "err_x", "err_y", "err_pos", "err_theta", "success", "failure_mode", "backend",
-              "steps", "seconds", "grip_n")
+    verdict = ("err_x", "err_y", "err_pos", "err_theta", "success", "failure_mode", "backend",
+               "steps", "seconds")
+    push = verdict + ("x", "y", "theta", "pose_after", "edges", "complete", "planned_edges",
+                      "slip", "slip_per_push", "contact", "max_tilt", "final_tilt", "tipped",
+                      "toppled", "fence_strike", "left_workspace", "hull_changed", "simulated",
+                      "support_ok", "support", "c", "c_support", "c_physical")
+    tumble = verdict + ("x", "y", "theta", "face", "faces", "planned_faces", "faces_ok",
+                        "n_wrong_faces", "slip", "slip_per_tumble", "left_workspace",
+                        "combinatorics_changed", "simulated", "grip_n")
+
+    def documented(cls):
+        doc = inspect.cleandoc(cls.__doc__).split("Attributes", 1)[1].split(":\n", 1)[1]
+        return tuple(n for m in re.finditer(r"^  (\w+(?:, \w+)*): ", doc, re.M)
+                     for n in m.group(1).split(", "))
+
+    assert documented(RolloutVerdict) == verdict
     for r, cls, names in ((reorient_rollout, PushRollout, push),
                           (cube_rollout, TumbleRollout, tumble)):
-        assert type(r) is cls
+        assert type(r) is cls and isinstance(r, RolloutVerdict)
         assert tuple(f.name for f in dataclasses.fields(r)) == names
-        doc = inspect.cleandoc(cls.__doc__).split("Attributes:\n")[1]
-        documented = [n for m in re.finditer(r"^  (\w+(?:, \w+)*): ", doc, re.M)
-                      for n in m.group(1).split(", ")]
-        assert tuple(documented) == names   # each field documented, in order
+        assert verdict + documented(cls) == names   # each field documented, in order
         with pytest.raises(dataclasses.FrozenInstanceError):
             r.x = np.zeros(1)
         with pytest.raises(TypeError):   # a missing (or extra) field fails loudly

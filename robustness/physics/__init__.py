@@ -4,8 +4,9 @@
   sampled parts and executions (the samplers of :mod:`robustness.samplers`),
   per-sample outcomes as numpy arrays, comparable row by row with
   :func:`robustness.evaluation.evaluate`'s quasi-static and exact rows.
-* :class:`PushRollout`, :class:`TumbleRollout`: what they return (frozen
-  records, one field per outcome, each with its unit and frame).
+* :class:`PushRollout`, :class:`TumbleRollout` (each a :class:`RolloutVerdict`):
+  what they return (frozen records, one field per outcome, each with its unit
+  and frame).
 * Two backends behind the ``backend`` argument: ``"c"`` (the C engine through
   ``mujoco.rollout``, threads) and ``"mjx"`` (MJX, float32, vmapped); ``"auto"``
   picks the C engine for the default contact model (noslip, which MJX cannot
@@ -17,7 +18,7 @@ Scenes are built in code (``mujoco.MjSpec``): :mod:`robustness.physics.scene`.
 Nothing here reads or writes files.
 """
 from robustness.physics.push import PUSH_FAILURE_MODES, rollout_push_plan
-from robustness.physics.rollouts import PushRollout, TumbleRollout
+from robustness.physics.rollouts import PushRollout, RolloutVerdict, TumbleRollout
 from robustness.physics.runner import default_backend
 from robustness.physics.tumble import TUMBLE_FAILURE_MODES, rollout_tumble_plan
 from robustness.physics.settings import BACKENDS, STROKES, PhysicsRun, PhysicsSettings
@@ -28,6 +29,6 @@ from robustness.physics.runner import check_contact_model
 from robustness.physics.settings import check_pad_friction
 
 __all__ = ["rollout_push_plan", "rollout_tumble_plan", "PushRollout", "TumbleRollout",
-           "PUSH_FAILURE_MODES", "TUMBLE_FAILURE_MODES", "PhysicsSettings", "PhysicsRun",
+           "RolloutVerdict", "PUSH_FAILURE_MODES", "TUMBLE_FAILURE_MODES", "PhysicsSettings", "PhysicsRun",
            "BACKENDS", "STROKES", "default_backend", "POINTS_NOT_REALISABLE",
            "check_contact_model", "check_pad_friction"]

@@ -1,6 +1,7 @@
 """The records of a plan rolled out in MuJoCo: :class:`PushRollout` (what
 :func:`robustness.physics.rollout_push_plan` returns) and :class:`TumbleRollout`
-(:func:`robustness.physics.rollout_tumble_plan`).
+(:func:`robustness.physics.rollout_tumble_plan`), each a :class:`RolloutVerdict`
+(the samples judged against the goal) with its kind's own fields.
 
 Frozen dataclasses of numpy arrays, one row per sample (``n``) unless a field
 says otherwise; ``P`` is the plan's number of pushes, ``L`` its number of
@@ -16,12 +17,42 @@ import numpy as np
 
 
 @dataclasses.dataclass(frozen=True)
-class PushRollout:
+class RolloutVerdict:
+    """How a rollout's samples end against the goal, as the plan's
+    :class:`~robustness.SuccessCriterion` judges them, and what ran; the first
+    fields of :class:`PushRollout` and :class:`TumbleRollout`.
+
+    Attributes:
+      err_x, err_y, err_pos: (n,) float64: the final position minus the goal's,
+        and its norm (m; world).
+      err_theta: (n,) float64: the final heading minus the goal's, wrapped (rad).
+      success: (n,) bool: within the criterion's tolerances of the goal (a
+        tumble: on the goal face).
+      failure_mode: (n,) str: one of ``PUSH_FAILURE_MODES`` /
+        ``TUMBLE_FAILURE_MODES`` (``"none"`` for a success).
+      backend: ``"c"`` or ``"mjx"``: the engine that ran.
+      steps: physics steps per sample.
+      seconds: the rollout's wall time (s).
+    """
+
+    err_x: np.ndarray
+    err_y: np.ndarray
+    err_pos: np.ndarray
+    err_theta: np.ndarray
+    success: np.ndarray
+    failure_mode: np.ndarray
+    backend: str
+    steps: int
+    seconds: float
+
+
+@dataclasses.dataclass(frozen=True)
+class PushRollout(RolloutVerdict):
     """A push plan rolled out in MuJoCo on ``n`` sampled parts and executions.
 
     Samples not simulated (hull changed) hold NaN / -1 / False.
 
-    Attributes:
+    Attributes (after :class:`RolloutVerdict`'s):
       x, y, theta: (n,) float64: the final pose of the nominal reference point
         (the simulated centre of mass minus ``R(theta) dcom``) (m, m, rad; world).
       pose_after: (n, P, 3) float64: that pose after each push's dwell (m, m,
@@ -56,15 +87,6 @@ class PushRollout:
         perturbed part (m).
       c_physical: (n,) float64: the one MuJoCo's support loads realise after
         settling (m).
-      err_x, err_y, err_pos: (n,) float64: the final position minus the goal's,
-        and its norm (m; world).
-      err_theta: (n,) float64: the final heading minus the goal's, wrapped (rad).
-      success: (n,) bool: within the criterion's tolerances of the goal.
-      failure_mode: (n,) str: one of ``PUSH_FAILURE_MODES`` (``"none"`` for a
-        success).
-      backend: ``"c"`` or ``"mjx"``: the engine that ran.
-      steps: physics steps per sample.
-      seconds: the rollout's wall time (s).
     """
 
     x: np.ndarray
@@ -90,24 +112,15 @@ class PushRollout:
     c: np.ndarray
     c_support: np.ndarray
     c_physical: np.ndarray
-    err_x: np.ndarray
-    err_y: np.ndarray
-    err_pos: np.ndarray
-    err_theta: np.ndarray
-    success: np.ndarray
-    failure_mode: np.ndarray
-    backend: str
-    steps: int
-    seconds: float
 
 
 @dataclasses.dataclass(frozen=True)
-class TumbleRollout:
+class TumbleRollout(RolloutVerdict):
     """A tumble plan rolled out in MuJoCo on ``n`` sampled parts and executions.
 
     Samples not simulated (combinatorics changed) hold NaN / -1 / False.
 
-    Attributes:
+    Attributes (after :class:`RolloutVerdict`'s):
       x, y, theta: (n,) float64: the final configuration of the nominal frame
         of the face on the support (m, m, rad; world).
       face: (n,) int64: that face (-1: none flat).
@@ -125,16 +138,6 @@ class TumbleRollout:
       combinatorics_changed: (n,) bool: the perturbed hull's faces are not
         the nominal part's (not simulated).
       simulated: (n,) bool: the sample was rolled out.
-      err_x, err_y, err_pos: (n,) float64: the final position minus the goal's,
-        and its norm (m; world).
-      err_theta: (n,) float64: the final heading minus the goal's, wrapped (rad).
-      success: (n,) bool: within the criterion's tolerances of the goal, on
-        the goal face.
-      failure_mode: (n,) str: one of ``TUMBLE_FAILURE_MODES`` (``"none"`` for a
-        success).
-      backend: ``"c"`` or ``"mjx"``: the engine that ran.
-      steps: physics steps per sample.
-      seconds: the rollout's wall time (s).
       grip_n: the grasp force (N; NaN when no sample was simulated).
     """
 
@@ -151,15 +154,6 @@ class TumbleRollout:
     left_workspace: np.ndarray
     combinatorics_changed: np.ndarray
     simulated: np.ndarray
-    err_x: np.ndarray
-    err_y: np.ndarray
-    err_pos: np.ndarray
-    err_theta: np.ndarray
-    success: np.ndarray
-    failure_mode: np.ndarray
-    backend: str
-    steps: int
-    seconds: float
     grip_n: float
 
 
