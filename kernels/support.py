@@ -58,6 +58,7 @@ import numpy as np
 
 from kernels.linsolve import det3, solve3
 
+
 @dataclasses.dataclass(frozen=True)
 class Family:
     """One support family: a row of :data:`TABLE`, the one place a family is
