@@ -72,3 +72,21 @@ def test_no_lapack_call_and_singular_is_not_finite():
     assert "lapack" not in text and "custom_call" not in text
     assert not np.all(np.isfinite(np.asarray(solve3(A, jnp.ones((4, 3))))))
     assert not np.all(np.isfinite(np.asarray(solve2(A[:, :2, :2], jnp.ones((4, 2))))))
+
+
+def test_no_lapack_backed_solve_in_the_jax_code():
+    """Source scan of the layers that compile (kernels, planning, robustness): no
+    ``jnp.linalg`` call but ``norm`` and no ``jax.scipy.linalg`` / ``lax.linalg``
+    (on the CPU those are LAPACK custom calls, which deadlocked compiled replays
+    running at once: kernels.linsolve); numpy's ``np.linalg`` on the host is fine."""
+    import pathlib
+    import re
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    bad = re.compile(r"jnp\.linalg\.(?!norm\b)\w+|jax\.scipy\.linalg|lax\.linalg|jsp\.linalg")
+    found = [f"{p.relative_to(root)}:{i}: {line.strip()}"
+             for pkg in ("kernels", "planning", "robustness") for p in (root / pkg).rglob("*.py")
+             for i, line in enumerate(p.read_text().splitlines(), 1)
+             if bad.search(line.split("#")[0]) and "``" not in line]
+    assert not found, "\n".join(found)
+    assert bad.search("d = jnp.linalg.solve(A, b)") and not bad.search("jnp.linalg.norm(v)")
