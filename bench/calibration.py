@@ -124,6 +124,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 # over bench/robustness.py (this script's folder is sys.path[0])
 sys.path.insert(0, str(ROOT))
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
+# a CPU device per core, as the command lines (robustness.replay.replay_devices)
+os.environ.setdefault("JAX_NUM_CPU_DEVICES", str(len(os.sched_getaffinity(0))))
 
 PARTS = ("rectangle", "nice_stable", "biplus_stable", "unistable")
 MU_F = (0.5, 0.8, 1.5)

@@ -95,21 +95,24 @@ lows, seconds per task 5.19, 2.36, 4.84, 1.85, 19.99, 6.11, 53.17, 59.65::
     tasks_worse_2se_mujoco=0 one_task_s=nan design_s=nan
 
 With a batch's compiled calls spread over a CPU device per core (December 2026,
-``robustness.replay``; ``--no-design --mujoco-samples 0 --veto-samples 0``, quiet
-machine), seconds per task 5.78, 2.70, 5.38, 2.24, 12.39, 4.80, 31.51, 37.66::
+``robustness.replay``; the script now sets ``JAX_NUM_CPU_DEVICES`` to the cores as
+the command lines do; ``--no-design --mujoco-samples 0 --veto-samples 0``, quiet
+machine), the same session on one device and on two: seconds per task 5.78 /
+3.12, 2.70 / 1.54, 5.38 / 2.99, 2.24 / 1.33, 12.39 / 6.99, 4.80 / 2.97, 31.51 /
+18.05, 37.66 / 21.31, the same choices and CP lows::
 
     RESULT model=limit_surface gain_model=0.1419 gain_mujoco=nan length_ratio=1.099
-    seconds_per_task=5.58 tasks_not_worse_model=8/8 tasks_not_worse_mujoco=0/0
+    seconds_per_task=3.05 tasks_not_worse_model=8/8 tasks_not_worse_mujoco=0/0
     tasks_worse_2se_mujoco=0 one_task_s=nan design_s=nan
 
-(the long plans 1.6x faster; the median task is compilation-bound).  The CP lows
+(one device: ``seconds_per_task=5.58``).  The CP lows
 moved since the runs above (rectangle turn 0.2131 -> 0.1931, nice-stable turn
 0.7745 -> 0.7330, its synthesized plan now 8 pushes, 0.249 m): the previous commit
 (e159560) gives the same lows and choices on the same draws, so the move predates
 the spread (the pad's and rim's feet, ``kernels.support.FEET_AT_CORNERS``, came
 between).
 
-Both runs above the last are without the physics veto (``--veto-samples 0``).  With it
+The runs above are without the physics veto (``--veto-samples 0``).  With it
 (24 common draws, the default), 48 MuJoCo rollouts a plan, 2 cores shared with
 a test run, in two runs (``--only rectangle,nice_stable,biplus_stable
 --no-design``, then ``--only unistable --no-design``)::
@@ -151,6 +154,8 @@ import warnings
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
+# a CPU device per core, as the command lines (robustness.replay.replay_devices)
+os.environ.setdefault("JAX_NUM_CPU_DEVICES", str(len(os.sched_getaffinity(0))))
 
 PARTS = ("rectangle", "nice_stable", "biplus_stable", "unistable")
 
