@@ -201,9 +201,9 @@ def _spread_call(fn, statics: tuple, n_args: int, sample_axis: int, devices: tup
                                  check_vma=False))
 
 
-def _map_calls(fn, nom, rows, args, calls, sample_axis: int):
+def _map_calls(fn, nom, rows, args, calls, sample_axis: int, devices: tuple):
     """The outcomes (numpy pytrees) of ``fn(nom, cut(rows), *args)`` for each
-    ``(cut, size)`` in ``calls``, in this thread.  With several devices
+    ``(cut, size)`` in ``calls``, in this thread.  With several ``devices``
     (:func:`replay_devices`) each run of as many calls of one size is ONE
     compiled call spread over the devices (:func:`_spread_call`; a short run
     padded by repeating its last call), so that a batch's calls use every
@@ -217,13 +217,13 @@ def _map_calls(fn, nom, rows, args, calls, sample_axis: int):
     :mod:`kernels.linsolve`, and a test holds LAPACK out of the compiled
     replays.)"""
     tm = jax.tree_util.tree_map
-    devices = replay_devices()
     D = len(devices)
     if D == 1 or len(calls) == 1:
         return [tm(np.asarray, fn(nom, tm(cut, rows), *args)) for cut, _ in calls]
     is_array = [isinstance(a, (jax.Array, np.ndarray)) for a in args]
     statics = tuple((i, a) for i, a in enumerate(args) if not is_array[i])
     traced = tuple(a for i, a in enumerate(args) if is_array[i])
+    lead = (slice(None),) * sample_axis
     outs = []
     i = 0
     while i < len(calls):
@@ -235,7 +235,6 @@ def _map_calls(fn, nom, rows, args, calls, sample_axis: int):
         spread = _spread_call(fn, statics, len(args), sample_axis, devices)
         both = tm(lambda *xs: np.concatenate(xs), *[tm(cut, rows) for cut in group])
         out = tm(np.asarray, spread(nom, both, traced))
-        lead = (slice(None),) * sample_axis
         outs += [tm(lambda x, k=k: x[lead + (slice(k * size, (k + 1) * size),)], out)
                  for k in range(len(run))]
     return outs
@@ -254,11 +253,13 @@ def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0,
     the outcome pytree with numpy arrays of n rows (along the outcomes'
     ``sample_axis``).  ``whole``: every call ``chunk`` samples (the last
     padded), one compiled shape; else a batch of one call on several devices
-    is cut into a share per device (:data:`SPREAD_MIN_SAMPLES`).  ``fn`` is a jitted function (a new one per
-    batch would compile per batch) and the ``args`` hashable or arrays."""
+    is cut into a share per device (:data:`SPREAD_MIN_SAMPLES`).  ``fn`` is a
+    jitted function (a new one per batch would compile per batch) and the
+    ``args`` hashable or arrays."""
     tm = jax.tree_util.tree_map
     cuts = _chunks(n, chunk, whole)
-    D = len(replay_devices())
+    devices = replay_devices()
+    D = len(devices)
     if len(cuts) == 1 and not whole and D > 1 and n >= D * SPREAD_MIN_SAMPLES:
         cuts = _chunks(n, _bucket(-(-n // D), 8), True)     # a share per device
     elif n == chunk or (n < chunk and not whole and _bucket(n, 8) == n):   # one call, as they are
@@ -276,7 +277,7 @@ def _run_chunks(fn, nom, rows, n: int, chunk: int, *args, sample_axis: int = 0,
 
         calls.append((cut, size))
         sizes.append(hi - lo)
-    outs = _map_calls(fn, nom, rows, args, calls, sample_axis)
+    outs = _map_calls(fn, nom, rows, args, calls, sample_axis, devices)
     lead = (slice(None),) * sample_axis
     return tm(lambda *xs: np.concatenate([np.asarray(x)[lead + (slice(0, m),)]
                                           for x, m in zip(xs, sizes)], axis=sample_axis), *outs)

@@ -212,11 +212,12 @@ class PushPlan:
         options = PushOptions(
             margin_deg=float(d["margin_deg"]), safety_factor=float(d["safety_factor"]),
             objective=d["objective"], solver=d.get("solver", DEFAULTS.solver),
-            strategy=d.get("strategy", "search"),
+            strategy=d.get("strategy", DEFAULTS.strategy),
             support=PlanSupport("c", _tuple(sc, 2)) if family == "c" else PlanSupport(family),
             min_fence_mu=None if d.get("min_fence_mu") is None else float(d["min_fence_mu"]),
             workspace=None if ws is None else _tuple(ws, 4),
-            max_reorients=int(d.get("max_reorients", 24)), extra_steps=int(d.get("extra_steps", 3)))
+            max_reorients=int(d.get("max_reorients", DEFAULTS.max_reorients)),
+            extra_steps=int(d.get("extra_steps", DEFAULTS.extra_steps)))
         return cls(
             vertices=tuple(_tuple(v, 2) for v in d["vertices"]), com=_tuple(d["com"], 2),
             start=_tuple(d["start"], 3), goal=_tuple(d["goal"], 3),
