@@ -20,38 +20,36 @@ Every plan type implements the plan interface (:mod:`planning.kinds`: ``kind``,
 ``n_steps``, ``nominal_part()``, ``draw_shape()``); :data:`PLAN_TYPES` lists them
 by kind.
 
+The door imports each name from its home module when it is first used
+(:func:`kernels.open_door`): ``from planning import PushOptions`` imports no JAX.
+
 Every function computes in float64 whatever the caller's JAX setting, and
 every returned plan has been replayed by the exact kinematics of
 :mod:`kernels`.  Units: metres, radians, CCW positive.
 """
-from planning.pushing.alternatives import plan_alternatives
-from planning.pushing.batch import PushPlanBatch, plan_pose_batch
-from planning.pushing.options import STRATEGIES, PushOptions
-from planning.pushing.part import PlanningError, PushPart, WorkspaceError, prepare_part
-from planning.pushing.plan import Push, PushPlan
-from planning.pushing.planner import plan_pose
-from planning.pushing.funnel import Funnel, PushFunction, exhaustive_length, orient, push_function
-from planning.pushing.sensorless import (FencePush, SensorlessPlan, plan_sensorless,
-                                        replay_sensorless, start_grid)
-from planning.tumbling.analysis import TumbleAnalysis
-from planning.tumbling.plan import Tumble, TumblePlan
-from planning.tumbling.planner import analyze_polyhedron, plan_tumble, tumble_alternatives
-from planning.kinds import PLAN_TYPES, Plan
+from kernels import open_door
 
-# used by the layers above (the one boundary: tests/test_layers.py)
-from planning.pushing.stability import PushStability, push_stability
-from planning.tumbling.development import development_poses, face_footprint, pose3
-from planning.tumbling.paper import paper_bounds
-from planning.tumbling.reachability import lattice_count_bound, radius_for_count, reduced_basis
-from planning.tumbling.trajectory import plan_trajectory, quiet_polyhedron, sample_reached_positions
-
-__all__ = [
-    "plan_pose", "plan_alternatives", "tumble_alternatives", "plan_pose_batch", "PushOptions", "prepare_part", "PushPart", "PushPlanBatch", "Push",
-    "PushPlan", "STRATEGIES", "PlanningError", "WorkspaceError", "plan_tumble", "analyze_polyhedron", "TumbleAnalysis",
-    "Tumble", "TumblePlan", "PLAN_TYPES", "Plan",
-    "Funnel", "PushFunction", "exhaustive_length", "orient", "push_function", "FencePush",
-    "SensorlessPlan", "plan_sensorless", "replay_sensorless", "start_grid",
-    "push_stability", "PushStability", "development_poses", "face_footprint", "lattice_count_bound",
-    "paper_bounds", "plan_trajectory", "pose3", "quiet_polyhedron", "radius_for_count",
-    "reduced_basis", "sample_reached_positions",
-]
+__all__ = open_door(__name__, [
+    ("planning.pushing.alternatives", ("plan_alternatives",)),
+    ("planning.pushing.batch", ("PushPlanBatch", "plan_pose_batch")),
+    ("planning.pushing.options", ("OBJECTIVES", "STRATEGIES", "PushOptions")),
+    ("planning.pushing.part", ("PlanningError", "PushPart", "WorkspaceError", "prepare_part")),
+    ("planning.pushing.plan", ("Push", "PushPlan")),
+    ("planning.pushing.planner", ("plan_pose",)),
+    ("planning.pushing.funnel", (
+        "Funnel", "PushFunction", "exhaustive_length", "orient", "push_function")),
+    ("planning.pushing.sensorless", (
+        "FencePush", "SensorlessPlan", "plan_sensorless", "replay_sensorless", "start_grid")),
+    ("planning.tumbling.analysis", ("TumbleAnalysis",)),
+    ("planning.tumbling.plan", ("Tumble", "TumblePlan")),
+    ("planning.tumbling.planner", ("analyze_polyhedron", "plan_tumble", "tumble_alternatives")),
+    ("planning.kinds", ("PLAN_TYPES", "Plan")),
+    # used by the layers above (the one boundary: tests/test_layers.py)
+    ("planning.pushing.stability", ("PushStability", "push_stability")),
+    ("planning.tumbling.development", ("development_poses", "face_footprint", "pose3")),
+    ("planning.tumbling.paper", ("paper_bounds",)),
+    ("planning.tumbling.reachability", (
+        "lattice_count_bound", "radius_for_count", "reduced_basis")),
+    ("planning.tumbling.trajectory", (
+        "plan_trajectory", "quiet_polyhedron", "sample_reached_positions")),
+])

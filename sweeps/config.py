@@ -25,7 +25,7 @@ from pydantic import (BaseModel, ConfigDict, Field, StrictBool, StrictInt, Valid
 from kernels import (FAMILY, PLAN_SUPPORTS, PLANNED_FAMILIES, REALISABLE_SUPPORTS,
                      SUPPORT_FAMILIES)
 from robustness.physics import PhysicsSettings
-from planning import PushOptions
+from planning import OBJECTIVES, STRATEGIES, PushOptions
 from robustness import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES, ExecutionTolerance,
                         FrictionRange, GeometryTolerance, SuccessCriterion, CONFIDENCE, DEFAULT_MODEL,
                         REQUIRED_PROBABILITY)
@@ -137,18 +137,17 @@ class Planner(Strict):
     def push_options(self):
         """The :class:`planning.PushOptions` these settings give (the section
         validates into it: a setting it refuses is refused by the config)."""
-        return PushOptions(margin_deg=self.margin_deg, safety_factor=self.safety_factor,
-                           objective=self.objective, strategy=self.strategy,
-                           support=(self.support if self.support_c is None
-                                    else {"c": list(self.support_c)}),
-                           min_fence_mu=self.min_fence_mu, workspace=self.workspace,
-                           max_reorients=self.max_reorients, extra_steps=self.extra_steps)
+        values = {f.name: getattr(self, f.name) for f in dataclasses.fields(PushOptions)
+                  if f.name in type(self).model_fields}     # all but the solver (its default)
+        if self.support_c is not None:
+            values["support"] = {"c": list(self.support_c)}
+        return PushOptions(**values)
 
     # margin_deg, safety_factor, min_fence_mu, workspace: bounds checked by PushOptions
     margin_deg: float = PUSH_DEFAULTS.margin_deg
     safety_factor: float = PUSH_DEFAULTS.safety_factor
-    objective: Literal["distance", "pushes"] = PUSH_DEFAULTS.objective
-    strategy: Literal["search", "paper"] = PUSH_DEFAULTS.strategy
+    objective: Literal[OBJECTIVES] = PUSH_DEFAULTS.objective
+    strategy: Literal[STRATEGIES] = PUSH_DEFAULTS.strategy
     support_c: Optional[tuple[float, float]] = None
     support: Literal[PLAN_SUPPORTS] = "any"
     min_fence_mu: Optional[float] = None
@@ -175,7 +174,7 @@ class Synthesize(Strict):
     margins_deg: list[float] = Field(default_factory=lambda: list(GRID_MARGINS_DEG), min_length=1)
     safety_factors: list[float] = Field(default_factory=lambda: list(GRID_SAFETY_FACTORS),
                                         min_length=1)
-    strategies: list[Literal["search", "paper"]] = Field(
+    strategies: list[Literal[STRATEGIES]] = Field(
         default_factory=lambda: list(GRID_STRATEGIES), min_length=1)
     model_distances: bool = True
     slip_aware: bool = True

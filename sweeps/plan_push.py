@@ -56,6 +56,7 @@ traceback).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -103,45 +104,50 @@ def build_parser(prog: str = "nudge plan-push") -> argparse.ArgumentParser:
     p.add_argument("--max-stroke", type=_number("--max-stroke"), metavar="M",
                    help="with --start any: the longest run of a fence (m, > 0)")
     p.add_argument("--goal", metavar="X,Y,THETA", help="goal pose (m, m, rad or ...deg)")
-    p.add_argument("--margin-deg", type=float, default=7.0, metavar="DEG",
-                   help="margin angle taken off each maximum reorient angle (default 7)")
-    p.add_argument("--safety-factor", type=float, default=1.15, metavar="F",
-                   help="multiplier of the reorient push distance rule, >= 1 (default 1.15)")
-    p.add_argument("--objective", choices=("distance", "pushes"), default="distance",
-                   help="minimise total push distance (default) or the number of pushes")
-    p.add_argument("--solver", choices=("closed_form", "cvxpy"), default="closed_form",
-                   help="LP solver (default closed_form; cvxpy is the reference)")
-    p.add_argument("--strategy", choices=("search", "paper"), default="search",
-                   help="reorientation sequences: 'search' (default: step counts, edges, both "
-                        "senses, an extra turn) or 'paper' (Akella & Mason's angle-eating)")
-    p.add_argument("--support-c", nargs=2, type=_number("--support-c"), metavar=("LO", "HI"),
-                   help="range of the support's limit-surface ratio c = m_max / f_max in metres "
-                        "(0 < LO <= HI): reorient pushes get the shortest distance that completes "
-                        "them for every c in the range (quasi-static model) instead of Peshkin's")
-    p.add_argument("--support", choices=("any", "rigid", "uniform", "ring"), default=None,
-                   help="the support the reorient distances must be valid for (default any: "
-                        "Peshkin's bound; rigid: the part rests on its corners; uniform: a "
-                        "compliant pad; ring: its rim); not with --support-c")
-    p.add_argument("--min-fence-mu", type=_number("--min-fence-mu"), metavar="MU",
-                   help="lower bound of the fence friction coefficient (>= 0, needs --support-c "
-                        "or --support rigid|uniform|ring): "
-                        "only reorient pushes whose fence contact sticks throughout are used")
-    p.add_argument("--workspace", nargs=4, type=_number("--workspace"),
-                   metavar=("XMIN", "XMAX", "YMIN", "YMAX"),
-                   help="rectangle in metres (world frame) that every pose of the plan and the "
-                        "part swept by every push stay inside")
-    p.add_argument("--max-reorients", type=_integer("--max-reorients"), default=24,
-                   metavar="N", help="the search's effort budget: no plan has more than N "
-                                     "reorient pushes (default 24)")
-    p.add_argument("--extra-steps", type=_integer("--extra-steps"), default=3, metavar="N",
-                   help="each reorientation run tries the fewest steps up to N more (default 3; "
-                        "uni-stable parts also 2, 3 and 4 times N more)")
+    _option_flags(p)
     p.add_argument("--json", action="store_true", help="print the plan as JSON on stdout")
     p.add_argument("--plot", metavar="FILE.png", help="draw the plan (Akella-Mason Fig. 1)")
     p.add_argument("--psd", metavar="FILE.png",
                    help="draw the push stability diagram (Fig. 6, normal pushes); with a plan, "
                         "its reorient steps are marked")
     return p
+
+
+def _flag(field: str) -> str:
+    """The command-line flag of a :class:`planning.PushOptions` field."""
+    return "--" + field.replace("_", "-")
+
+
+def _default_note(value) -> str:
+    if value is None:
+        return ""
+    return f" (default {value:g})" if isinstance(value, float) else f" (default {value})"
+
+
+def _option_flags(p: argparse.ArgumentParser) -> None:
+    """A flag for each field of :class:`planning.PushOptions` (its name, default,
+    choices, value names and text are the field's; the door imports no JAX):
+    ``--margin-deg DEG`` ... ``--extra-steps N``.  The support is two flags:
+    ``--support`` (any or a family) and ``--support-c LO HI`` (a ``c`` range)."""
+    from planning import PushOptions
+
+    for f in dataclasses.fields(PushOptions):
+        flag, meta = _flag(f.name), f.metadata
+        text = meta["doc"] + _default_note(f.default)
+        if f.name == "support":
+            p.add_argument(flag, choices=meta["choices"], default=None,
+                           help=text + "; not with --support-c")
+            p.add_argument(flag + "-c", nargs=len(meta["symbol"]), type=_number(flag + "-c"),
+                           metavar=meta["symbol"], help="the support's c range (see --support)")
+        elif "choices" in meta:
+            p.add_argument(flag, choices=meta["choices"], default=f.default, help=text)
+        elif isinstance(meta["symbol"], tuple):
+            p.add_argument(flag, nargs=len(meta["symbol"]), type=_number(flag),
+                           metavar=meta["symbol"], default=f.default, help=text)
+        else:
+            kind = _integer if isinstance(f.default, int) else _number
+            p.add_argument(flag, type=kind(flag), default=f.default, metavar=meta["symbol"],
+                           help=text)
 
 
 def _number(flag: str):
@@ -184,15 +190,16 @@ def _join_pose_args(argv: Sequence[str]) -> list[str]:
 
 
 def _flag_names(message: str) -> str:
-    """Name planner settings by their command-line flags."""
-    for field, flag in (("margin_deg", "--margin-deg"), ("safety_factor", "--safety-factor"),
-                        ("start", "--start"), ("goal", "--goal"), ("support", "--support-c"),
-                        ("min_fence_mu", "--min-fence-mu"), ("workspace", "--workspace"),
-                        ("strategy", "--strategy"), ("max_reorients", "--max-reorients"),
-                        ("extra_steps", "--extra-steps"), ("region", "--region"),
-                        ("start_heading", "--start-heading"), ("max_stroke", "--max-stroke")):
-        if message.startswith(field + ":"):
-            return flag + message[len(field):]
+    """Name planner settings by their command-line flags (a PushOptions field's
+    is :func:`_flag`'s; a support error names ``--support-c``)."""
+    field = message.split(":", 1)[0]
+    flags = {"support": "--support-c", "start": "--start", "goal": "--goal", "region": "--region",
+             "start_heading": "--start-heading", "max_stroke": "--max-stroke"}
+    from planning import PushOptions
+
+    fields = {f.name for f in dataclasses.fields(PushOptions)}
+    if ":" in message and (field in flags or field in fields):
+        return flags.get(field, _flag(field)) + message[len(field):]
     return message
 
 
@@ -341,16 +348,17 @@ def _sensorless_args(args):
 
 
 def _push_options(args):
-    """The :class:`planning.PushOptions` of the flags (a bad value: a ValueError
-    naming the option, turned into a flag's name by :func:`_flag_names`)."""
+    """The :class:`planning.PushOptions` of the flags, field for field (a bad
+    value: a ValueError naming the option, turned into a flag's name by
+    :func:`_flag_names`)."""
     from planning import PushOptions
 
-    support = args.support if args.support_c is None else {"c": list(args.support_c)}
-    return PushOptions(margin_deg=args.margin_deg, safety_factor=args.safety_factor,
-                       objective=args.objective, solver=args.solver, strategy=args.strategy,
-                       support=support, min_fence_mu=args.min_fence_mu,
-                       workspace=None if args.workspace is None else tuple(args.workspace),
-                       max_reorients=args.max_reorients, extra_steps=args.extra_steps)
+    values = {f.name: getattr(args, f.name) for f in dataclasses.fields(PushOptions)}
+    if args.support_c is not None:
+        values["support"] = {"c": list(args.support_c)}
+    if values["workspace"] is not None:
+        values["workspace"] = tuple(values["workspace"])
+    return PushOptions(**values)
 
 
 def _run_sensorless(args, part, goal, sensorless) -> int:

@@ -85,3 +85,41 @@ def test_doors_export_names_not_modules(package):
     mod = importlib.import_module(package)
     modules = [n for n in mod.__all__ if isinstance(getattr(mod, n), types.ModuleType)]
     assert not modules, f"{package}.__all__ exports modules: {modules}"
+
+
+def test_doors_import_each_name_when_first_used():
+    """``kernels`` and ``planning`` are lazy doors (``kernels.open_door``):
+    importing them, or the planner's options and the support families' names,
+    imports no JAX; a name is its home module's object, also where a submodule
+    has the same name (``kernels.tumble``, module and kernel); an unknown name
+    is an AttributeError; a name exported twice is refused."""
+    import subprocess
+    import sys
+
+    code = """
+import sys, types
+import kernels, planning
+from planning import PushOptions
+from kernels import PLAN_SUPPORTS
+light = 'jax' not in sys.modules
+import kernels.tumble as module_first      # the submodule loaded before the name is used
+from kernels import tumble, open_door
+from kernels.tumble import tumble as home
+try:
+    kernels.no_such_name
+    missing = False
+except AttributeError:
+    missing = True
+sys.modules['fake_door'] = types.ModuleType('fake_door')
+try:
+    open_door('fake_door', [('kernels.planar', ('rot2',)), ('kernels.linsolve', ('rot2',))])
+    twice = False
+except ValueError as exc:
+    twice = "exported twice" in str(exc)
+print(light, tumble is home, callable(module_first), missing, twice,
+      planning.PushOptions is PushOptions, sorted(set(kernels.__all__) - set(dir(kernels))))
+"""
+    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["True"] * 6 + ["[]"], r.stdout

@@ -58,6 +58,41 @@ def test_options_reach_the_planner_and_the_plan_records_them(capsys):
     assert (default.options.strategy, default.distance_rule, default.options.workspace) == ("search", "peshkin", None)
 
 
+#: a value other than the default for each PushOptions field, as flags
+OTHER_VALUES = {"margin_deg": ["--margin-deg", "9"], "safety_factor": ["--safety-factor", "1.3"],
+                "objective": ["--objective", "pushes"], "solver": ["--solver", "cvxpy"],
+                "strategy": ["--strategy", "paper"], "support": ["--support", "rigid"],
+                "min_fence_mu": ["--support", "rigid", "--min-fence-mu", "0.5"],
+                "workspace": ["--workspace", "-1", "1", "-1", "1"],
+                "max_reorients": ["--max-reorients", "7"], "extra_steps": ["--extra-steps", "1"]}
+
+
+def test_every_planner_option_is_a_flag_made_from_its_field():
+    """The flags are generated from planning.PushOptions' fields (issue 39): each
+    field's flag sets that field and no other (support: also --support-c), and
+    a field added to PushOptions without a value here fails this test."""
+    import dataclasses
+
+    from planning import PushOptions
+
+    fields = [f.name for f in dataclasses.fields(PushOptions)]
+    assert sorted(OTHER_VALUES) == sorted(fields)
+    parser = push.build_parser()
+    base = ["rectangle", *POSES]
+    default = push._push_options(parser.parse_args(base))
+    assert default == PushOptions()
+    for name, flags in OTHER_VALUES.items():
+        got = push._push_options(parser.parse_args(base + flags))
+        changed = {f for f in fields if getattr(got, f) != getattr(default, f)}
+        assert name in changed and changed <= {name, "support"}, (name, changed)
+    got = push._push_options(parser.parse_args(base + ["--support-c", "0.004", "0.006"]))
+    assert got.support.c == (0.004, 0.006)
+    # their text is the field's
+    actions = {a.dest: a for a in parser._actions}
+    for f in dataclasses.fields(PushOptions):
+        assert actions[f.name].help.startswith(f.metadata["doc"]), f.name
+
+
 def test_support_c_shortens_the_reorient_pushes(capsys):
     """The quasi-static rule's distance is at most Peshkin's (c_hi <= the part's radius)."""
     peshkin = _json_plan(capsys, UNI, *POSES)
@@ -135,5 +170,5 @@ def test_help_explains_the_options_and_units():
     text = " ".join(r.stdout.split())
     for needle in ("--strategy {search,paper}", "--support-c LO HI", "--min-fence-mu MU",
                    "--workspace XMIN XMAX YMIN YMAX", "limit-surface ratio", "in metres",
-                   "needs --support-c", "Exit status: 0 ok, 1 no plan, 2 bad input"):
+                   "needs a support other than any", "Exit status: 0 ok, 1 no plan, 2 bad input"):
         assert needle in text, needle

@@ -18,6 +18,7 @@ from hypothesis import assume, given, settings
 import cvxpy as cp
 from scipy.optimize import linprog
 
+from kernels import families as kf
 from kernels import polygon as pg
 from kernels import support as ks
 from planning import plan_pose
@@ -208,7 +209,7 @@ def test_rigid_rectangle_rests_on_a_diagonal():
 def test_sampler_draws_each_family_in_its_range(name):
     _, body = _body(name)
     n = 400
-    for fam in ks.PLAN_SUPPORTS:   # the families whose c range the part determines, and any
+    for fam in kf.PLAN_SUPPORTS:   # the families whose c range the part determines, and any
         lo, hi = ks.family_c_range(fam, body)
         s = Sampler(friction=FrictionRange(support=fam))
         draws = s.sample(jax.random.key(3), n, n_vertices=len(body), dim=2, body=body)
@@ -217,7 +218,7 @@ def test_sampler_draws_each_family_in_its_range(name):
         assert c.min() >= lo - 1e-12 and c.max() <= hi + 1e-12, fam
         names = set(cols["support"])
         if fam == "any":
-            assert names == set(ks.ANY_COMPONENTS)
+            assert names == set(kf.ANY_COMPONENTS)
             fit = float(_x64(ks.tripod_fit, body))
             tri = c[cols["support"] == "tripod"]
             assert tri.min() >= ks.TRIPOD_MIN_FRACTION * fit - 1e-12 and tri.max() <= fit + 1e-12
@@ -239,12 +240,12 @@ def _accepted(model, docs) -> set:
 
 
 def _friction(name) -> dict:
-    given = name in ks.FAMILY and ks.FAMILY[name].c_given
+    given = name in kf.FAMILY and kf.FAMILY[name].c_given
     return {"support": name, **({"c": [0.004, 0.008]} if given else {})}
 
 
 def test_every_list_of_supports_reads_the_one_table():
-    """kernels.support.TABLE is the one declaration: the names a config accepts,
+    """kernels.families.TABLE is the one declaration: the names a config accepts,
     those the sampler draws, those the MuJoCo scene stands, those a plan's
     distances can assume (config, planner, command line) are the table's; a
     family added to the table but missed by the sampler or the scene fails here."""
@@ -253,16 +254,16 @@ def test_every_list_of_supports_reads_the_one_table():
     from sweeps.config import Evaluation, Planner
     from sweeps.plan_push import build_parser
 
-    names = ks.SUPPORT_FAMILIES + ("foam",)
-    assert ks.FAMILIES == tuple(f.name for f in ks.TABLE) and len(set(ks.FAMILIES)) == len(ks.TABLE)
-    assert [ks.CODES[n] for n in ks.FAMILIES] == list(range(len(ks.TABLE)))
+    names = kf.SUPPORT_FAMILIES + ("foam",)
+    assert kf.FAMILIES == tuple(f.name for f in kf.TABLE) and len(set(kf.FAMILIES)) == len(kf.TABLE)
+    assert [kf.CODES[n] for n in kf.FAMILIES] == list(range(len(kf.TABLE)))
     # the config's friction.support, and under model: mujoco only what the scene stands
     assert _accepted(Evaluation, {n: {"friction": _friction(n)} for n in names}) \
-        == set(ks.SUPPORT_FAMILIES)
+        == set(kf.SUPPORT_FAMILIES)
     assert _accepted(Evaluation, {n: {"friction": _friction(n), "model": "mujoco"}
-                                  for n in names}) == set(ks.REALISABLE_SUPPORTS)
+                                  for n in names}) == set(kf.REALISABLE_SUPPORTS)
     # what a plan's distances may assume: the config, planning and the command line
-    assert _accepted(Planner, {n: {"support": n} for n in names}) == set(ks.PLAN_SUPPORTS)
+    assert _accepted(Planner, {n: {"support": n} for n in names}) == set(kf.PLAN_SUPPORTS)
     planned = set()
     for n in names:
         try:
@@ -270,30 +271,30 @@ def test_every_list_of_supports_reads_the_one_table():
             planned.add(n)
         except ValueError:
             pass
-    assert planned == set(ks.PLAN_SUPPORTS)
+    assert planned == set(kf.PLAN_SUPPORTS)
     (cli,) = [a for a in build_parser()._actions if "--support" in a.option_strings]
-    assert tuple(cli.choices) == ks.PLAN_SUPPORTS   # a copy: the parser imports no JAX
+    assert tuple(cli.choices) == kf.PLAN_SUPPORTS
     _, body = _body("rectangle")
-    for n in ks.PLANNED_FAMILIES:
+    for n in kf.PLANNED_FAMILIES:
         lo, hi = ks.family_c_range(n, body)
         assert 0 < lo <= hi, n
     # the sampler draws every name, the any mixture's components
-    for n in ks.SUPPORT_FAMILIES:
+    for n in kf.SUPPORT_FAMILIES:
         fr = FrictionRange(**{k: tuple(v) if k == "c" else v for k, v in _friction(n).items()})
         draws = Sampler(friction=fr).sample(jax.random.key(3), 64, n_vertices=len(body), dim=2,
                                             body=body)
         cols = parameter_columns(draws, n_vertices=len(body), dim=2)
-        assert set(cols["support"]) == (set(ks.ANY_COMPONENTS) if n == "any" else {n}), n
+        assert set(cols["support"]) == (set(kf.ANY_COMPONENTS) if n == "any" else {n}), n
         assert np.all(np.isfinite(cols["c_m"]) & (cols["c_m"] > 0)), n
     # the scene stands exactly the families with feet
     lift = np.arange(len(body), dtype=np.float64)
-    for n in ks.FAMILIES:
-        if ks.FAMILY[n].feet:
-            feet, w = support_of(ks.CODES[n], body, 0.004, lift)
+    for n in kf.FAMILIES:
+        if kf.FAMILY[n].feet:
+            feet, w = support_of(kf.CODES[n], body, 0.004, lift)
             assert np.isclose(np.sum(w), 1.0) and np.all(np.asarray(w) >= -1e-12), n
         else:
             with pytest.raises(ValueError, match="cannot be realised"):
-                support_of(ks.CODES[n], body, 0.004, lift)
+                support_of(kf.CODES[n], body, 0.004, lift)
 
 
 def test_family_validation_names_the_field():
@@ -324,7 +325,7 @@ def test_the_scene_realises_the_drawn_support(name):
     params = sam.sample(jax.random.key(5), n, n_vertices=len(part.vertices), dim=2,
                         n_pushes=plan.n_pushes, body=body)
     r = rollout_push_plan(plan, params, backend="c", settings=PhysicsSettings(batch=n))
-    assert set(r.support) == set(ks.ANY_COMPONENTS)
+    assert set(r.support) == set(kf.ANY_COMPONENTS)
     sim = r.simulated
     assert sim.all()
     tol = np.where(r.support == "rigid", 1e-3, 2e-4)      # rigid rocks on its corners

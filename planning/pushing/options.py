@@ -168,18 +168,44 @@ class PushOptions:
         needs a support other than ``any``), ``>= 0``, or None.
       workspace: ``(xmin, xmax, ymin, ymax)``, m, world frame, or None.
       max_reorients (``>= 1``), extra_steps (``>= 0``): the search's effort budget.
+
+    Each field's metadata says what it is for a user (``doc``; ``choices``, and
+    ``symbol``: the name of its value or of each of its numbers): ``nudge
+    plan-push`` makes its flags from them.
     """
 
-    margin_deg: float = 7.0
-    safety_factor: float = 1.15
-    objective: str = "distance"
-    solver: str = "closed_form"
-    strategy: str = "search"
-    support: PlanSupport = PlanSupport()
-    min_fence_mu: Optional[float] = None
-    workspace: Optional[tuple[float, float, float, float]] = None
-    max_reorients: int = 24
-    extra_steps: int = 3
+    margin_deg: float = dataclasses.field(default=7.0, metadata=dict(
+        symbol="DEG", doc="margin angle taken off each maximum reorient angle, degrees"))
+    safety_factor: float = dataclasses.field(default=1.15, metadata=dict(
+        symbol="F", doc="multiplier of the reorient push distance rule, >= 1"))
+    objective: str = dataclasses.field(default="distance", metadata=dict(
+        choices=OBJECTIVES, doc="minimise the total push distance or the number of pushes"))
+    solver: str = dataclasses.field(default="closed_form", metadata=dict(
+        choices=SOLVERS, doc="each LP's solver (cvxpy is the reference)"))
+    strategy: str = dataclasses.field(default="search", metadata=dict(
+        choices=STRATEGIES, doc="reorientation sequences: 'search' (step counts, edges, both "
+                                "senses, an extra turn) or 'paper' (Akella & Mason's angle-eating)"))
+    support: PlanSupport = dataclasses.field(default=PlanSupport(), metadata=dict(
+        choices=PLAN_SUPPORTS, symbol=("LO", "HI"),
+        doc="the support the reorient distances must be valid for: any (Peshkin's bound), a "
+            "family (rigid: the part rests on its corners; uniform: a compliant pad; ring: its "
+            "rim) or a range of the limit-surface ratio c = m_max / f_max, m (0 < LO <= HI: the "
+            "shortest distance that completes each reorient push for every c in the range, "
+            "quasi-static model)"))
+    min_fence_mu: Optional[float] = dataclasses.field(default=None, metadata=dict(
+        symbol="MU", doc="lower bound of the fence friction coefficient (>= 0; needs a support "
+                         "other than any): only reorient pushes whose fence contact sticks "
+                         "throughout are used"))
+    workspace: Optional[tuple[float, float, float, float]] = dataclasses.field(
+        default=None, metadata=dict(
+            symbol=("XMIN", "XMAX", "YMIN", "YMAX"),
+            doc="rectangle, m, world frame, that every pose of the plan and the part swept by "
+                "every push stay inside"))
+    max_reorients: int = dataclasses.field(default=24, metadata=dict(
+        symbol="N", doc="the search's effort budget: no plan has more than N reorient pushes"))
+    extra_steps: int = dataclasses.field(default=3, metadata=dict(
+        symbol="N", doc="each reorientation run tries the fewest steps up to N more (uni-stable "
+                        "parts also 2, 3 and 4 times N more)"))
 
     def __post_init__(self):
         put = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731
