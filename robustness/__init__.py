@@ -37,65 +37,65 @@
   the default confidence :data:`CONFIDENCE` and required probability
   :data:`REQUIRED_PROBABILITY`.
 
+The door imports each name from its home module when it is first used
+(:func:`kernels.open_door`): ``from robustness import cpu_threads`` imports no
+JAX, so a command line checks ``$NUDGE_THREADS`` with it before any work.
+
 Units: metres, radians.  Nothing here reads or writes files; the edge
 (:mod:`sweeps`) does.
 """
-from robustness.certificates import Certificate, certify
-from robustness.bounds import (Bound, SourceBound, push_plan_bound, tumble_first_order_bound,
-                               tumble_plan_paper_bounds)
-from robustness.evaluation import MODELS, BoundViolation, Evaluation, evaluate
-from robustness.samplers import Draws, PerturbationParams, Sampler
-from robustness.stats import (CONFIDENCE, REQUIRED_PROBABILITY, clopper_pearson, one_sided_lower,
-                              one_sided_upper, samples_needed)
-from robustness.summary import summarise
-from robustness.synthesis import (GRID_MARGINS_DEG, GRID_SAFETY_FACTORS, GRID_STRATEGIES,
-                                  SHORTLIST, Candidate, Scores, Selection, Synthesis, physics_tiebreak, physics_veto, push_candidates,
-                                  score_candidates, select, selection_key, synthesize, tiebreak_key,
-                                  veto_key)
-from robustness.tolerances import (ExecutionTolerance, FrictionRange, GeometryTolerance,
-                                   Requirement, SuccessCriterion)
+from kernels import open_door
 
-# used by the layers above (the one boundary: tests/test_layers.py)
-from robustness.failure_modes import COLOURS as FAILURE_MODE_COLOURS, MODES as FAILURE_MODE_TABLE
-from robustness.tables import (CANDIDATES_SCHEMA, CERTIFICATES_SCHEMA, DESIGN_SCHEMA, PLANS_SCHEMA,
-                               SAMPLES_SCHEMA, SUMMARY_SCHEMA, TABLES as TABLE_SCHEMAS, arrow_table,
-                               rows_table, samples_columns, schema_for, with_design)
-from robustness.tolerance_design import (AXES as DESIGN_AXES, HEADROOM as DESIGN_HEADROOM,
-                                         Judge as DesignJudge, axes_for as design_axes_for,
-                                         design_key, design_samples_needed, drawing_line,
-                                         joint_design, loosest as loosest_tolerances,
-                                         sensitivity as tolerance_sensitivity)
-from robustness.compiled import release_executables
-from robustness.confirmation import NO_PHYSICS, PhysicsCheck, confirm_in_physics, confirmation_key
-from robustness.certificates import (Schedule, auto_schedule, certify_block_size, decide, grow,
-                                     no_plan, perturbed_sources, plan_certificate)
-from robustness.kinds import (KINDS, NOT_EVALUATED, PlanKind, kind_for_part, kind_of, model_for,
-                              plan_kind)
-from robustness.models import (DEFAULT_MODEL, PUSH_KINEMATIC, Model, THROUGHPUT, block_samples,
-                               decision_model, peak_bytes, samples_per_second)
-from robustness.summary import STAT_COLUMNS, empty_summary
-from robustness.blocks import Block, BlockRun, sample_block, summarise_stats
-from robustness.margins import MarginRecommendation, MarginTrial, recommend_margins
-from robustness.sensorless import is_sensorless, start_set
-from robustness.tables import FAILURE_MODES, to_arrow
-
-__all__ = [
-    "synthesize", "tiebreak_key", "veto_key", "physics_tiebreak", "physics_veto", "push_candidates", "score_candidates", "select", "selection_key", "Candidate",
-    "Scores", "Selection", "Synthesis", "GRID_MARGINS_DEG", "GRID_SAFETY_FACTORS", "GRID_STRATEGIES",
-    "GeometryTolerance", "FrictionRange", "ExecutionTolerance", "SuccessCriterion", "Requirement", "Model", "Sampler",
-    "CONFIDENCE", "REQUIRED_PROBABILITY", "plan_kind", "KINDS", "NOT_EVALUATED", "PlanKind",
-    "kind_for_part", "kind_of", "DEFAULT_MODEL", "decision_model", "SHORTLIST",
-    "NO_PHYSICS", "PhysicsCheck", "confirm_in_physics", "confirmation_key",
-    "Draws", "PerturbationParams",
-    "evaluate", "Evaluation", "BoundViolation", "MODELS", "Bound", "SourceBound", "push_plan_bound",
-    "tumble_first_order_bound", "tumble_plan_paper_bounds", "clopper_pearson", "one_sided_lower",
-    "one_sided_upper", "samples_needed", "certify", "Certificate", "summarise",
-    "FAILURE_MODES", "FAILURE_MODE_COLOURS", "FAILURE_MODE_TABLE", "CANDIDATES_SCHEMA",
-    "CERTIFICATES_SCHEMA", "DESIGN_SCHEMA", "PLANS_SCHEMA", "SAMPLES_SCHEMA", "SUMMARY_SCHEMA",
-    "TABLE_SCHEMAS", "arrow_table", "rows_table", "samples_columns", "schema_for", "with_design",
-    "DESIGN_AXES", "DESIGN_HEADROOM", "DesignJudge", "design_axes_for", "design_key",
-    "design_samples_needed", "drawing_line", "joint_design", "loosest_tolerances",
-    "tolerance_sensitivity", "STAT_COLUMNS", "Schedule", "auto_schedule", "decide", "empty_summary",
-    "grow", "certify_block_size", "plan_certificate", "MarginRecommendation", "MarginTrial", "recommend_margins", "PUSH_KINEMATIC", "THROUGHPUT", "block_samples", "model_for", "peak_bytes", "release_executables", "samples_per_second", "no_plan", "perturbed_sources", "to_arrow", "is_sensorless", "start_set",
-    "Block", "BlockRun", "sample_block", "summarise_stats",
-]
+__all__ = open_door(__name__, [
+    ("robustness.certificates", ("Certificate", "certify")),
+    ("robustness.bounds", (
+        "Bound", "SourceBound", "push_plan_bound", "tumble_first_order_bound",
+        "tumble_plan_paper_bounds")),
+    ("robustness.evaluation", ("MODELS", "BoundViolation", "Evaluation", "evaluate")),
+    ("robustness.samplers", ("Draws", "PerturbationParams", "Sampler")),
+    ("robustness.stats", (
+        "CONFIDENCE", "REQUIRED_PROBABILITY", "clopper_pearson", "one_sided_lower",
+        "one_sided_upper", "samples_needed")),
+    ("robustness.summary", ("summarise",)),
+    ("robustness.synthesis", (
+        "GRID_MARGINS_DEG", "GRID_SAFETY_FACTORS", "GRID_STRATEGIES", "SHORTLIST", "Candidate",
+        "Scores", "Selection", "Synthesis", "physics_tiebreak", "physics_veto", "push_candidates",
+        "score_candidates", "select", "selection_key", "synthesize", "tiebreak_key", "veto_key")),
+    ("robustness.tolerances", (
+        "ExecutionTolerance", "FrictionRange", "GeometryTolerance", "Requirement",
+        "SuccessCriterion")),
+    # used by the layers above (the one boundary: tests/test_layers.py)
+    ("robustness.tables", (
+        "CANDIDATES_SCHEMA", "CERTIFICATES_SCHEMA", "DESIGN_SCHEMA", "PLANS_SCHEMA",
+        "SAMPLES_SCHEMA", "SUMMARY_SCHEMA", "arrow_table", "rows_table", "samples_columns",
+        "schema_for", "with_design")),
+    ("robustness.tolerance_design", (
+        "design_key", "design_samples_needed", "drawing_line", "joint_design")),
+    ("robustness.compiled", ("release_executables",)),
+    ("robustness.confirmation", (
+        "NO_PHYSICS", "PhysicsCheck", "confirm_in_physics", "confirmation_key")),
+    ("robustness.certificates", (
+        "Schedule", "auto_schedule", "certify_block_size", "decide", "grow", "no_plan",
+        "perturbed_sources", "plan_certificate")),
+    ("robustness.kinds", (
+        "KINDS", "NOT_EVALUATED", "PlanKind", "kind_for_part", "kind_of", "model_for", "plan_kind")),
+    ("robustness.models", (
+        "DEFAULT_MODEL", "PUSH_KINEMATIC", "Model", "THROUGHPUT", "block_samples", "decision_model",
+        "peak_bytes", "samples_per_second")),
+    ("robustness.summary", ("STAT_COLUMNS", "empty_summary")),
+    ("robustness.blocks", ("Block", "BlockRun", "sample_block", "summarise_stats")),
+    ("robustness.margins", ("MarginRecommendation", "MarginTrial", "recommend_margins")),
+    ("robustness.sensorless", ("is_sensorless", "start_set")),
+    ("robustness.tables", ("FAILURE_MODES", "to_arrow")),
+    ("robustness.cpus", ("cpu_threads",)),
+], aliases={
+    "FAILURE_MODE_COLOURS": ("robustness.failure_modes", "COLOURS"),
+    "FAILURE_MODE_TABLE": ("robustness.failure_modes", "MODES"),
+    "TABLE_SCHEMAS": ("robustness.tables", "TABLES"),
+    "DESIGN_AXES": ("robustness.tolerance_design", "AXES"),
+    "DESIGN_HEADROOM": ("robustness.tolerance_design", "HEADROOM"),
+    "DesignJudge": ("robustness.tolerance_design", "Judge"),
+    "design_axes_for": ("robustness.tolerance_design", "axes_for"),
+    "loosest_tolerances": ("robustness.tolerance_design", "loosest"),
+    "tolerance_sensitivity": ("robustness.tolerance_design", "sensitivity"),
+})

@@ -280,19 +280,20 @@ def run_main(main: Callable[[], int], supervised: bool = False) -> None:
 
     ``supervised``: the console entry points run ``main`` in a child process
     (:func:`supervise`), so that a death by signal is one line too.  A bad
-    ``$NUDGE_THREADS`` is refused before any work, with the line
-    ``robustness.cpus.cpu_threads`` would raise where the work reads it (the
-    check is repeated here so that a command fails before it imports JAX).
-    ``$JAX_NUM_CPU_DEVICES`` defaults to ``$NUDGE_THREADS`` or the cores this
-    process may run on: JAX's CPU then has a device per core, over which a
-    batch's compiled replays spread (:func:`robustness.replay.replay_devices`)."""
-    threads = os.environ.get("NUDGE_THREADS", "").strip()
-    if threads and (not threads.isdigit() or int(threads) < 1):
-        sys.exit(fail(f"NUDGE_THREADS: expected a whole number >= 1, got {threads!r}; unset it "
-                      "to use every core"))
+    ``$NUDGE_THREADS`` is refused before any work (:func:`robustness.cpu_threads`,
+    which imports no JAX).  ``$JAX_NUM_CPU_DEVICES`` defaults to its count
+    (``$NUDGE_THREADS`` or the cores this process may run on): JAX's CPU then
+    has a device per core, over which a batch's compiled replays spread
+    (:func:`robustness.replay.replay_devices`)."""
+    from robustness import cpu_threads
+
+    try:
+        threads = cpu_threads()
+    except ValueError as exc:
+        sys.exit(fail(str(exc)))
     # one CPU device per core before JAX starts, so that a batch's compiled replays
     # spread over them (robustness.replay.replay_devices); a value the caller set is kept
-    os.environ.setdefault("JAX_NUM_CPU_DEVICES", threads or str(len(os.sched_getaffinity(0))))
+    os.environ.setdefault("JAX_NUM_CPU_DEVICES", str(threads))
     if supervised:
         rc = supervise()
         if rc is not None:

@@ -88,9 +88,9 @@ def test_doors_export_names_not_modules(package):
 
 
 def test_doors_import_each_name_when_first_used():
-    """``kernels`` and ``planning`` are lazy doors (``kernels.open_door``):
-    importing them, or the planner's options and the support families' names,
-    imports no JAX; a name is its home module's object, also where a submodule
+    """``kernels``, ``planning`` and ``robustness`` are lazy doors
+    (``kernels.open_door``): importing them, or the planner's options, the
+    support families' names and the thread count, imports no JAX; a name is its home module's object, also where a submodule
     has the same name (``kernels.tumble``, module and kernel); an unknown name
     is an AttributeError; a name exported twice is refused."""
     import subprocess
@@ -98,9 +98,10 @@ def test_doors_import_each_name_when_first_used():
 
     code = """
 import sys, types
-import kernels, planning
+import kernels, planning, robustness
 from planning import PushOptions
 from kernels import PLAN_SUPPORTS
+from robustness import cpu_threads
 light = 'jax' not in sys.modules
 import kernels.tumble as module_first      # the submodule loaded before the name is used
 from kernels import tumble, open_door
