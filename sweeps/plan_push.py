@@ -63,6 +63,7 @@ import sys
 import warnings
 from typing import Optional, Sequence
 
+from planning import PushOptions   # the door imports no JAX (kernels.open_door)
 from sweeps.errors import Exit, UserError
 from sweeps.terminal import (EFFORT_BOUNDS, InputError, Parser, check_figure_path, fail,
                              join_negative_values, load_part_of_kind, report_part,
@@ -129,8 +130,6 @@ def _option_flags(p: argparse.ArgumentParser) -> None:
     choices, value names and text are the field's; the door imports no JAX):
     ``--margin-deg DEG`` ... ``--extra-steps N``.  The support is two flags:
     ``--support`` (any or a family) and ``--support-c LO HI`` (a ``c`` range)."""
-    from planning import PushOptions
-
     for f in dataclasses.fields(PushOptions):
         flag, meta = _flag(f.name), f.metadata
         text = meta["doc"] + _default_note(f.default)
@@ -195,8 +194,6 @@ def _flag_names(message: str) -> str:
     field = message.split(":", 1)[0]
     flags = {"support": "--support-c", "start": "--start", "goal": "--goal", "region": "--region",
              "start_heading": "--start-heading", "max_stroke": "--max-stroke"}
-    from planning import PushOptions
-
     fields = {f.name for f in dataclasses.fields(PushOptions)}
     if ":" in message and (field in flags or field in fields):
         return flags.get(field, _flag(field)) + message[len(field):]
@@ -351,8 +348,6 @@ def _push_options(args):
     """The :class:`planning.PushOptions` of the flags, field for field (a bad
     value: a ValueError naming the option, turned into a flag's name by
     :func:`_flag_names`)."""
-    from planning import PushOptions
-
     values = {f.name: getattr(args, f.name) for f in dataclasses.fields(PushOptions)}
     if args.support_c is not None:
         values["support"] = {"c": list(args.support_c)}
