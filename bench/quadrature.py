@@ -79,44 +79,32 @@ import jax  # noqa: E402
 import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
-from kernels import make_polygon  # noqa: E402
+import support_points  # noqa: E402  (its goals, frictions, tolerances and criteria)
 from kernels import quasistatic_points  # noqa: E402
 from planning import plan_pose  # noqa: E402
-from robustness import (ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler,  # noqa: E402
-                        release_executables)
+from robustness import release_executables  # noqa: E402
 from robustness.replay import run_push  # noqa: E402  (the evaluation's own replay)
 from sweeps.partfile import load_part  # noqa: E402
 
-#: the four bundled polygons and a goal each (from the start (0, 0, 0)), as bench/support_points.py
-GOALS = {"nice_stable": (0.05, 0.02, 1.0), "biplus_stable": (0.06, -0.03, 2.0),
-         "unistable": (0.04, 0.05, -1.5), "rectangle": (0.05, 0.0, 1.57)}
-MU_F = (0.5, 0.8, 1.5)
 SUPPORTS = ("rigid", "any")
 #: the timed case and its draws
 TIMED = ("nice_stable", 0.8)
-TIMED_SAMPLES = 1024
-
-
-def sampler(support: str, mu_f: float) -> Sampler:
-    """``bench/throughput.py``'s tolerances on one support family and fence friction."""
-    return Sampler(GeometryTolerance(tau_v=2e-5, tau_com=1e-4),
-                   FrictionRange(mu_f=(mu_f, mu_f), mu_s=(0.3, 0.5), support=support),
-                   ExecutionTolerance(start_xy=5e-4, start_theta=0.01, fence_angle=0.002,
-                                      distance_abs=1e-4, distance_rel=0.005))
+TIMED_SAMPLES = support_points.TIMED
 
 
 def cases(n: int) -> list:
-    """``(part, support, mu_f, plan, draws, goal)`` for every case."""
+    """``(part, support, mu_f, plan, draws, goal)`` for every case (the plans and
+    tolerances of ``bench/support_points.py``)."""
     out = []
-    for name, goal in GOALS.items():
+    for name, goal in support_points.GOALS.items():
         part = load_part(ROOT / "examples" / f"{name}.yaml")
         plan = plan_pose(part.vertices, (0.0, 0.0, 0.0), goal, com=part.com)
-        body = make_polygon(np.asarray(plan.vertices), np.asarray(plan.com)).body
+        body = plan.nominal_part().body
         for support in SUPPORTS:
-            for mu in MU_F:
+            for mu in support_points.MU_F:
                 k = TIMED_SAMPLES if (name, mu) == TIMED else n
-                draws = sampler(support, mu).sample(jax.random.key(2), k, n_vertices=len(body),
-                                                    dim=2, n_pushes=plan.n_pushes, body=body)
+                draws = support_points.sampler(support, mu).sample(
+                    jax.random.key(2), k, body=body, **plan.draw_shape())
                 out.append((name, support, mu, plan, draws, np.asarray(goal)))
     return out
 
@@ -136,11 +124,6 @@ def rate(plan, draws, model: str, repeat: int = 2) -> float:
         finals(plan, draws, model)
         best = min(best, time.perf_counter() - t0)
     return draws.n / best
-
-
-def success(f: np.ndarray, goal: np.ndarray, pos: float, ang: float) -> np.ndarray:
-    dth = np.abs((f[:, 2] - goal[2] + np.pi) % (2 * np.pi) - np.pi)
-    return (np.hypot(f[:, 0] - goal[0], f[:, 1] - goal[1]) <= pos) & (dth <= ang)
 
 
 def main(argv=None) -> int:
@@ -179,9 +162,10 @@ def main(argv=None) -> int:
     for p, (poses, rates) in runs.items():
         pos = np.concatenate([np.hypot(*(f[:, :2] - r[:, :2]).T) for f, r in zip(poses, ref)])
         head = np.concatenate([np.abs(f[:, 2] - r[:, 2]) for f, r in zip(poses, ref)])
-        flips = [sum(int(np.sum(success(f, c[5], tol, ang) != success(r, c[5], tol, ang)))
+        flips = [sum(int(np.sum(support_points.succeeds(f, c[5], crit)
+                                != support_points.succeeds(r, c[5], crit)))
                      for f, r, c in zip(poses, ref, all_cases))
-                 for tol, ang in ((3e-3, 0.05), (1e-3, np.radians(1.0)))]
+                 for crit in support_points.CRITERIA]
         x_rigid, x_any = qs["rigid"] / rates["rigid"], qs["any"] / rates["any"]
         print(f"{p:6d} {rates['rigid']:8.0f} {rates['any']:7.0f} {x_rigid:10.1f} {x_any:9.1f} "
               f"{pos.max() * 1e3:9.4f} {np.quantile(pos, 0.99) * 1e3:8.4f} "

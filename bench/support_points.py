@@ -116,6 +116,17 @@ TIMED = 1024
 CRITERIA = {"3mm": (3e-3, 0.05), "1mm": (1e-3, np.radians(1.0))}
 
 
+def sampler(family: str, mu_f: float):
+    """``bench/throughput.py``'s tolerances on one support family and fence
+    friction (also ``bench/quadrature.py``'s)."""
+    from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler
+
+    return Sampler(GeometryTolerance(tau_v=2e-5, tau_com=1e-4),
+                   FrictionRange(mu_f=(mu_f, mu_f), mu_s=(0.3, 0.5), support=family),
+                   ExecutionTolerance(start_xy=5e-4, start_theta=0.01, fence_angle=0.002,
+                                      distance_abs=1e-4, distance_rel=0.005))
+
+
 def child(family: str, count: int, corners: bool, samples: int, out: str) -> None:
     """One family and count: every case's final poses into ``out`` (npz)."""
     ks.UNIFORM_FEET = ks.RING_FEET = count     # read when the kernels are traced
@@ -125,7 +136,6 @@ def child(family: str, count: int, corners: bool, samples: int, out: str) -> Non
 
     jax.config.update("jax_enable_x64", True)
     from planning import plan_pose
-    from robustness import ExecutionTolerance, FrictionRange, GeometryTolerance, Sampler
     from robustness import replay
     from sweeps.partfile import load_part
 
@@ -135,16 +145,13 @@ def child(family: str, count: int, corners: bool, samples: int, out: str) -> Non
         plan = plan_pose(part.vertices, (0.0, 0.0, 0.0), goal, com=part.com)
         body = plan.nominal_part().body
         for mu in MU_F:
-            sampler = Sampler(GeometryTolerance(tau_v=2e-5, tau_com=1e-4),
-                              FrictionRange(mu_f=(mu, mu), mu_s=(0.3, 0.5), support=family),
-                              ExecutionTolerance(start_xy=5e-4, start_theta=0.01,
-                                                 fence_angle=0.002, distance_abs=1e-4,
-                                                 distance_rel=0.005))
-            draws = sampler.sample(jax.random.key(3), samples, body=body, **plan.draw_shape())
+            draws = sampler(family, mu).sample(jax.random.key(3), samples, body=body,
+                                               **plan.draw_shape())
             r = replay.run_push(plan, draws, "limit_surface", jnp.float64, 4096)[2]
             res[f"{name}_{mu}"] = np.stack([r.x, r.y, r.theta], 1).astype(np.float64)
             if name == "nice_stable" and mu == 0.8:   # timed on TIMED draws, a second call
-                many = sampler.sample(jax.random.key(4), TIMED, body=body, **plan.draw_shape())
+                many = sampler(family, mu).sample(jax.random.key(4), TIMED, body=body,
+                                                  **plan.draw_shape())
                 run = lambda: replay.run_push(plan, many, "limit_surface", jnp.float64, 4096)  # noqa: E731
                 run()
                 t0 = time.perf_counter()
@@ -153,7 +160,9 @@ def child(family: str, count: int, corners: bool, samples: int, out: str) -> Non
     np.savez(out, rate=rate, **res)
 
 
-def _ok(pose, goal, criterion):
+def succeeds(pose, goal, criterion: str):
+    """(n,) whether the final poses ``pose`` (n, 3) are within ``CRITERIA[criterion]``
+    of ``goal`` (position m, heading rad)."""
     pe, te = CRITERIA[criterion]
     dth = np.abs((pose[:, 2] - goal[2] + np.pi) % (2 * np.pi) - np.pi)
     return (np.hypot(pose[:, 0] - goal[0], pose[:, 1] - goal[1]) < pe) & (dth < te)
@@ -169,7 +178,7 @@ def compare(run, ref) -> dict:
             worst.append(d.max())
             med.append(np.median(d))
             for c in CRITERIA:
-                flips[c].append(np.mean(_ok(a, goal, c) != _ok(b, goal, c)))
+                flips[c].append(np.mean(succeeds(a, goal, c) != succeeds(b, goal, c)))
     return dict(worst=max(worst), median=float(np.median(med)),
                 **{f"flip{c}": float(np.mean(v)) for c, v in flips.items()})
 
