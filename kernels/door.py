@@ -1,11 +1,12 @@
 """A layer's door that imports what it names when it is first used (PEP 562).
 
-``kernels`` and ``planning`` list each exported name with its home module;
-``import planning`` then costs nothing, and ``from planning import
+``kernels``, ``planning`` and ``robustness`` list each exported name with its
+home module; importing them then costs nothing, and ``from planning import
 PushOptions`` imports only :mod:`planning.pushing.options` (and, through it,
 :mod:`kernels.families`): no JAX.  That is what lets ``nudge plan-push``'s
 parser generate its flags from :class:`planning.PushOptions`' fields before
-any work (``--help`` imports no JAX, ``tests/test_answers.py``).  A name is
+any work (``--help`` imports no JAX, ``tests/test_answers.py``), and a command
+line check ``$NUDGE_THREADS`` with :func:`robustness.cpu_threads`.  A name is
 imported once and then held in the package like an eagerly imported one.
 
 A submodule of the same name as an exported function (``kernels.tumble``, the

@@ -149,7 +149,7 @@ class Planner(Strict):
     objective: Literal[OBJECTIVES] = PUSH_DEFAULTS.objective
     strategy: Literal[STRATEGIES] = PUSH_DEFAULTS.strategy
     support_c: Optional[tuple[float, float]] = None
-    support: Literal[PLAN_SUPPORTS] = "any"
+    support: Literal[PLAN_SUPPORTS] = PUSH_DEFAULTS.support.family
     min_fence_mu: Optional[float] = None
     workspace: Optional[tuple[float, float, float, float]] = None
     max_reorients: StrictInt = Field(PUSH_DEFAULTS.max_reorients,

@@ -90,9 +90,10 @@ def test_doors_export_names_not_modules(package):
 def test_doors_import_each_name_when_first_used():
     """``kernels``, ``planning`` and ``robustness`` are lazy doors
     (``kernels.open_door``): importing them, or the planner's options, the
-    support families' names and the thread count, imports no JAX; a name is its home module's object, also where a submodule
-    has the same name (``kernels.tumble``, module and kernel); an unknown name
-    is an AttributeError; a name exported twice is refused."""
+    support families' names and the thread count, imports no JAX; a name is
+    its home module's object, also where a submodule has the same name
+    (``kernels.tumble``, module and kernel); an unknown name is an
+    AttributeError; a name exported twice is refused."""
     import subprocess
     import sys
 
